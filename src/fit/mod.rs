@@ -1,0 +1,442 @@
+//! Fitting the Surrey morphable model to 68 iBUG landmarks, after eos's `fit_shape_and_pose`.
+//!
+//! Input: 68 image points in pixels (0-based, x right, y down); a non-finite point means "not
+//! detected" and is left out. Output: a scaled-orthographic pose, 63 shape coefficients (in units
+//! of standard deviations), non-negative expression weights, and the reprojection error.
+//!
+//! Each iteration: contour correspondences for the side of the face turned to the camera,
+//! pose (linear estimate + Gauss-Newton polish), expressions (non-negative least squares), then
+//! identity (regularised linear least squares on the eigenvalue-scaled basis). Residuals are
+//! divided by the camera scale, i.e. measured in model millimetres, so the prior weight does not
+//! depend on how many pixels the face covers (eos weighs pixels, so its prior is stronger on
+//! small faces than on large ones).
+//!
+//! All of this is pure computation on [`SurreyModel`]: no I/O, no allocation proportional to
+//! the mesh until [`SurreyModel::instance`] is called for the full face.
+
+mod pose;
+
+use nalgebra::{DMatrix, DVector, Vector2, Vector3};
+
+pub use pose::{Pose, estimate_linear, nearest_rotation, refine};
+
+use crate::shapemodel::SurreyModel;
+
+/// Number of iBUG landmarks the fitter expects.
+pub const IBUG_POINTS: usize = 68;
+
+/// Why a fit could not be made.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum FitError {
+    #[error("expected {expected} landmarks, got {got}")]
+    WrongCount { expected: usize, got: usize },
+    #[error("only {usable} usable landmarks map to the model; at least {needed} are needed")]
+    TooFewLandmarks { usable: usize, needed: usize },
+    #[error("degenerate landmarks: {0}")]
+    Degenerate(String),
+    #[error("invalid fitting option: {0}")]
+    BadOption(String),
+    #[error("the fit diverged (non-finite result)")]
+    NotFinite,
+}
+
+/// Fitting settings. Defaults follow eos where eos has a default.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitOptions {
+    /// Outer iterations (eos: 5). The loop stops earlier once the error stops improving.
+    pub iterations: usize,
+    /// Shape coefficients to fit (at most the model's 63).
+    pub shape_coefficients: usize,
+    /// Weight of the identity prior (coefficients ~ N(0, 1)).
+    pub lambda_shape: f64,
+    /// Weight of a small ridge on the expressions, keeping them bounded with few landmarks.
+    pub lambda_expression: f64,
+    /// Landmark noise standard deviation, in model millimetres.
+    pub sigma_mm: f64,
+    /// Use contour landmarks (face outline, iBUG 1-8 and 10-17).
+    pub contour: bool,
+    /// Stop when the mean reprojection error improves by less than this fraction.
+    pub tolerance: f64,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            iterations: 5,
+            shape_coefficients: 63,
+            lambda_shape: 30.0,
+            lambda_expression: 0.1,
+            sigma_mm: 1.0,
+            contour: true,
+            tolerance: 1e-3,
+        }
+    }
+}
+
+/// The result of a fit.
+#[derive(Clone, Debug)]
+pub struct Fit {
+    pub pose: Pose,
+    /// Identity, in standard deviations of the PCA model.
+    pub shape: Vec<f32>,
+    /// Expression weights (>= 0), one per blendshape.
+    pub expression: Vec<f32>,
+    /// Mean distance (pixels) between the landmarks and the projected model points they map to
+    /// (the fixed iBUG-to-vertex mapping, i.e. without contour correspondences).
+    pub reprojection_px: f64,
+    /// Largest of those distances.
+    pub max_reprojection_px: f64,
+    /// Landmarks that entered the mapped set.
+    pub mapped_landmarks: usize,
+    /// Outer iterations run.
+    pub iterations: usize,
+}
+
+/// A landmark tied to a model vertex.
+#[derive(Clone, Copy, Debug)]
+struct Correspondence {
+    /// Image point, y-up frame, pixels.
+    image_up: Vector2<f64>,
+    vertex: usize,
+}
+
+impl SurreyModel {
+    /// Position (mm) of vertex `v` for the given coefficients; missing coefficients count as 0.
+    pub fn vertex(&self, v: usize, shape: &[f32], expression: &[f32]) -> Vector3<f64> {
+        let mut p = Vector3::zeros();
+        for axis in 0..3 {
+            let row = 3 * v + axis;
+            let mut x = self.shape.mean[row] as f64;
+            for (k, c) in shape.iter().enumerate().take(self.shape.rescaled_basis.ncols()) {
+                x += self.shape.rescaled_basis[(row, k)] as f64 * *c as f64;
+            }
+            for (k, e) in expression.iter().enumerate().take(self.blendshapes.offsets.ncols()) {
+                x += self.blendshapes.offsets[(row, k)] as f64 * *e as f64;
+            }
+            p[axis] = x;
+        }
+        p
+    }
+
+    /// All vertex positions (mm) for the given coefficients, `[x0, y0, z0, x1, ...]`.
+    pub fn instance(&self, shape: &[f32], expression: &[f32]) -> Vec<f32> {
+        let k = shape.len().min(self.shape.rescaled_basis.ncols());
+        let e = expression.len().min(self.blendshapes.offsets.ncols());
+        let mut out = self.shape.mean.clone();
+        if k > 0 {
+            let c = DVector::from_column_slice(&shape[..k]);
+            out.gemv(1.0, &self.shape.rescaled_basis.columns(0, k), &c, 1.0);
+        }
+        if e > 0 {
+            let w = DVector::from_column_slice(&expression[..e]);
+            out.gemv(1.0, &self.blendshapes.offsets.columns(0, e), &w, 1.0);
+        }
+        out.as_slice().to_vec()
+    }
+}
+
+/// Fits pose, identity and expression to 68 landmarks (see the module doc for frames and units).
+pub fn fit(model: &SurreyModel, landmarks: &[[f32; 2]], opts: &FitOptions) -> Result<Fit, FitError> {
+    if landmarks.len() != IBUG_POINTS {
+        return Err(FitError::WrongCount { expected: IBUG_POINTS, got: landmarks.len() });
+    }
+    validate_options(opts, model)?;
+    let usable = |p: &[f32; 2]| p[0].is_finite() && p[1].is_finite();
+    let up = |p: &[f32; 2]| Vector2::new(p[0] as f64, -(p[1] as f64));
+
+    let mapped: Vec<Correspondence> = model
+        .mapping
+        .to_vertex
+        .iter()
+        .filter_map(|(&lm, &v)| {
+            let p = landmarks.get(lm as usize - 1)?;
+            usable(p).then(|| Correspondence { image_up: up(p), vertex: v as usize })
+        })
+        .collect();
+    if mapped.len() < 4 {
+        return Err(FitError::TooFewLandmarks { usable: mapped.len(), needed: 4 });
+    }
+
+    let n_shape = opts.shape_coefficients;
+    let n_expr = model.blendshapes.offsets.ncols();
+    let mut shape = vec![0f32; n_shape];
+    let mut expression = vec![0f32; n_expr];
+
+    let positions = |corr: &[Correspondence], shape: &[f32], expr: &[f32]| -> Vec<Vector3<f64>> {
+        corr.iter().map(|c| model.vertex(c.vertex, shape, expr)).collect()
+    };
+    let estimate = |corr: &[Correspondence], shape: &[f32], expr: &[f32]| -> Result<Pose, FitError> {
+        let x = positions(corr, shape, expr);
+        let u: Vec<Vector2<f64>> = corr.iter().map(|c| c.image_up).collect();
+        let linear = estimate_linear(&x, &u)?;
+        Ok(refine(linear, &x, &u, 10))
+    };
+
+    let mut pose = estimate(&mapped, &shape, &expression)?;
+    let mut last_error = f64::INFINITY;
+    let mut iterations = 0;
+    for _ in 0..opts.iterations {
+        iterations += 1;
+        let mut corr = mapped.clone();
+        if opts.contour {
+            corr.extend(contour_correspondences(model, landmarks, &pose, &shape, &expression));
+        }
+        pose = estimate(&corr, &shape, &expression)?;
+        expression = fit_expressions(model, &corr, &pose, &shape, opts)?;
+        shape = fit_shape(model, &corr, &pose, &expression, opts)?;
+        let (mean, _) = reprojection(model, &mapped, &pose, &shape, &expression);
+        if !mean.is_finite() {
+            return Err(FitError::NotFinite);
+        }
+        let converged = last_error.is_finite() && (last_error - mean).abs() <= opts.tolerance * last_error;
+        last_error = mean;
+        if converged {
+            break;
+        }
+    }
+    // Final pose for the final shape, so the reported pose and error belong together.
+    let mut corr = mapped.clone();
+    if opts.contour {
+        corr.extend(contour_correspondences(model, landmarks, &pose, &shape, &expression));
+    }
+    pose = estimate(&corr, &shape, &expression)?;
+    let (mean, max) = reprojection(model, &mapped, &pose, &shape, &expression);
+    let finite = mean.is_finite()
+        && pose.scale.is_finite()
+        && pose.rotation.iter().all(|v| v.is_finite())
+        && shape.iter().chain(&expression).all(|v| v.is_finite());
+    if !finite {
+        return Err(FitError::NotFinite);
+    }
+    Ok(Fit {
+        pose,
+        shape,
+        expression,
+        reprojection_px: mean,
+        max_reprojection_px: max,
+        mapped_landmarks: mapped.len(),
+        iterations,
+    })
+}
+
+fn validate_options(opts: &FitOptions, model: &SurreyModel) -> Result<(), FitError> {
+    let k = model.shape.num_components();
+    if opts.shape_coefficients > k {
+        return Err(FitError::BadOption(format!(
+            "{} shape coefficients requested, the model has {k}",
+            opts.shape_coefficients
+        )));
+    }
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !positive(opts.sigma_mm) || !(opts.lambda_shape.is_finite() && opts.lambda_shape >= 0.0) {
+        return Err(FitError::BadOption("sigma_mm must be > 0 and lambda_shape >= 0".into()));
+    }
+    if !(opts.lambda_expression.is_finite() && opts.lambda_expression >= 0.0) {
+        return Err(FitError::BadOption("lambda_expression must be >= 0".into()));
+    }
+    Ok(())
+}
+
+/// Mean and max reprojection error (pixels) over the given correspondences.
+fn reprojection(
+    model: &SurreyModel,
+    corr: &[Correspondence],
+    pose: &Pose,
+    shape: &[f32],
+    expr: &[f32],
+) -> (f64, f64) {
+    let mut sum = 0.0;
+    let mut max = 0f64;
+    for c in corr {
+        let d = (pose.project_up(&model.vertex(c.vertex, shape, expr)) - c.image_up).norm();
+        sum += d;
+        max = max.max(d);
+    }
+    (sum / corr.len().max(1) as f64, max)
+}
+
+/// Rows of `s * P R M_v` for one correspondence, where `M_v` is a 3 x n block of a basis.
+fn projected_block(pose: &Pose, basis: &DMatrix<f32>, vertex: usize, cols: usize) -> [Vec<f64>; 2] {
+    let r = &pose.rotation;
+    let mut rows = [vec![0.0; cols], vec![0.0; cols]];
+    for k in 0..cols {
+        let m = Vector3::new(
+            basis[(3 * vertex, k)] as f64,
+            basis[(3 * vertex + 1, k)] as f64,
+            basis[(3 * vertex + 2, k)] as f64,
+        );
+        let rm = r * m;
+        rows[0][k] = pose.scale * rm.x;
+        rows[1][k] = pose.scale * rm.y;
+    }
+    rows
+}
+
+/// Solves `min |A x - b|^2 / (s sigma)^2 + lambda |x|^2` given the projected blocks.
+/// Returns the normal-equation matrix and right-hand side, in model millimetres.
+fn normal_equations(
+    a_rows: &[[Vec<f64>; 2]],
+    residual_targets: &[Vector2<f64>],
+    pose: &Pose,
+    sigma_mm: f64,
+    n: usize,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let w = 1.0 / (pose.scale * sigma_mm).powi(2);
+    let mut ata = DMatrix::<f64>::zeros(n, n);
+    let mut atb = DVector::<f64>::zeros(n);
+    for (rows, target) in a_rows.iter().zip(residual_targets) {
+        for (axis, row) in rows.iter().enumerate() {
+            let t = target[axis];
+            for i in 0..n {
+                let ri = row[i] * w;
+                atb[i] += ri * t;
+                for j in i..n {
+                    ata[(i, j)] += ri * row[j];
+                }
+            }
+        }
+    }
+    for i in 0..n {
+        for j in 0..i {
+            ata[(i, j)] = ata[(j, i)];
+        }
+    }
+    (ata, atb)
+}
+
+/// Identity by regularised linear least squares, with the expressions held fixed.
+fn fit_shape(
+    model: &SurreyModel,
+    corr: &[Correspondence],
+    pose: &Pose,
+    expression: &[f32],
+    opts: &FitOptions,
+) -> Result<Vec<f32>, FitError> {
+    let n = opts.shape_coefficients;
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    let mut blocks = Vec::with_capacity(corr.len());
+    let mut targets = Vec::with_capacity(corr.len());
+    for c in corr {
+        blocks.push(projected_block(pose, &model.shape.rescaled_basis, c.vertex, n));
+        let base = model.vertex(c.vertex, &[], expression);
+        targets.push(c.image_up - pose.project_up(&base));
+    }
+    let (mut ata, atb) = normal_equations(&blocks, &targets, pose, opts.sigma_mm, n);
+    for i in 0..n {
+        ata[(i, i)] += opts.lambda_shape;
+    }
+    solve_spd(ata, atb).map(|x| x.iter().map(|&v| v as f32).collect())
+}
+
+/// Expressions by non-negative least squares with a small ridge, identity held fixed.
+fn fit_expressions(
+    model: &SurreyModel,
+    corr: &[Correspondence],
+    pose: &Pose,
+    shape: &[f32],
+    opts: &FitOptions,
+) -> Result<Vec<f32>, FitError> {
+    let n = model.blendshapes.offsets.ncols();
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    let mut blocks = Vec::with_capacity(corr.len());
+    let mut targets = Vec::with_capacity(corr.len());
+    for c in corr {
+        blocks.push(projected_block(pose, &model.blendshapes.offsets, c.vertex, n));
+        let base = model.vertex(c.vertex, shape, &[]);
+        targets.push(c.image_up - pose.project_up(&base));
+    }
+    let (mut ata, atb) = normal_equations(&blocks, &targets, pose, opts.sigma_mm, n);
+    for i in 0..n {
+        ata[(i, i)] += opts.lambda_expression;
+    }
+    let x = nnls(&ata, &atb)?;
+    Ok(x.iter().map(|&v| v as f32).collect())
+}
+
+/// Solves a symmetric positive (semi)definite system; falls back to a pseudo-inverse solve.
+fn solve_spd(a: DMatrix<f64>, b: DVector<f64>) -> Result<DVector<f64>, FitError> {
+    if let Some(ch) = a.clone().cholesky() {
+        let x = ch.solve(&b);
+        if x.iter().all(|v| v.is_finite()) {
+            return Ok(x);
+        }
+    }
+    let svd = a.svd(true, true);
+    let x = svd.solve(&b, 1e-12).map_err(|e| FitError::Degenerate(e.into()))?;
+    if x.iter().all(|v| v.is_finite()) { Ok(x) } else { Err(FitError::NotFinite) }
+}
+
+/// Non-negative least squares on normal equations `Q x = q`, `x >= 0`, by cyclic coordinate
+/// descent. `Q` is positive definite (the ridge sees to it), so this converges to the unique
+/// optimum; with six unknowns a few hundred sweeps cost microseconds.
+fn nnls(q: &DMatrix<f64>, rhs: &DVector<f64>) -> Result<DVector<f64>, FitError> {
+    let n = rhs.len();
+    let mut x = DVector::<f64>::zeros(n);
+    for _ in 0..500 {
+        let mut change = 0f64;
+        for j in 0..n {
+            let d = q[(j, j)];
+            if d <= 0.0 || !d.is_finite() {
+                continue;
+            }
+            let g = (q.row(j) * &x)[0] - rhs[j];
+            let new = (x[j] - g / d).max(0.0);
+            change = change.max((new - x[j]).abs());
+            x[j] = new;
+        }
+        if change < 1e-10 {
+            break;
+        }
+    }
+    if x.iter().all(|v| v.is_finite()) { Ok(x) } else { Err(FitError::NotFinite) }
+}
+
+/// Outline landmarks tied to the nearest projected vertex of the model's outline, on each side
+/// of the face that is turned towards the camera (eos: yaw within +-7.5 degrees uses both).
+fn contour_correspondences(
+    model: &SurreyModel,
+    landmarks: &[[f32; 2]],
+    pose: &Pose,
+    shape: &[f32],
+    expr: &[f32],
+) -> Vec<Correspondence> {
+    let mut out = Vec::new();
+    let max_away = (7.5f64).to_radians().sin();
+    let sides = [
+        (&model.mapping.contour_right, &model.contour.right),
+        (&model.mapping.contour_left, &model.contour.left),
+    ];
+    for (lms, verts) in sides {
+        if lms.is_empty() || verts.is_empty() {
+            continue;
+        }
+        let positions: Vec<Vector3<f64>> = verts.iter().map(|&v| model.vertex(v as usize, shape, expr)).collect();
+        // Outward direction of this side, in camera space: its z tells whether it faces us.
+        let mean = positions.iter().fold(Vector3::zeros(), |a, p| a + p) / positions.len() as f64;
+        // The model's centre line is x = 0, so a side's outward direction is along its mean x.
+        let outward = pose.rotation * Vector3::new(mean.x, 0.0, 0.0);
+        if outward.z < -max_away * outward.norm() {
+            continue;
+        }
+        let projected: Vec<Vector2<f64>> = positions.iter().map(|p| pose.project_up(p)).collect();
+        for &lm in lms {
+            let Some(p) = landmarks.get(lm as usize - 1) else { continue };
+            if !(p[0].is_finite() && p[1].is_finite()) {
+                continue;
+            }
+            let target = Vector2::new(p[0] as f64, -(p[1] as f64));
+            let best = projected
+                .iter()
+                .enumerate()
+                .min_by(|a, b| (a.1 - target).norm_squared().total_cmp(&(b.1 - target).norm_squared()));
+            if let Some((i, _)) = best {
+                out.push(Correspondence { image_up: target, vertex: verts[i] as usize });
+            }
+        }
+    }
+    out
+}

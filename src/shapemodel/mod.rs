@@ -1,0 +1,517 @@
+//! The Surrey Face Model (SFM) and the files that describe it, read from eos's formats.
+//!
+//! Units: model coordinates are millimetres, right-handed, y up, the face looking along +z
+//! (the mean face spans about x +-74, y -83..105, z -104..3.4). Vertex ids are 0-based here;
+//! eos's text and JSON files use 1-based landmark names and (for the edge topology) 1-based ids.
+//!
+//! Parsing is pure (`parse_*` take bytes or text); [`SurreyModel::load_dir`] is the one place
+//! that reads files, so every error can name the file and the field that is wrong.
+//!
+//! Licence of the data: free for non-commercial use only (see README.md).
+
+mod cereal;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{DMatrix, DVector};
+
+pub use cereal::CerealError;
+
+/// Number of vertices of the low-resolution SFM.
+pub const SFM_VERTICES: usize = 3448;
+
+/// File names inside a Surrey model folder, as eos ships them.
+pub const SHAPE_FILE: &str = "sfm_shape_3448.bin";
+pub const BLENDSHAPES_FILE: &str = "expression_blendshapes_3448.bin";
+pub const MAPPING_FILE: &str = "ibug_to_sfm.txt";
+pub const CONTOURS_FILE: &str = "sfm_model_contours.json";
+pub const EDGE_TOPOLOGY_FILE: &str = "sfm_3448_edge_topology.json";
+
+/// Why a model file could not be used. Each variant names the file and what is wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error(
+        "{path}: not found. The Surrey Face Model files come from the share/ folder of the eos \
+         library (github.com/patrikhuber/eos); free for non-commercial use only. Run \
+         scripts/setup.sh or set GLYPTIC_SFM_DIR to a folder holding them"
+    )]
+    Missing { path: PathBuf },
+    #[error("{file}: {field}: {source}")]
+    Binary {
+        file: String,
+        field: &'static str,
+        source: CerealError,
+    },
+    #[error("{file}: {field}: {problem}")]
+    Invalid {
+        file: String,
+        field: String,
+        problem: String,
+    },
+}
+
+impl ModelError {
+    fn invalid(file: &str, field: impl Into<String>, problem: impl Into<String>) -> Self {
+        ModelError::Invalid {
+            file: file.to_string(),
+            field: field.into(),
+            problem: problem.into(),
+        }
+    }
+}
+
+/// A PCA shape model: `shape = mean + basis * diag(sqrt(eigenvalues)) * coefficients`.
+#[derive(Clone, Debug)]
+pub struct ShapeModel {
+    /// Mean shape, `[x0, y0, z0, x1, ...]`, mm.
+    pub mean: DVector<f32>,
+    /// Orthonormal basis, 3N x K.
+    pub orthonormal_basis: DMatrix<f32>,
+    /// PCA variances (mm^2), K.
+    pub eigenvalues: DVector<f32>,
+    /// Basis with each column scaled by `sqrt(eigenvalue)`: coefficients are then N(0, 1).
+    pub rescaled_basis: DMatrix<f32>,
+    /// Triangles, 0-based vertex ids, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+    /// Texture coordinates per vertex.
+    pub texcoords: Vec<[f64; 2]>,
+}
+
+impl ShapeModel {
+    pub fn num_vertices(&self) -> usize {
+        self.mean.len() / 3
+    }
+
+    pub fn num_components(&self) -> usize {
+        self.orthonormal_basis.ncols()
+    }
+
+    /// Mean position of vertex `v`.
+    pub fn mean_vertex(&self, v: usize) -> [f32; 3] {
+        [self.mean[3 * v], self.mean[3 * v + 1], self.mean[3 * v + 2]]
+    }
+}
+
+/// Expression blendshapes: offsets from the neutral face, one column per expression.
+#[derive(Clone, Debug)]
+pub struct Blendshapes {
+    pub names: Vec<String>,
+    /// 3N x E offsets, mm.
+    pub offsets: DMatrix<f32>,
+}
+
+/// Which 2D landmarks (iBUG 68, 1-based names) map to which model vertex.
+#[derive(Clone, Debug, Default)]
+pub struct LandmarkMapping {
+    /// iBUG landmark number (1-based) -> vertex id (0-based).
+    pub to_vertex: BTreeMap<u32, u32>,
+    /// iBUG landmarks of the subject's right contour (1-based), in order.
+    pub contour_right: Vec<u32>,
+    /// iBUG landmarks of the left contour (1-based), in order.
+    pub contour_left: Vec<u32>,
+}
+
+/// Model vertices (0-based) along the face outline, candidates for contour landmarks.
+#[derive(Clone, Debug, Default)]
+pub struct ModelContour {
+    pub right: Vec<u32>,
+    pub left: Vec<u32>,
+}
+
+/// Mesh adjacency used to find occluding edges: for each edge, its two faces and two vertices,
+/// 0-based, `None` where the edge lies on the mesh boundary.
+#[derive(Clone, Debug, Default)]
+pub struct EdgeTopology {
+    pub adjacent_faces: Vec<[Option<u32>; 2]>,
+    pub adjacent_vertices: Vec<[Option<u32>; 2]>,
+}
+
+/// Everything eos ships for the SFM, validated against each other.
+#[derive(Clone, Debug)]
+pub struct SurreyModel {
+    pub shape: ShapeModel,
+    pub blendshapes: Blendshapes,
+    pub mapping: LandmarkMapping,
+    pub contour: ModelContour,
+    pub edges: EdgeTopology,
+}
+
+impl SurreyModel {
+    /// Reads the five files from `dir` and checks that they agree with each other.
+    pub fn load_dir(dir: &Path) -> Result<Self, ModelError> {
+        let read = |name: &str| -> Result<Vec<u8>, ModelError> {
+            let path = dir.join(name);
+            std::fs::read(&path).map_err(|source| {
+                if source.kind() == std::io::ErrorKind::NotFound {
+                    ModelError::Missing { path: path.clone() }
+                } else {
+                    ModelError::Io {
+                        path: path.clone(),
+                        source,
+                    }
+                }
+            })
+        };
+        let text = |name: &str| -> Result<String, ModelError> {
+            String::from_utf8(read(name)?)
+                .map_err(|_| ModelError::invalid(name, "text", "not valid UTF-8"))
+        };
+        let shape = parse_shape_model(&read(SHAPE_FILE)?, SHAPE_FILE)?;
+        let blendshapes = parse_blendshapes(&read(BLENDSHAPES_FILE)?, BLENDSHAPES_FILE)?;
+        let mapping = parse_mapping(&text(MAPPING_FILE)?, MAPPING_FILE)?;
+        let contour = parse_model_contour(&text(CONTOURS_FILE)?, CONTOURS_FILE)?;
+        let edges = parse_edge_topology(&text(EDGE_TOPOLOGY_FILE)?, EDGE_TOPOLOGY_FILE)?;
+        let model = SurreyModel {
+            shape,
+            blendshapes,
+            mapping,
+            contour,
+            edges,
+        };
+        model.validate()?;
+        Ok(model)
+    }
+
+    /// Cross-file checks: every id refers to something that exists.
+    fn validate(&self) -> Result<(), ModelError> {
+        let n = self.shape.num_vertices() as u32;
+        let nt = self.shape.triangles.len() as u32;
+        if self.blendshapes.offsets.nrows() != self.shape.mean.len() {
+            return Err(ModelError::invalid(
+                BLENDSHAPES_FILE,
+                "rows",
+                format!(
+                    "{} rows, but the shape model has {} coordinates",
+                    self.blendshapes.offsets.nrows(),
+                    self.shape.mean.len()
+                ),
+            ));
+        }
+        for (lm, v) in &self.mapping.to_vertex {
+            if *v >= n {
+                return Err(ModelError::invalid(
+                    MAPPING_FILE,
+                    format!("landmark_mappings.{lm}"),
+                    format!("vertex {v} does not exist (model has {n})"),
+                ));
+            }
+        }
+        for (side, ids) in [("right_contour", &self.contour.right), ("left_contour", &self.contour.left)] {
+            if let Some(v) = ids.iter().find(|&&v| v >= n) {
+                return Err(ModelError::invalid(
+                    CONTOURS_FILE,
+                    side,
+                    format!("vertex {v} does not exist (model has {n})"),
+                ));
+            }
+        }
+        for (i, pair) in self.edges.adjacent_faces.iter().enumerate() {
+            if let Some(f) = pair.iter().flatten().find(|&&f| f >= nt) {
+                return Err(ModelError::invalid(
+                    EDGE_TOPOLOGY_FILE,
+                    format!("adjacent_faces[{i}]"),
+                    format!("face {} does not exist (model has {nt})", f + 1),
+                ));
+            }
+        }
+        for (i, pair) in self.edges.adjacent_vertices.iter().enumerate() {
+            if let Some(v) = pair.iter().flatten().find(|&&v| v >= n) {
+                return Err(ModelError::invalid(
+                    EDGE_TOPOLOGY_FILE,
+                    format!("adjacent_vertices[{i}]"),
+                    format!("vertex {} does not exist (model has {n})", v + 1),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Parses eos's `MorphableModel` (cereal portable binary, class version 1): shape PCA model,
+/// an (empty) colour model and texture coordinates.
+pub fn parse_shape_model(bytes: &[u8], file: &str) -> Result<ShapeModel, ModelError> {
+    let mut r = cereal::Reader::new(bytes);
+    let bin = |field: &'static str| {
+        move |source: CerealError| ModelError::Binary {
+            file: file.to_string(),
+            field,
+            source,
+        }
+    };
+    let version = r.u32().map_err(bin("class version"))?;
+    if version != 1 {
+        return Err(ModelError::invalid(
+            file,
+            "class version",
+            format!("{version} (expected 1: an eos MorphableModel without expressions)"),
+        ));
+    }
+    let (mean_rows, mean_cols, mean) = r.f32_matrix().map_err(bin("shape mean"))?;
+    if mean_cols != 1 || mean_rows % 3 != 0 || mean_rows == 0 {
+        return Err(ModelError::invalid(
+            file,
+            "shape mean",
+            format!("{mean_rows} x {mean_cols} (expected 3N x 1)"),
+        ));
+    }
+    let (b_rows, b_cols, basis) = r.f32_matrix().map_err(bin("shape basis"))?;
+    if b_rows != mean_rows || b_cols == 0 {
+        return Err(ModelError::invalid(
+            file,
+            "shape basis",
+            format!("{b_rows} x {b_cols} (expected {mean_rows} x K)"),
+        ));
+    }
+    let (e_rows, e_cols, eig) = r.f32_matrix().map_err(bin("shape eigenvalues"))?;
+    if e_rows != b_cols || e_cols != 1 {
+        return Err(ModelError::invalid(
+            file,
+            "shape eigenvalues",
+            format!("{e_rows} x {e_cols} (expected {b_cols} x 1)"),
+        ));
+    }
+    if let Some(bad) = eig.iter().position(|e| !(e.is_finite() && *e > 0.0)) {
+        return Err(ModelError::invalid(
+            file,
+            format!("shape eigenvalues[{bad}]"),
+            format!("{} is not a positive finite variance", eig[bad]),
+        ));
+    }
+    if mean.iter().chain(basis.iter()).any(|v| !v.is_finite()) {
+        return Err(ModelError::invalid(file, "shape mean/basis", "contains NaN or infinity"));
+    }
+    let n_vertices = (mean_rows / 3) as u32;
+    let triangles = r.triangles().map_err(bin("shape triangles"))?;
+    if let Some((i, t)) = triangles
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t.iter().any(|&v| v >= n_vertices))
+    {
+        return Err(ModelError::invalid(
+            file,
+            format!("shape triangles[{i}]"),
+            format!("{t:?} refers to a vertex beyond {n_vertices}"),
+        ));
+    }
+    // The colour PCA model: empty in the shape-only SFM, but parsed to reach the texcoords.
+    r.f32_matrix().map_err(bin("colour mean"))?;
+    r.f32_matrix().map_err(bin("colour basis"))?;
+    r.f32_matrix().map_err(bin("colour eigenvalues"))?;
+    r.triangles().map_err(bin("colour triangles"))?;
+    let texcoords = r.texcoords().map_err(bin("texture coordinates"))?;
+    if !texcoords.is_empty() && texcoords.len() != n_vertices as usize {
+        return Err(ModelError::invalid(
+            file,
+            "texture coordinates",
+            format!("{} pairs for {n_vertices} vertices", texcoords.len()),
+        ));
+    }
+    if r.remaining() != 0 {
+        return Err(ModelError::invalid(
+            file,
+            "end",
+            format!("{} unexpected bytes after the model", r.remaining()),
+        ));
+    }
+    let rows = mean_rows as usize;
+    let cols = b_cols as usize;
+    let orthonormal_basis = DMatrix::from_column_slice(rows, cols, &basis);
+    let eigenvalues = DVector::from_vec(eig);
+    let mut rescaled_basis = orthonormal_basis.clone();
+    for (k, mut col) in rescaled_basis.column_iter_mut().enumerate() {
+        col *= eigenvalues[k].sqrt();
+    }
+    Ok(ShapeModel {
+        mean: DVector::from_vec(mean),
+        orthonormal_basis,
+        eigenvalues,
+        rescaled_basis,
+        triangles,
+        texcoords,
+    })
+}
+
+/// Parses eos's expression blendshapes: a vector of (name, 3N x 1 offset).
+pub fn parse_blendshapes(bytes: &[u8], file: &str) -> Result<Blendshapes, ModelError> {
+    let mut r = cereal::Reader::new(bytes);
+    let bin = |field: &'static str| {
+        move |source: CerealError| ModelError::Binary {
+            file: file.to_string(),
+            field,
+            source,
+        }
+    };
+    // Each blendshape needs at least a name length and two dims: bounds the count.
+    let count = r.len_prefix(16).map_err(bin("count"))?;
+    if count == 0 {
+        return Err(ModelError::invalid(file, "count", "no blendshapes"));
+    }
+    let mut names = Vec::with_capacity(count);
+    let mut columns: Vec<Vec<f32>> = Vec::with_capacity(count);
+    for i in 0..count {
+        let name = r.string().map_err(bin("name"))?;
+        let (rows, cols, data) = r.f32_matrix().map_err(bin("offsets"))?;
+        if cols != 1 || rows == 0 || columns.first().is_some_and(|c| c.len() != data.len()) {
+            return Err(ModelError::invalid(
+                file,
+                format!("blendshape[{i}] ({name})"),
+                format!("{rows} x {cols} does not match the others"),
+            ));
+        }
+        if data.iter().any(|v| !v.is_finite()) {
+            return Err(ModelError::invalid(
+                file,
+                format!("blendshape[{i}] ({name})"),
+                "contains NaN or infinity",
+            ));
+        }
+        names.push(name);
+        columns.push(data);
+    }
+    if r.remaining() != 0 {
+        return Err(ModelError::invalid(
+            file,
+            "end",
+            format!("{} unexpected bytes after the blendshapes", r.remaining()),
+        ));
+    }
+    let rows = columns[0].len();
+    let flat: Vec<f32> = columns.concat();
+    Ok(Blendshapes {
+        names,
+        offsets: DMatrix::from_column_slice(rows, count, &flat),
+    })
+}
+
+/// Parses `ibug_to_sfm.txt` (TOML): `[landmark_mappings]` and `[contour_landmarks]`.
+pub fn parse_mapping(text: &str, file: &str) -> Result<LandmarkMapping, ModelError> {
+    let doc: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| ModelError::invalid(file, "toml", e.message().to_string()))?;
+    let table = doc
+        .get("landmark_mappings")
+        .and_then(|v| v.as_table())
+        .ok_or_else(|| ModelError::invalid(file, "landmark_mappings", "missing table"))?;
+    let mut to_vertex = BTreeMap::new();
+    for (key, value) in table {
+        let lm: u32 = key
+            .trim()
+            .parse()
+            .ok()
+            .filter(|n| (1..=68).contains(n))
+            .ok_or_else(|| {
+                ModelError::invalid(file, format!("landmark_mappings.{key}"), "not an iBUG landmark number 1..68")
+            })?;
+        let v = value
+            .as_integer()
+            .and_then(|v| u32::try_from(v).ok())
+            .ok_or_else(|| {
+                ModelError::invalid(file, format!("landmark_mappings.{key}"), "not a vertex id")
+            })?;
+        to_vertex.insert(lm, v);
+    }
+    if to_vertex.is_empty() {
+        return Err(ModelError::invalid(file, "landmark_mappings", "empty"));
+    }
+    let side = |name: &str| -> Result<Vec<u32>, ModelError> {
+        let Some(list) = doc.get("contour_landmarks").and_then(|t| t.get(name)) else {
+            return Ok(Vec::new());
+        };
+        let arr = list.as_array().ok_or_else(|| {
+            ModelError::invalid(file, format!("contour_landmarks.{name}"), "not a list")
+        })?;
+        arr.iter()
+            .map(|v| {
+                v.as_integer()
+                    .and_then(|v| u32::try_from(v).ok())
+                    .filter(|n| (1..=68).contains(n))
+                    .ok_or_else(|| {
+                        ModelError::invalid(
+                            file,
+                            format!("contour_landmarks.{name}"),
+                            format!("{v} is not an iBUG landmark number"),
+                        )
+                    })
+            })
+            .collect()
+    };
+    Ok(LandmarkMapping {
+        to_vertex,
+        contour_right: side("right")?,
+        contour_left: side("left")?,
+    })
+}
+
+/// Parses `sfm_model_contours.json` (`model_contour.{right,left}_contour`, 0-based vertex ids).
+pub fn parse_model_contour(text: &str, file: &str) -> Result<ModelContour, ModelError> {
+    let v: serde_json::Value = serde_json::from_str(text)
+        .map_err(|e| ModelError::invalid(file, "json", e.to_string()))?;
+    let list = |name: &str| -> Result<Vec<u32>, ModelError> {
+        v.get("model_contour")
+            .and_then(|m| m.get(name))
+            .and_then(|l| l.as_array())
+            .ok_or_else(|| ModelError::invalid(file, format!("model_contour.{name}"), "missing list"))?
+            .iter()
+            .map(|x| {
+                x.as_u64()
+                    .and_then(|x| u32::try_from(x).ok())
+                    .ok_or_else(|| ModelError::invalid(file, format!("model_contour.{name}"), format!("{x} is not a vertex id")))
+            })
+            .collect()
+    };
+    Ok(ModelContour {
+        right: list("right_contour")?,
+        left: list("left_contour")?,
+    })
+}
+
+/// Parses `sfm_3448_edge_topology.json` (1-based ids, 0 = boundary) into 0-based options.
+pub fn parse_edge_topology(text: &str, file: &str) -> Result<EdgeTopology, ModelError> {
+    let v: serde_json::Value = serde_json::from_str(text)
+        .map_err(|e| ModelError::invalid(file, "json", e.to_string()))?;
+    let pairs = |name: &str| -> Result<Vec<[Option<u32>; 2]>, ModelError> {
+        let arr = v
+            .get("edge_topology")
+            .and_then(|m| m.get(name))
+            .and_then(|l| l.as_array())
+            .ok_or_else(|| ModelError::invalid(file, format!("edge_topology.{name}"), "missing list"))?;
+        arr.iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let get = |k: &str| {
+                    p.get(k)
+                        .and_then(|x| x.as_u64())
+                        .and_then(|x| u32::try_from(x).ok())
+                        .map(|x| x.checked_sub(1))
+                        .ok_or_else(|| {
+                            ModelError::invalid(file, format!("edge_topology.{name}[{i}].{k}"), "not an id")
+                        })
+                };
+                Ok([get("value0")?, get("value1")?])
+            })
+            .collect()
+    };
+    let adjacent_faces = pairs("adjacent_faces")?;
+    let adjacent_vertices = pairs("adjacent_vertices")?;
+    if adjacent_faces.len() != adjacent_vertices.len() {
+        return Err(ModelError::invalid(
+            file,
+            "edge_topology",
+            format!(
+                "{} face pairs but {} vertex pairs",
+                adjacent_faces.len(),
+                adjacent_vertices.len()
+            ),
+        ));
+    }
+    Ok(EdgeTopology {
+        adjacent_faces,
+        adjacent_vertices,
+    })
+}
