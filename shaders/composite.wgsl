@@ -1,0 +1,70 @@
+// Composite pass: diffuse + specular (both linear, premultiplied by coverage) over a soft studio
+// backdrop, a gentle highlight shoulder, sRGB encoding and a 1/255 ordered dither (so the dark
+// backdrop gradient does not band in 8 bits). The output target is Rgba8Unorm and this shader
+// encodes; a subsurface-scattering pass slots in by binding its blurred diffuse at binding 1.
+//
+// Everything is read with textureLoad (no sampler), one texel per output pixel: the inputs have
+// the output's size.
+
+struct Composite {
+    // rgb: backdrop colour (linear) at the centre; a: unused.
+    background: vec4<f32>,
+    // x: exposure, y: vignette strength, z: vertical gradient strength, w: dither amplitude
+    // (in 8-bit steps).
+    params: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> comp: Composite;
+@group(0) @binding(1) var diffuse_tex: texture_2d<f32>;
+@group(0) @binding(2) var specular_tex: texture_2d<f32>;
+
+@vertex
+fn vs_main(@builtin(vertex_index) index: u32) -> @builtin(position) vec4<f32> {
+    // One triangle covering the screen: (-1,-1), (3,-1), (-1,3).
+    let x = f32((index << 1u) & 2u) * 2.0 - 1.0;
+    let y = f32(index & 2u) * 2.0 - 1.0;
+    return vec4<f32>(x, y, 0.0, 1.0);
+}
+
+fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
+    let lo = c * 12.92;
+    let hi = 1.055 * pow(c, vec3<f32>(1.0 / 2.4)) - 0.055;
+    return select(hi, lo, c <= vec3<f32>(0.0031308));
+}
+
+// Identity below the knee, then an exponential shoulder that reaches 1 asymptotically with
+// matching slope: mid-tones stay exactly as lit, only highlights above the knee are compressed.
+fn shoulder(x: vec3<f32>) -> vec3<f32> {
+    let knee = 0.8;
+    let span = 1.0 - knee;
+    let over = max(x - vec3<f32>(knee), vec3<f32>(0.0));
+    let compressed = vec3<f32>(knee) + span * (vec3<f32>(1.0) - exp(-over / span));
+    return select(x, compressed, x > vec3<f32>(knee));
+}
+
+// Interleaved gradient noise (Jimenez 2014): a fixed pattern, so output is deterministic.
+fn dither(p: vec2<f32>) -> f32 {
+    return fract(52.9829189 * fract(dot(p, vec2<f32>(0.06711056, 0.00583715)))) - 0.5;
+}
+
+@fragment
+fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
+    let texel = vec2<i32>(pos.xy);
+    let size = vec2<f32>(textureDimensions(diffuse_tex));
+    let diffuse = textureLoad(diffuse_tex, texel, 0);
+    let specular = textureLoad(specular_tex, texel, 0);
+    let coverage = clamp(diffuse.a, 0.0, 1.0);
+
+    // Backdrop: lighter towards the top, darker towards the corners, as under a gallery spot.
+    let uv = pos.xy / size;
+    let aspect = size.x / max(size.y, 1.0);
+    let gradient = 1.0 + comp.params.z * (0.5 - uv.y);
+    let centred = (uv - vec2<f32>(0.5, 0.45)) * vec2<f32>(aspect, 1.0);
+    let vignette = 1.0 - comp.params.y * smoothstep(0.25, 0.95, length(centred));
+    let backdrop = comp.background.rgb * gradient * vignette;
+
+    let radiance = (diffuse.rgb + specular.rgb) * comp.params.x + (1.0 - coverage) * backdrop;
+    let encoded = linear_to_srgb(shoulder(max(radiance, vec3<f32>(0.0))));
+    let noisy = encoded + vec3<f32>(dither(pos.xy) * comp.params.w / 255.0);
+    return vec4<f32>(clamp(noisy, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0);
+}

@@ -1,0 +1,162 @@
+//! The orbit camera and the light, with nalgebra.
+//!
+//! The camera circles the mesh's bounding-box centre; yaw turns it about the vertical (+Y) axis,
+//! pitch raises it, and yaw = pitch = 0 looks straight at the front (from +Z towards -Z). The
+//! distance makes the mesh's bounding sphere fit the narrower field of view with a small
+//! margin, so nothing leaves the frame whatever the angles. Clip space is wgpu's: depth in
+//! [0, 1].
+//!
+//! The light is a key light fixed to the viewer, from the upper left front, the way a gem on a
+//! turntable is lit by a fixed gallery spot: every yaw shows a lit face.
+
+use nalgebra::{Matrix4, Vector3};
+
+use super::mesh::Bounds;
+
+/// Vertical field of view (degrees), as in the 2021 system and the SSS reference demo.
+pub const FOV_Y_DEG: f32 = 20.0;
+/// Extra room around the bounding sphere (1.0 = touching the frame edge).
+const MARGIN: f32 = 1.06;
+/// Pitch is kept short of the poles, where the orbit's up vector degenerates.
+const MAX_PITCH_DEG: f32 = 89.0;
+/// Direction towards the light in the camera's frame (x right, y up, z towards the viewer).
+const LIGHT_IN_VIEW: [f32; 3] = [-0.45, 0.55, 0.75];
+
+/// Everything the shaders need from the camera for one frame.
+#[derive(Clone, Debug)]
+pub(crate) struct Camera {
+    pub view_proj: Matrix4<f32>,
+    pub eye: Vector3<f32>,
+    pub right: Vector3<f32>,
+    pub up: Vector3<f32>,
+    /// Viewing direction (from the eye into the scene).
+    pub forward: Vector3<f32>,
+    /// Unit vector towards the light (world space).
+    pub light: Vector3<f32>,
+    /// View-depth range (mm along `forward`) that contains the whole mesh.
+    pub near: f32,
+    pub far: f32,
+}
+
+/// Camera for a mesh with `bounds`, seen at `yaw_deg`/`pitch_deg` on a `width` x `height` image.
+pub(crate) fn orbit(
+    bounds: &Bounds,
+    yaw_deg: f32,
+    pitch_deg: f32,
+    width: u32,
+    height: u32,
+) -> Camera {
+    let aspect = width as f32 / height.max(1) as f32;
+    let half_fov_y = (FOV_Y_DEG * 0.5).to_radians();
+    let half_fov_x = (aspect * half_fov_y.tan()).atan();
+    let half_fov = half_fov_y.min(half_fov_x);
+    // A floor on the radius keeps a degenerate (single point) mesh from putting the eye on it.
+    let radius = bounds.radius.max(1e-3);
+    let distance = MARGIN * radius / half_fov.sin();
+
+    let yaw = yaw_deg.to_radians();
+    let pitch = pitch_deg.clamp(-MAX_PITCH_DEG, MAX_PITCH_DEG).to_radians();
+    let center = Vector3::from(bounds.center);
+    let offset = Vector3::new(
+        yaw.sin() * pitch.cos(),
+        pitch.sin(),
+        yaw.cos() * pitch.cos(),
+    );
+    let eye = center + offset * distance;
+    let forward = -offset;
+    let right = forward.cross(&Vector3::y()).normalize();
+    let up = right.cross(&forward);
+
+    #[rustfmt::skip]
+    let view = Matrix4::new(
+        right.x, right.y, right.z, -right.dot(&eye),
+        up.x, up.y, up.z, -up.dot(&eye),
+        -forward.x, -forward.y, -forward.z, forward.dot(&eye),
+        0.0, 0.0, 0.0, 1.0,
+    );
+    // Depth range: the bounding sphere with a little slack, so no part is ever clipped.
+    let near = (distance - radius * 1.05).max(distance * 0.01);
+    let far = distance + radius * 1.05;
+    let f = 1.0 / half_fov_y.tan();
+    #[rustfmt::skip]
+    let projection = Matrix4::new(
+        f / aspect, 0.0, 0.0, 0.0,
+        0.0, f, 0.0, 0.0,
+        0.0, 0.0, far / (near - far), near * far / (near - far),
+        0.0, 0.0, -1.0, 0.0,
+    );
+
+    let l = LIGHT_IN_VIEW;
+    let light = (right * l[0] + up * l[1] - forward * l[2]).normalize();
+    Camera {
+        view_proj: projection * view,
+        eye,
+        right,
+        up,
+        forward,
+        light,
+        near,
+        far,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector4;
+
+    fn bounds() -> Bounds {
+        Bounds {
+            min: [-22.0, -28.0, -3.0],
+            max: [22.0, 28.0, 8.0],
+            center: [0.0, 0.0, 2.5],
+            radius: 36.1,
+        }
+    }
+
+    fn project(c: &Camera, p: [f32; 3]) -> [f32; 3] {
+        let h = c.view_proj * Vector4::new(p[0], p[1], p[2], 1.0);
+        [h.x / h.w, h.y / h.w, h.z / h.w]
+    }
+
+    #[test]
+    fn yaw_zero_looks_at_the_front() {
+        let c = orbit(&bounds(), 0.0, 0.0, 160, 200);
+        assert!(c.eye.z > 50.0 && c.eye.x.abs() < 1e-4 && c.eye.y.abs() < 1e-4);
+        let centre = project(&c, [0.0, 0.0, 2.5]);
+        assert!(centre[0].abs() < 1e-5 && centre[1].abs() < 1e-5);
+        // +X appears to the right and +Y up.
+        assert!(project(&c, [10.0, 0.0, 2.5])[0] > 0.0);
+        assert!(project(&c, [0.0, 10.0, 2.5])[1] > 0.0);
+        // Light from the upper left front.
+        assert!(c.light.x < 0.0 && c.light.y > 0.0 && c.light.z > 0.0);
+    }
+
+    #[test]
+    fn sphere_fits_at_any_angle() {
+        for (w, h) in [(160, 200), (1280, 800), (100, 1000)] {
+            for yaw in [0.0f32, 30.0, 90.0, 180.0, 271.0] {
+                for pitch in [-95.0f32, -40.0, 0.0, 60.0] {
+                    let c = orbit(&bounds(), yaw, pitch, w, h);
+                    for corner in 0..8 {
+                        let b = bounds();
+                        let p = [0, 1, 2].map(|a| {
+                            if corner >> a & 1 == 1 {
+                                b.max[a]
+                            } else {
+                                b.min[a]
+                            }
+                        });
+                        let q = project(&c, p);
+                        assert!(q.iter().all(|v| v.is_finite()));
+                        assert!(
+                            q[0].abs() <= 1.0 && q[1].abs() <= 1.0,
+                            "{q:?} at {yaw}/{pitch}"
+                        );
+                        assert!(q[2] > 0.0 && q[2] < 1.0);
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,480 @@
+//! The GPU objects: pipelines and uniform buffers (built once per device), frame targets
+//! (rebuilt only when the image size changes) and mesh buffers (grown only when a mesh does not
+//! fit). Nothing here is created per frame.
+//!
+//! Targets of the scene pass, all the output's size (multisampled when the device allows 4x MSAA
+//! with resolve for these formats, then resolved into single-sample textures):
+//! * `diffuse` (Rgba16Float): diffuse radiance, linear; alpha = coverage.
+//! * `specular` (Rgba16Float): specular radiance, linear; alpha = coverage.
+//! * `depth_mask` (Rg16Float): r = linear view depth mapped to [0, 1] over the frame's depth
+//!   range, g = subsurface-scattering strength (0 on gold). Both are premultiplied by coverage
+//!   (cleared to 0), so divide by `diffuse.a` for the value at a silhouette pixel.
+//! * a Depth32Float z-buffer (never sampled: the linear depth above serves later passes, and
+//!   works on GL, which cannot sample depth textures in these shaders).
+//!
+//! The composite pass reads the resolved `diffuse` and `specular` and writes the Rgba8Unorm
+//! `output` (sRGB-encoded by the shader), which is copied into a mappable buffer with rows padded
+//! to 256 bytes.
+
+use bytemuck::{Pod, Zeroable};
+use wgpu::util::DeviceExt;
+
+use super::Vertex;
+use super::shaders;
+
+pub(crate) const DIFFUSE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub(crate) const SPECULAR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub(crate) const DEPTH_MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg16Float;
+pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub(crate) const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+const OUTPUT_BYTES_PER_PIXEL: u32 = 4;
+
+/// Uniforms of the scene pass; mirrors `Frame` in `scene.wgsl` (all 16-byte fields, no padding).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct FrameUniform {
+    pub view_proj: [[f32; 4]; 4],
+    pub eye: [f32; 4],
+    pub light_dir: [f32; 4],
+    pub cam_right: [f32; 4],
+    pub cam_up: [f32; 4],
+    pub cam_fwd: [f32; 4],
+    pub marble: [f32; 4],
+    pub depth: [f32; 4],
+    pub material: [u32; 4],
+}
+
+/// Uniforms of the composite pass; mirrors `Composite` in `composite.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct CompositeUniform {
+    pub background: [f32; 4],
+    pub params: [f32; 4],
+}
+
+/// Chooses 4x MSAA if every scene target format supports it with resolve on this adapter, else 1.
+///
+/// Follows wgpu-core's rule: a device without `TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES` may use
+/// only the WebGPU-guaranteed format features, unless the adapter is downlevel (GL), where the
+/// adapter's own report applies.
+pub(crate) fn choose_sample_count(adapter: &wgpu::Adapter, device_features: wgpu::Features) -> u32 {
+    const SAMPLES: u32 = 4;
+    let webgpu_formats = adapter
+        .get_downlevel_capabilities()
+        .flags
+        .contains(wgpu::DownlevelFlags::WEBGPU_TEXTURE_FORMAT_SUPPORT);
+    let features = |format: wgpu::TextureFormat| {
+        if webgpu_formats
+            && !device_features.contains(wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES)
+        {
+            format.guaranteed_format_features(device_features)
+        } else {
+            adapter.get_texture_format_features(format)
+        }
+    };
+    let resolvable = [DIFFUSE_FORMAT, SPECULAR_FORMAT, DEPTH_MASK_FORMAT]
+        .into_iter()
+        .all(|f| {
+            let flags = features(f).flags;
+            flags.sample_count_supported(SAMPLES)
+                && flags.contains(wgpu::TextureFormatFeatureFlags::MULTISAMPLE_RESOLVE)
+        });
+    if resolvable && features(DEPTH_FORMAT).flags.sample_count_supported(SAMPLES) {
+        SAMPLES
+    } else {
+        1
+    }
+}
+
+/// Pipelines, layouts and uniform buffers: created once with the device.
+pub(crate) struct Pipelines {
+    pub samples: u32,
+    pub scene: wgpu::RenderPipeline,
+    pub frame_uniform: wgpu::Buffer,
+    pub scene_bind_group: wgpu::BindGroup,
+    pub composite: wgpu::RenderPipeline,
+    pub composite_layout: wgpu::BindGroupLayout,
+    pub composite_uniform: wgpu::Buffer,
+}
+
+fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A float texture read with `textureLoad` only: declared unfilterable so that any float format
+/// (and GL) is accepted.
+fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+fn color_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
+    Some(wgpu::ColorTargetState {
+        format,
+        blend: None,
+        write_mask: wgpu::ColorWrites::ALL,
+    })
+}
+
+impl Pipelines {
+    pub fn new(device: &wgpu::Device, samples: u32) -> Self {
+        let scene_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("glyptic scene"),
+            source: wgpu::ShaderSource::Wgsl(shaders::SCENE.into()),
+        });
+        let composite_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("glyptic composite"),
+            source: wgpu::ShaderSource::Wgsl(shaders::COMPOSITE.into()),
+        });
+
+        let frame_uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("glyptic frame uniform"),
+            contents: bytemuck::bytes_of(&FrameUniform::zeroed()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic scene layout"),
+            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+        });
+        let scene_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("glyptic scene bind group"),
+            layout: &scene_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: frame_uniform.as_entire_binding(),
+            }],
+        });
+        let scene_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glyptic scene pipeline layout"),
+                bind_group_layouts: &[Some(&scene_layout)],
+                immediate_size: 0,
+            });
+        let attributes = wgpu::vertex_attr_array![
+            0 => Float32x3, // position
+            1 => Float32x3, // normal
+            2 => Float32,   // relief
+            3 => Uint32,    // region
+        ];
+        let scene = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("glyptic scene pipeline"),
+            layout: Some(&scene_pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &scene_module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: size_of::<Vertex>() as wgpu::BufferAddress,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &attributes,
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                // The gem module's winding is not part of the contract: draw both faces and let
+                // the shader turn the normal towards the viewer.
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: wgpu::MultisampleState {
+                count: samples,
+                ..Default::default()
+            },
+            fragment: Some(wgpu::FragmentState {
+                module: &scene_module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[
+                    color_target(DIFFUSE_FORMAT),
+                    color_target(SPECULAR_FORMAT),
+                    color_target(DEPTH_MASK_FORMAT),
+                ],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+
+        let composite_uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("glyptic composite uniform"),
+            contents: bytemuck::bytes_of(&CompositeUniform::zeroed()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic composite layout"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+                texture_entry(1),
+                texture_entry(2),
+            ],
+        });
+        let composite_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glyptic composite pipeline layout"),
+                bind_group_layouts: &[Some(&composite_layout)],
+                immediate_size: 0,
+            });
+        let composite = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("glyptic composite pipeline"),
+            layout: Some(&composite_pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &composite_module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState::default(),
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &composite_module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[color_target(OUTPUT_FORMAT)],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+
+        Self {
+            samples,
+            scene,
+            frame_uniform,
+            scene_bind_group,
+            composite,
+            composite_layout,
+            composite_uniform,
+        }
+    }
+}
+
+/// A scene-pass colour target: the single-sample texture later passes read, and, with MSAA, the
+/// multisampled texture drawn into and resolved from.
+pub(crate) struct ColorTarget {
+    /// Single-sample view (keeps its texture alive).
+    pub view: wgpu::TextureView,
+    pub msaa: Option<wgpu::TextureView>,
+}
+
+impl ColorTarget {
+    fn new(
+        device: &wgpu::Device,
+        label: &str,
+        format: wgpu::TextureFormat,
+        size: wgpu::Extent3d,
+        samples: u32,
+    ) -> Self {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        let msaa = (samples > 1).then(|| {
+            device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: samples,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default())
+        });
+        Self { view, msaa }
+    }
+
+    /// The attachment for the scene pass: cleared to zero (= no coverage), resolved if MSAA.
+    pub fn attachment(&self) -> wgpu::RenderPassColorAttachment<'_> {
+        let (view, resolve_target, store) = match &self.msaa {
+            Some(msaa) => (msaa, Some(&self.view), wgpu::StoreOp::Discard),
+            None => (&self.view, None, wgpu::StoreOp::Store),
+        };
+        wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                store,
+            },
+        }
+    }
+}
+
+/// Everything sized by the output image.
+pub(crate) struct Targets {
+    pub width: u32,
+    pub height: u32,
+    pub diffuse: ColorTarget,
+    pub specular: ColorTarget,
+    pub depth_mask: ColorTarget,
+    pub depth: wgpu::TextureView,
+    pub output: wgpu::Texture,
+    pub output_view: wgpu::TextureView,
+    /// Mappable copy of `output`, rows padded to `padded_row` bytes.
+    pub readback: wgpu::Buffer,
+    pub padded_row: u32,
+    pub composite_bind_group: wgpu::BindGroup,
+}
+
+/// Bytes per readback row: `width` pixels rounded up to wgpu's 256-byte copy alignment.
+pub(crate) fn padded_row_bytes(width: u32) -> u64 {
+    let unpadded = u64::from(width) * u64::from(OUTPUT_BYTES_PER_PIXEL);
+    let align = u64::from(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    unpadded.div_ceil(align) * align
+}
+
+impl Targets {
+    /// Sizes must have been checked against the device limits by the caller.
+    pub fn new(device: &wgpu::Device, pipelines: &Pipelines, width: u32, height: u32) -> Self {
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let samples = pipelines.samples;
+        let diffuse = ColorTarget::new(device, "glyptic diffuse", DIFFUSE_FORMAT, size, samples);
+        let specular = ColorTarget::new(device, "glyptic specular", SPECULAR_FORMAT, size, samples);
+        let depth_mask = ColorTarget::new(
+            device,
+            "glyptic depth+mask",
+            DEPTH_MASK_FORMAT,
+            size,
+            samples,
+        );
+        let depth = device
+            .create_texture(&wgpu::TextureDescriptor {
+                label: Some("glyptic z-buffer"),
+                size,
+                mip_level_count: 1,
+                sample_count: samples,
+                dimension: wgpu::TextureDimension::D2,
+                format: DEPTH_FORMAT,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                view_formats: &[],
+            })
+            .create_view(&Default::default());
+        let output = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("glyptic output"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: OUTPUT_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let output_view = output.create_view(&Default::default());
+        let padded_row = padded_row_bytes(width);
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("glyptic readback"),
+            size: padded_row * u64::from(height),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let composite_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("glyptic composite bind group"),
+            layout: &pipelines.composite_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: pipelines.composite_uniform.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&diffuse.view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&specular.view),
+                },
+            ],
+        });
+        Self {
+            width,
+            height,
+            diffuse,
+            specular,
+            depth_mask,
+            depth,
+            output,
+            output_view,
+            readback,
+            // Checked by the caller: at most max_buffer_size / height, far below u32::MAX.
+            padded_row: u32::try_from(padded_row).unwrap_or(u32::MAX),
+            composite_bind_group,
+        }
+    }
+}
+
+/// Vertex and index buffers that keep their capacity between frames.
+pub(crate) struct MeshBuffers {
+    pub vertices: wgpu::Buffer,
+    pub indices: wgpu::Buffer,
+}
+
+/// Smallest buffer allocated, so small meshes do not reallocate as they grow a little.
+const MIN_MESH_BUFFER: u64 = 64 * 1024;
+
+fn grown(needed: u64, max: u64) -> u64 {
+    needed
+        .max(MIN_MESH_BUFFER)
+        .checked_next_power_of_two()
+        .unwrap_or(needed)
+        .min(max)
+        .max(needed)
+}
+
+impl MeshBuffers {
+    /// Buffers holding at least the given byte counts (both no larger than `max`).
+    pub fn new(device: &wgpu::Device, vertex_bytes: u64, index_bytes: u64, max: u64) -> Self {
+        let buffer = |label, size, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: grown(size, max),
+                usage: usage | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        Self {
+            vertices: buffer("glyptic vertices", vertex_bytes, wgpu::BufferUsages::VERTEX),
+            indices: buffer("glyptic indices", index_bytes, wgpu::BufferUsages::INDEX),
+        }
+    }
+
+    pub fn fits(&self, vertex_bytes: u64, index_bytes: u64) -> bool {
+        self.vertices.size() >= vertex_bytes && self.indices.size() >= index_bytes
+    }
+}

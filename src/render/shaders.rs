@@ -1,0 +1,23 @@
+//! The WGSL sources, embedded at compile time.
+//!
+//! Shared code (the noise functions) lives in its own file and is prepended as text: WGSL has no
+//! includes. A file that needs another says so in its first line (`// requires: noise.wgsl`),
+//! which is how `tests/shaders.rs` assembles the same modules from the files on disk.
+
+/// Simplex noise and turbulence, shared by the scene shader.
+pub const NOISE: &str = include_str!("../../shaders/noise.wgsl");
+
+/// The scene pass (`vs_main`, `fs_main`), with the noise prepended.
+pub const SCENE: &str = concat!(
+    include_str!("../../shaders/noise.wgsl"),
+    "\n",
+    include_str!("../../shaders/scene.wgsl")
+);
+
+/// The composite pass (`vs_main`, `fs_main`).
+pub const COMPOSITE: &str = include_str!("../../shaders/composite.wgsl");
+
+/// Every module the renderer compiles, by name, exactly as it hands them to wgpu.
+pub fn modules() -> [(&'static str, &'static str); 3] {
+    [("noise", NOISE), ("scene", SCENE), ("composite", COMPOSITE)]
+}

@@ -1,0 +1,468 @@
+//! The headless renderer on a synthetic cameo: an oval ground with an ellipsoidal "head" relief
+//! (its upper part marked as hair) inside a raised gold bezel with a gold back.
+//!
+//! One test function, one device: opening a device and compiling the pipelines is the expensive
+//! part on a CPU rasteriser, and parallel tests would each pay it. Images go to
+//! `<root>/target/test-out/` for inspection.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use glyptic::render::{Material, Mesh, Region, RenderError, RenderParams, Renderer, Vertex};
+
+/// Semi-axes of the ground field (mm); the bezel adds `BEZEL_WIDTH` all round: 44 x 56 overall.
+const FIELD: (f32, f32) = (19.6, 25.6);
+/// Width and height (mm) of the half-round gold bezel.
+const BEZEL_WIDTH: f32 = 2.4;
+const BEZEL_HEIGHT: f32 = 1.5;
+/// The back plate's plane (mm).
+const BACK: f32 = -3.0;
+
+/// Height of the relief above the ground at (x, y): a rounded ellipsoidal dome.
+fn relief_height(x: f32, y: f32) -> f32 {
+    let q = (x / 11.0).powi(2) + ((y + 1.0) / 15.0).powi(2);
+    if q >= 1.0 { 0.0 } else { 7.0 * (1.0 - q) }
+}
+
+fn region_at(x: f32, y: f32) -> Region {
+    let h = relief_height(x, y);
+    if h <= 0.0 {
+        Region::Ground
+    } else if y > 4.0 + 0.15 * x {
+        Region::Hair
+    } else {
+        Region::Relief
+    }
+}
+
+struct Builder {
+    mesh: Mesh,
+}
+
+impl Builder {
+    fn vertex(&mut self, position: [f32; 3], normal: [f32; 3], relief: f32, region: Region) -> u32 {
+        self.mesh.vertices.push(Vertex {
+            position,
+            normal,
+            relief,
+            region: region as u32,
+        });
+        (self.mesh.vertices.len() - 1) as u32
+    }
+
+    /// Quads between consecutive rows of a (rows x cols) grid whose columns wrap around.
+    fn grid(&mut self, first: u32, rows: u32, cols: u32) {
+        for r in 0..rows - 1 {
+            for c in 0..cols {
+                let a = first + r * cols + c;
+                let b = first + r * cols + (c + 1) % cols;
+                let d = a + cols;
+                let e = b + cols;
+                self.mesh.indices.extend_from_slice(&[a, b, e, a, e, d]);
+            }
+        }
+    }
+}
+
+/// The test cameo, `rings` x `segments` on the ground field.
+fn cameo(rings: u32, segments: u32) -> Mesh {
+    let mut b = Builder {
+        mesh: Mesh::default(),
+    };
+    let angle = |s: u32| s as f32 / segments as f32 * std::f32::consts::TAU;
+    // Ground field and relief: one continuous height field over the oval.
+    let first = b.mesh.vertices.len() as u32;
+    for ring in 0..=rings {
+        let t = ring as f32 / rings as f32;
+        for s in 0..segments {
+            let (x, y) = (FIELD.0 * t * angle(s).cos(), FIELD.1 * t * angle(s).sin());
+            let h = relief_height(x, y);
+            let e = 0.02;
+            let dx = (relief_height(x + e, y) - relief_height(x - e, y)) / (2.0 * e);
+            let dy = (relief_height(x, y + e) - relief_height(x, y - e)) / (2.0 * e);
+            b.vertex([x, y, h], [-dx, -dy, 1.0], h, region_at(x, y));
+        }
+    }
+    b.grid(first, rings + 1, segments);
+
+    // The field's edge and its outward normal (in the plane) at segment s.
+    let edge = |s: u32| {
+        let (c, si) = (angle(s).cos(), angle(s).sin());
+        let n = [c / FIELD.0, si / FIELD.1];
+        let len = (n[0] * n[0] + n[1] * n[1]).sqrt();
+        ([FIELD.0 * c, FIELD.1 * si], [n[0] / len, n[1] / len])
+    };
+    // Bezel: a half-round gold wire around the field, then a vertical outer wall.
+    let steps = 12;
+    let first = b.mesh.vertices.len() as u32;
+    for k in 0..=steps {
+        let phi = k as f32 / steps as f32 * std::f32::consts::PI;
+        let radial = 0.5 * BEZEL_WIDTH * (1.0 - phi.cos());
+        let z = BEZEL_HEIGHT * phi.sin();
+        let (nr, nz) = (-BEZEL_HEIGHT * phi.cos(), 0.5 * BEZEL_WIDTH * phi.sin());
+        for s in 0..segments {
+            let (p, n) = edge(s);
+            b.vertex(
+                [p[0] + n[0] * radial, p[1] + n[1] * radial, z],
+                [n[0] * nr, n[1] * nr, nz],
+                0.0,
+                Region::Gold,
+            );
+        }
+    }
+    b.grid(first, steps + 1, segments);
+    let first = b.mesh.vertices.len() as u32;
+    for z in [0.0, BACK] {
+        for s in 0..segments {
+            let (p, n) = edge(s);
+            b.vertex(
+                [p[0] + n[0] * BEZEL_WIDTH, p[1] + n[1] * BEZEL_WIDTH, z],
+                [n[0], n[1], 0.0],
+                0.0,
+                Region::Gold,
+            );
+        }
+    }
+    b.grid(first, 2, segments);
+    // Back plate.
+    let centre = b.vertex([0.0, 0.0, BACK], [0.0, 0.0, -1.0], 0.0, Region::Gold);
+    let first = b.mesh.vertices.len() as u32;
+    for s in 0..segments {
+        let (p, n) = edge(s);
+        b.vertex(
+            [p[0] + n[0] * BEZEL_WIDTH, p[1] + n[1] * BEZEL_WIDTH, BACK],
+            [0.0, 0.0, -1.0],
+            0.0,
+            Region::Gold,
+        );
+    }
+    for s in 0..segments {
+        b.mesh
+            .indices
+            .extend_from_slice(&[centre, first + (s + 1) % segments, first + s]);
+    }
+    b.mesh
+}
+
+fn params(width: u32, height: u32, material: Material) -> RenderParams {
+    RenderParams {
+        width,
+        height,
+        material,
+        ..RenderParams::default()
+    }
+}
+
+fn out_dir() -> PathBuf {
+    let dir = glyptic::assets::root().join("target").join("test-out");
+    std::fs::create_dir_all(&dir).expect("create target/test-out");
+    dir
+}
+
+fn save(image: &image::RgbaImage, name: &str) {
+    let path = out_dir().join(name);
+    image
+        .save(&path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+}
+
+fn channel_diff(a: &image::Rgba<u8>, b: &image::Rgba<u8>) -> u32 {
+    (0..3)
+        .map(|c| a[c].abs_diff(b[c]) as u32)
+        .max()
+        .unwrap_or(0)
+}
+
+/// Mean absolute difference per channel over the whole image.
+fn mean_abs_diff(a: &image::RgbaImage, b: &image::RgbaImage) -> f64 {
+    let total: u64 = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(x, y)| x.abs_diff(*y) as u64)
+        .sum();
+    total as f64 / a.as_raw().len() as f64
+}
+
+/// Pixels that differ from the backdrop-only image by more than the dither could.
+fn object_mask(image: &image::RgbaImage, backdrop: &image::RgbaImage) -> Vec<bool> {
+    image
+        .pixels()
+        .zip(backdrop.pixels())
+        .map(|(p, q)| channel_diff(p, q) > 4)
+        .collect()
+}
+
+fn fraction(mask: &[bool], image: &image::RgbaImage, pred: impl Fn([u8; 3]) -> bool) -> f64 {
+    let on: Vec<[u8; 3]> = image
+        .pixels()
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .map(|(p, _)| [p[0], p[1], p[2]])
+        .collect();
+    on.iter().filter(|p| pred(**p)).count() as f64 / on.len().max(1) as f64
+}
+
+fn is_gold(p: [u8; 3]) -> bool {
+    let [r, g, b] = p.map(i32::from);
+    r > 70 && r > b + 45 && g > b + 25 && r >= g
+}
+
+fn time_frames(renderer: &mut Renderer, mesh: &Mesh, p: &RenderParams, frames: usize) -> Duration {
+    let mut times: Vec<Duration> = (0..frames)
+        .map(|_| {
+            let start = Instant::now();
+            renderer.render(mesh, p).expect("timed frame");
+            start.elapsed()
+        })
+        .collect();
+    times.sort();
+    times[times.len() / 2]
+}
+
+#[test]
+fn renderer_end_to_end() {
+    // Look checks are collected and asserted at the end, so every image is written first.
+    let mut failed: Vec<String> = Vec::new();
+    let mut check = |ok: bool, what: String| {
+        if !ok {
+            failed.push(what);
+        }
+    };
+    let start = Instant::now();
+    let mut renderer = Renderer::new_headless().expect("a headless adapter (lavapipe or llvmpipe)");
+    println!(
+        "adapter: {} (device in {:?})",
+        renderer.adapter_info(),
+        start.elapsed()
+    );
+
+    let mesh = cameo(96, 160);
+    println!(
+        "test mesh: {} vertices, {} triangles",
+        mesh.vertices.len(),
+        mesh.indices.len() / 3
+    );
+    let (w, h) = (160, 200);
+
+    // A mesh that rasterises nothing (one zero-area triangle) gives the bare backdrop.
+    let speck = Mesh {
+        vertices: vec![
+            Vertex {
+                position: [0.0; 3],
+                normal: [0.0, 0.0, 1.0],
+                relief: 0.0,
+                region: 0
+            };
+            3
+        ],
+        indices: vec![0, 1, 2],
+    };
+    let t = Instant::now();
+    let backdrop = renderer
+        .render(&speck, &params(w, h, Material::Marble))
+        .expect("backdrop");
+    println!("first frame (pipeline warm-up) {w}x{h}: {:?}", t.elapsed());
+    save(&backdrop, "backdrop.png");
+    let corner = backdrop.get_pixel(0, 0);
+    let middle = backdrop.get_pixel(w / 2, h / 2);
+    assert!(
+        middle[0] > corner[0],
+        "backdrop is lighter in the middle than in the corners"
+    );
+
+    // --- Marble and agate, front view.
+    let marble = renderer
+        .render(&mesh, &params(w, h, Material::Marble))
+        .expect("marble");
+    let agate = renderer
+        .render(&mesh, &params(w, h, Material::Agate))
+        .expect("agate");
+    save(&marble, "marble_front.png");
+    save(&agate, "agate_front.png");
+
+    let mask = object_mask(&marble, &backdrop);
+    let coverage = mask.iter().filter(|m| **m).count() as f64 / mask.len() as f64;
+    println!("object covers {:.1} % of the frame", coverage * 100.0);
+    assert!((0.25..0.8).contains(&coverage), "coverage {coverage}");
+    assert_eq!(
+        object_mask(&agate, &backdrop),
+        mask,
+        "both materials cover the same pixels"
+    );
+
+    let gold_m = fraction(&mask, &marble, is_gold);
+    let stone_light = fraction(&mask, &marble, |[r, g, b]| {
+        r > 140 && g > 135 && b > 125 && r.abs_diff(b) < 30
+    });
+    println!("marble: gold {:.2}, light stone {:.2}", gold_m, stone_light);
+    check(
+        gold_m > 0.05,
+        format!("marble bezel reads as gold ({gold_m:.2})"),
+    );
+    check(
+        stone_light > 0.5,
+        format!("marble is mostly white ({stone_light:.2})"),
+    );
+
+    let red = fraction(&mask, &agate, |[r, g, b]| {
+        r > g + 8 && r > b + 8 && r < 110 && g < 60
+    });
+    let white = fraction(&mask, &agate, |[r, g, b]| {
+        r > 120 && g > 120 && b > 115 && r.abs_diff(g) < 25
+    });
+    let gold_a = fraction(&mask, &agate, is_gold);
+    println!("agate: red ground {red:.2}, white relief {white:.2}, gold {gold_a:.2}");
+    check(red > 0.1, format!("agate ground is dark red ({red:.2})"));
+    check(
+        white > 0.1,
+        format!("agate relief is grey-white ({white:.2})"),
+    );
+    check(gold_a > 0.05, format!("agate bezel is gold ({gold_a:.2})"));
+
+    let d_material = mean_abs_diff(&marble, &agate);
+    println!("marble vs agate: mean |diff| {d_material:.1}");
+    check(
+        d_material > 15.0,
+        format!("marble and agate differ clearly ({d_material:.1})"),
+    );
+
+    // --- Other views.
+    let mut turned = params(w, h, Material::Marble);
+    turned.yaw_deg = 30.0;
+    let marble_30 = renderer.render(&mesh, &turned).expect("yaw 30");
+    save(&marble_30, "marble_yaw30.png");
+    let d_yaw = mean_abs_diff(&marble, &marble_30);
+    println!("yaw 0 vs 30: mean |diff| {d_yaw:.1}");
+    check(
+        d_yaw > 3.0,
+        format!("yaw 30 differs from yaw 0 ({d_yaw:.1})"),
+    );
+
+    let mut view = params(w, h, Material::Agate);
+    view.yaw_deg = -35.0;
+    view.pitch_deg = 20.0;
+    save(
+        &renderer.render(&mesh, &view).expect("agate 3/4"),
+        "agate_yaw-35_pitch20.png",
+    );
+    view.yaw_deg = 90.0;
+    view.pitch_deg = 0.0;
+    save(
+        &renderer.render(&mesh, &view).expect("agate side"),
+        "agate_side.png",
+    );
+    view.yaw_deg = 180.0;
+    save(
+        &renderer.render(&mesh, &view).expect("agate back"),
+        "agate_back.png",
+    );
+
+    // The 2021 colormap (softness and lightness 0) against the default softer veins.
+    let mut original = params(w, h, Material::Marble);
+    original.marble.vein_softness = 0.0;
+    original.marble.vein_lightness = 0.0;
+    let marble_2021 = renderer.render(&mesh, &original).expect("2021 marble");
+    save(&marble_2021, "marble_2021_veins.png");
+    let d_veins = mean_abs_diff(&marble, &marble_2021);
+    check(
+        d_veins > 0.5,
+        format!("vein parameters have an effect ({d_veins:.2})"),
+    );
+
+    // --- Determinism: the same frame twice is bit-identical.
+    let again = renderer
+        .render(&mesh, &params(w, h, Material::Agate))
+        .expect("agate again");
+    assert!(
+        again.as_raw() == agate.as_raw(),
+        "rendering twice gives identical images"
+    );
+
+    // --- Invalid input gives errors, not panics, and leaves the renderer usable.
+    let p = params(w, h, Material::Marble);
+    let empty = renderer.render(&Mesh::default(), &p);
+    assert!(
+        matches!(empty, Err(RenderError::EmptyMesh { .. })),
+        "{empty:?}"
+    );
+    let mut bad = mesh.clone();
+    bad.indices[5] = bad.vertices.len() as u32;
+    let out_of_range = renderer.render(&bad, &p);
+    assert!(
+        matches!(out_of_range, Err(RenderError::IndexOutOfRange { .. })),
+        "{out_of_range:?}"
+    );
+    let mut bad = mesh.clone();
+    bad.vertices[7].position[1] = f32::NAN;
+    let nan = renderer.render(&bad, &p);
+    assert!(
+        matches!(nan, Err(RenderError::NonFiniteVertex { index: 7 })),
+        "{nan:?}"
+    );
+    let mut bad = mesh.clone();
+    bad.indices.pop();
+    assert!(matches!(
+        renderer.render(&bad, &p),
+        Err(RenderError::IndicesNotTriangles { .. })
+    ));
+    let mut bad = mesh.clone();
+    bad.vertices[3].region = 17;
+    assert!(matches!(
+        renderer.render(&bad, &p),
+        Err(RenderError::InvalidRegion { .. })
+    ));
+    for (bw, bh) in [(0, 200), (160, 0), (1_000_000, 10), (4097, 4097)] {
+        let sized = renderer.render(&mesh, &params(bw, bh, Material::Marble));
+        assert!(
+            matches!(sized, Err(RenderError::InvalidSize { .. })),
+            "{bw}x{bh}: {sized:?}"
+        );
+    }
+    let mut nan_yaw = p.clone();
+    nan_yaw.yaw_deg = f32::NAN;
+    assert!(matches!(
+        renderer.render(&mesh, &nan_yaw),
+        Err(RenderError::InvalidParams(_))
+    ));
+    let after = renderer
+        .render(&mesh, &params(w, h, Material::Agate))
+        .expect("still usable");
+    assert!(after.as_raw() == agate.as_raw());
+
+    // --- Frame times (mesh upload, both passes, readback).
+    for (tw, th) in [(640, 400), (1280, 800)] {
+        for material in [Material::Marble, Material::Agate] {
+            let p = params(tw, th, material);
+            let first = Instant::now();
+            let image = renderer.render(&mesh, &p).expect("timing frame");
+            let first = first.elapsed();
+            let median = time_frames(&mut renderer, &mesh, &p, 5);
+            println!(
+                "{tw}x{th} {material:?}: median {median:?} per frame (first at this size {first:?})"
+            );
+            save(
+                &image,
+                &format!("{}_{tw}x{th}.png", format!("{material:?}").to_lowercase()),
+            );
+        }
+    }
+    // A big, portrait frame for looking at.
+    let mut big = params(640, 800, Material::Agate);
+    big.yaw_deg = -20.0;
+    save(
+        &renderer.render(&mesh, &big).expect("agate 640x800"),
+        "agate_640x800_yaw-20.png",
+    );
+    big.material = Material::Marble;
+    save(
+        &renderer.render(&mesh, &big).expect("marble 640x800"),
+        "marble_640x800_yaw-20.png",
+    );
+
+    assert!(
+        failed.is_empty(),
+        "look checks failed:\n{}",
+        failed.join("\n")
+    );
+}
