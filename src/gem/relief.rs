@@ -1,0 +1,350 @@
+//! The portrait as a height field: face (rasterised in profile) joined to a generated head.
+//!
+//! Frames and units: the face mesh comes in model millimetres (y up, face along +z). The
+//! profile view looks at the face's +x side, so a model point (x, y, z) lands on the portrait
+//! plane at (u, v) = (-z, y) with height x above the face's centre plane; the nose points
+//! towards -u (the portrait faces left). The grid samples that plane in model millimetres.
+//!
+//! Because the portrait is one height field, face and head form one continuous surface with no
+//! gaps or intersections by construction: outside the face's footprint the face's edge height
+//! is carried outwards (nearest footprint cell, fading with distance), and the head's shape is
+//! joined to it with a smooth maximum.
+
+/// A regular grid of heights over the portrait plane, model millimetres.
+#[derive(Clone, Debug)]
+pub struct HeightField {
+    /// Plane position of cell (0, 0)'s centre.
+    pub origin: [f32; 2],
+    /// Cell size, model mm.
+    pub cell: f32,
+    pub cols: usize,
+    pub rows: usize,
+    /// Height above the centre plane, row-major, mm (0 = ground).
+    pub height: Vec<f32>,
+    /// 1 where the generated hair dominates, 0 elsewhere (soft edge in between).
+    pub hair: Vec<f32>,
+}
+
+impl HeightField {
+    /// Bilinear sample at a plane position; 0 outside the grid.
+    pub fn sample(&self, values: &[f32], u: f32, v: f32) -> f32 {
+        let fx = (u - self.origin[0]) / self.cell;
+        let fy = (v - self.origin[1]) / self.cell;
+        if !(fx >= 0.0 && fy >= 0.0) {
+            return 0.0;
+        }
+        let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
+        if x0 + 1 >= self.cols || y0 + 1 >= self.rows {
+            return 0.0;
+        }
+        let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+        let at = |x: usize, y: usize| values[y * self.cols + x];
+        let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
+        let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
+        top * (1.0 - ty) + bottom * ty
+    }
+}
+
+/// Head proportions around the Surrey face, model mm (an average adult head: length about
+/// 195 mm, breadth about 150 mm, chin to crown about 230 mm).
+#[derive(Clone, Copy, Debug)]
+pub struct HeadShape {
+    /// Cranium ellipsoid centre (u, v) and semi-axes (u, v, height).
+    pub cranium_centre: [f32; 2],
+    pub cranium_axes: [f32; 3],
+    /// Neck: centre line u, half-width in u, top v, height.
+    pub neck_u: f32,
+    pub neck_half_width: f32,
+    pub neck_top: f32,
+    pub neck_height: f32,
+    /// Ear: centre (u, v), semi-axes (u, v), how far it stands out from the cranium.
+    pub ear_centre: [f32; 2],
+    pub ear_axes: [f32; 2],
+    pub ear_height: f32,
+    /// Hair lies on the cranium behind this direction from the ear (degrees, 0 = straight
+    /// back, 90 = straight up); the face's own forehead is never hair.
+    pub hairline_angle: f32,
+}
+
+impl Default for HeadShape {
+    fn default() -> Self {
+        HeadShape {
+            cranium_centre: [100.0, 38.0],
+            cranium_axes: [102.0, 108.0, 76.0],
+            neck_u: 95.0,
+            neck_half_width: 52.0,
+            neck_top: -20.0,
+            neck_height: 58.0,
+            ear_centre: [98.0, 2.0],
+            ear_axes: [17.0, 30.0],
+            ear_height: 10.0,
+            hairline_angle: 135.0,
+        }
+    }
+}
+
+/// Polynomial smooth maximum (width `k`) of two heights: equals `max(a, b)` when they differ by
+/// more than `k`. The width shrinks near the ground so that two zero heights stay zero (the
+/// plain formula would lift the whole ground by `k / 4`).
+pub fn smooth_max(a: f32, b: f32, k: f32) -> f32 {
+    let k = k.min(2.0 * a.min(b).max(0.0));
+    if k <= 1e-6 {
+        return a.max(b);
+    }
+    let h = (k - (a - b).abs()).max(0.0) / k;
+    a.max(b) + h * h * k * 0.25
+}
+
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Height of a half-ellipsoid (semi-axes a, b in the plane, c in height) at offset (du, dv).
+fn dome(du: f32, dv: f32, a: f32, b: f32, c: f32) -> f32 {
+    let q = 1.0 - (du / a).powi(2) - (dv / b).powi(2);
+    if q > 0.0 { c * q.sqrt() } else { 0.0 }
+}
+
+impl HeadShape {
+    /// Height of the generated head (cranium, ear, neck) and how much of it is hair (0..1).
+    pub fn height(&self, u: f32, v: f32) -> (f32, f32) {
+        let [cu, cv] = self.cranium_centre;
+        let [a, b, c] = self.cranium_axes;
+        let cranium = dome(u - cu, v - cv, a, b, c);
+        // The neck: a vertical rounded column below the jaw, widening slightly downwards.
+        let du = (u - self.neck_u)
+            / (self.neck_half_width * (1.0 + 0.004 * (self.neck_top - v).max(0.0)));
+        let neck = if du.abs() < 1.0 && v < self.neck_top + 40.0 {
+            let fade_top = smoothstep(self.neck_top + 40.0, self.neck_top, v);
+            self.neck_height * (1.0 - du * du).sqrt() * fade_top
+        } else {
+            0.0
+        };
+        let [eu, ev] = self.ear_centre;
+        let [ea, eb] = self.ear_axes;
+        let ear_q = 1.0 - ((u - eu) / ea).powi(2) - ((v - ev) / eb).powi(2);
+        let ear = if ear_q > 0.0 {
+            self.ear_height * ear_q.sqrt()
+        } else {
+            0.0
+        };
+        let head = smooth_max(cranium, neck, 12.0);
+        let with_ear = if cranium > 0.0 {
+            head.max(cranium + ear)
+        } else {
+            head
+        };
+        // Hair: the part of the cranium behind a hairline that sweeps from the top of the
+        // forehead over the ear and down to the nape, measured as an angle around the ear.
+        let (du, dv) = (u - eu, v - ev);
+        let angle = dv.atan2(du).to_degrees();
+        let behind = smoothstep(-45.0, -30.0, angle)
+            * (1.0 - smoothstep(self.hairline_angle - 12.0, self.hairline_angle, angle));
+        let clear_of_ear = smoothstep(0.0, 0.5, -ear_q + 0.15);
+        let hair = behind * clear_of_ear * smoothstep(0.0, 8.0, cranium);
+        (with_ear, hair)
+    }
+}
+
+/// Rasterises triangles (model mm) into a max-height grid over the profile plane.
+/// Returns heights (NaN where no triangle covers a cell).
+pub fn rasterise_profile(
+    positions: &[f32],
+    triangles: &[[u32; 3]],
+    origin: [f32; 2],
+    cell: f32,
+    cols: usize,
+    rows: usize,
+) -> Vec<f32> {
+    let mut h = vec![f32::NAN; cols * rows];
+    let n = positions.len() / 3;
+    let plane = |i: u32| -> Option<[f32; 3]> {
+        let i = i as usize;
+        if i >= n {
+            return None;
+        }
+        let (x, y, z) = (positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]);
+        let p = [(-z - origin[0]) / cell, (y - origin[1]) / cell, x];
+        p.iter().all(|v| v.is_finite()).then_some(p)
+    };
+    for t in triangles {
+        let (Some(a), Some(b), Some(c)) = (plane(t[0]), plane(t[1]), plane(t[2])) else {
+            continue;
+        };
+        let area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
+        if area.abs() < 1e-12 {
+            continue;
+        }
+        let min_x = a[0].min(b[0]).min(c[0]).floor().max(0.0) as usize;
+        let max_x = (a[0].max(b[0]).max(c[0]).ceil() as isize).min(cols as isize - 1);
+        let min_y = a[1].min(b[1]).min(c[1]).floor().max(0.0) as usize;
+        let max_y = (a[1].max(b[1]).max(c[1]).ceil() as isize).min(rows as isize - 1);
+        if max_x < 0 || max_y < 0 {
+            continue;
+        }
+        for y in min_y..=max_y as usize {
+            for x in min_x..=max_x as usize {
+                let (px, py) = (x as f32, y as f32);
+                let w0 = ((b[0] - px) * (c[1] - py) - (c[0] - px) * (b[1] - py)) / area;
+                let w1 = ((c[0] - px) * (a[1] - py) - (a[0] - px) * (c[1] - py)) / area;
+                let w2 = 1.0 - w0 - w1;
+                // A small tolerance closes hairline cracks between neighbouring triangles.
+                if w0 >= -1e-4 && w1 >= -1e-4 && w2 >= -1e-4 {
+                    let z = w0 * a[2] + w1 * b[2] + w2 * c[2];
+                    let cell = &mut h[y * cols + x];
+                    if !(cell.is_finite() && *cell >= z) {
+                        *cell = z;
+                    }
+                }
+            }
+        }
+    }
+    h
+}
+
+/// For each cell, the index of the nearest cell with a finite value (two-pass chamfer
+/// propagation of nearest seeds; exact enough for a soft fade). `None` if there is no seed.
+pub fn nearest_seeds(values: &[f32], cols: usize, rows: usize) -> Vec<Option<usize>> {
+    let mut nearest: Vec<Option<usize>> = values
+        .iter()
+        .enumerate()
+        .map(|(i, v)| v.is_finite().then_some(i))
+        .collect();
+    let d2 = |a: usize, b: usize| {
+        let (ax, ay) = ((a % cols) as i64, (a / cols) as i64);
+        let (bx, by) = ((b % cols) as i64, (b / cols) as i64);
+        (ax - bx).pow(2) + (ay - by).pow(2)
+    };
+    let relax = |nearest: &mut Vec<Option<usize>>, i: usize, j: usize| {
+        if let Some(s) = nearest[j]
+            && nearest[i].is_none_or(|c| d2(i, s) < d2(i, c))
+        {
+            nearest[i] = Some(s);
+        }
+    };
+    for y in 0..rows {
+        for x in 0..cols {
+            let i = y * cols + x;
+            if x > 0 {
+                relax(&mut nearest, i, i - 1);
+            }
+            if y > 0 {
+                relax(&mut nearest, i, i - cols);
+                if x > 0 {
+                    relax(&mut nearest, i, i - cols - 1);
+                }
+                if x + 1 < cols {
+                    relax(&mut nearest, i, i - cols + 1);
+                }
+            }
+        }
+    }
+    for y in (0..rows).rev() {
+        for x in (0..cols).rev() {
+            let i = y * cols + x;
+            if x + 1 < cols {
+                relax(&mut nearest, i, i + 1);
+            }
+            if y + 1 < rows {
+                relax(&mut nearest, i, i + cols);
+                if x + 1 < cols {
+                    relax(&mut nearest, i, i + cols + 1);
+                }
+                if x > 0 {
+                    relax(&mut nearest, i, i + cols - 1);
+                }
+            }
+        }
+    }
+    nearest
+}
+
+/// Builds the portrait height field from a face mesh (model mm) and a head shape.
+///
+/// Inside the face's footprint the face makes the surface, blending into the head within
+/// `blend_mm` of the footprint's edge; outside, the face's edge height fades to the ground
+/// within `fade_mm` and the head joins it by a smooth maximum. Both sides agree on the edge,
+/// so the surface is continuous there by construction.
+#[allow(clippy::too_many_arguments)]
+pub fn portrait(
+    positions: &[f32],
+    triangles: &[[u32; 3]],
+    head: &HeadShape,
+    origin: [f32; 2],
+    cell: f32,
+    cols: usize,
+    rows: usize,
+    fade_mm: f32,
+    blend_mm: f32,
+) -> HeightField {
+    let face = rasterise_profile(positions, triangles, origin, cell, cols, rows);
+    let outside_seeds = nearest_seeds(&face, cols, rows);
+    let complement: Vec<f32> = face
+        .iter()
+        .map(|v| if v.is_finite() { f32::NAN } else { 0.0 })
+        .collect();
+    let inside_seeds = nearest_seeds(&complement, cols, rows);
+    let dist = |i: usize, s: usize| {
+        let (dx, dy) = (
+            (i % cols) as f32 - (s % cols) as f32,
+            (i / cols) as f32 - (s / cols) as f32,
+        );
+        (dx * dx + dy * dy).sqrt() * cell
+    };
+    const JOIN: f32 = 10.0;
+    let mut height = vec![0f32; cols * rows];
+    let mut hair = vec![0f32; cols * rows];
+    for y in 0..rows {
+        for x in 0..cols {
+            let i = y * cols + x;
+            let u = origin[0] + x as f32 * cell;
+            let v = origin[1] + y as f32 * cell;
+            let (head_h, hair_w) = head.height(u, v);
+            let (h, face_weight) = if face[i].is_finite() {
+                let f = face[i].max(0.0);
+                let depth = inside_seeds[i].map_or(f32::INFINITY, |s| dist(i, s));
+                let w = smoothstep(0.0, blend_mm, depth);
+                (smooth_max(f, head_h, JOIN) * (1.0 - w) + f * w, w)
+            } else {
+                let edge = outside_seeds[i].map_or(0.0, |s| {
+                    face[s].max(0.0) * (1.0 - smoothstep(0.0, fade_mm, dist(i, s)))
+                });
+                (smooth_max(edge, head_h, JOIN), 0.0)
+            };
+            height[i] = h;
+            // Hair only where the head, not the face, makes the surface.
+            hair[i] = hair_w * (1.0 - face_weight) * smoothstep(0.0, 6.0, h - 0.5 * head_h.min(h));
+        }
+    }
+    smooth(&mut height, cols, rows, 2);
+    HeightField {
+        origin,
+        cell,
+        cols,
+        rows,
+        height,
+        hair,
+    }
+}
+
+/// Binomial (1-2-1) smoothing, `passes` times, to remove rasterisation noise.
+fn smooth(values: &mut [f32], cols: usize, rows: usize, passes: usize) {
+    let mut tmp = vec![0f32; values.len()];
+    for _ in 0..passes {
+        for y in 0..rows {
+            for x in 0..cols {
+                let at = |xx: usize| values[y * cols + xx];
+                tmp[y * cols + x] =
+                    0.25 * at(x.saturating_sub(1)) + 0.5 * at(x) + 0.25 * at((x + 1).min(cols - 1));
+            }
+        }
+        for y in 0..rows {
+            for x in 0..cols {
+                let at = |yy: usize| tmp[yy * cols + x];
+                values[y * cols + x] =
+                    0.25 * at(y.saturating_sub(1)) + 0.5 * at(y) + 0.25 * at((y + 1).min(rows - 1));
+            }
+        }
+    }
+}

@@ -1,0 +1,141 @@
+//! The cameo geometry built from the Surrey mean face and from fitted faces.
+
+mod common;
+
+use glyptic::gem::{self, CameoParams, GemError};
+use glyptic::render::Region;
+use glyptic::shapemodel::SurreyModel;
+
+fn model() -> SurreyModel {
+    SurreyModel::load_dir(&glyptic::assets::sfm_dir()).expect("run scripts/setup.sh first")
+}
+
+fn out_dir() -> std::path::PathBuf {
+    let d = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/test-out");
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Writes a relief as a hillshade lit from the upper left, for looking at.
+fn save_relief(r: &gem::Relief, name: &str) {
+    let img = image::GrayImage::from_fn(r.cols as u32, r.rows as u32, |x, y| {
+        let (c, row) = (x as usize, r.rows - 1 - y as usize);
+        let dx = r.at((c + 1).min(r.cols - 1), row) - r.at(c.saturating_sub(1), row);
+        let dy = r.at(c, (row + 1).min(r.rows - 1)) - r.at(c, row.saturating_sub(1));
+        let n = [-dx / (2.0 * r.cell), -dy / (2.0 * r.cell), 1.0];
+        let l = [-0.5f32, 0.5, 0.7];
+        let d = (n[0] * l[0] + n[1] * l[1] + n[2] * l[2])
+            / (n[0] * n[0] + n[1] * n[1] + 1.0).sqrt()
+            / 0.9899;
+        image::Luma([(d.clamp(0.0, 1.0) * 235.0 + 20.0 * (r.at(c, row) > 0.03) as u8 as f32) as u8])
+    });
+    image::imageops::resize(
+        &img,
+        img.width() * 3,
+        img.height() * 3,
+        image::imageops::FilterType::Triangle,
+    )
+    .save(out_dir().join(name))
+    .unwrap();
+}
+
+#[test]
+fn relief_is_continuous_bounded_and_shows_a_profile() {
+    let m = model();
+    let p = CameoParams::default();
+    let mean = m.instance(&[], &[]);
+    let t = std::time::Instant::now();
+    let r = gem::build_relief(&mean, &m.shape.triangles, &p).unwrap();
+    println!(
+        "relief {}x{} in {:.2} ms",
+        r.cols,
+        r.rows,
+        t.elapsed().as_secs_f64() * 1e3
+    );
+    save_relief(&r, "relief_mean.png");
+    let max = r.height.iter().cloned().fold(0f32, f32::max);
+    assert!(
+        max > 0.6 * p.relief_depth && max <= p.relief_depth + 1e-3,
+        "max height {max}"
+    );
+    assert!(r.height.iter().all(|h| h.is_finite() && *h >= 0.0));
+    // No cliffs: a gap or overlap between face and head would show as a jump between nodes.
+    let (mut steepest, mut at) = (0f32, (0, 0));
+    for row in 0..r.rows - 1 {
+        for col in 0..r.cols - 1 {
+            let h = r.at(col, row);
+            let s = (r.at(col + 1, row) - h)
+                .abs()
+                .max((r.at(col, row + 1) - h).abs());
+            if s > steepest {
+                (steepest, at) = (s, (col, row));
+            }
+        }
+    }
+    let slope = steepest / r.cell;
+    println!("steepest slope {slope:.2} at node {at:?}");
+    assert!(slope < 4.0, "a cliff in the relief: slope {slope}");
+    // The profile faces left: the relief's left edge at eye height is in the left half, and
+    // there is relief (the face) left of centre and relief (the head) right of centre.
+    let row = r.rows / 2;
+    let first = (0..r.cols).find(|&c| r.at(c, row) > 0.1).unwrap();
+    let last = (0..r.cols).rev().find(|&c| r.at(c, row) > 0.1).unwrap();
+    assert!(
+        first < r.cols / 4 && last > 3 * r.cols / 4,
+        "portrait spans {first}..{last} of {}",
+        r.cols
+    );
+}
+
+#[test]
+fn cameo_mesh_is_valid_and_has_every_part() {
+    let m = model();
+    let mean = m.instance(&[], &[]);
+    let mesh = gem::build_cameo(&mean, &m.shape.triangles, &CameoParams::default()).unwrap();
+    let n = mesh.vertices.len() as u32;
+    assert!(mesh.indices.len().is_multiple_of(3) && mesh.indices.iter().all(|&i| i < n));
+    assert!(
+        mesh.vertices
+            .iter()
+            .all(|v| v.position.iter().chain(&v.normal).all(|c| c.is_finite()))
+    );
+    for region in [Region::Ground, Region::Relief, Region::Hair, Region::Gold] {
+        let count = mesh
+            .vertices
+            .iter()
+            .filter(|v| v.region == region as u32)
+            .count();
+        assert!(count > 100, "{region:?}: {count} vertices");
+    }
+    println!(
+        "cameo: {} vertices, {} triangles",
+        mesh.vertices.len(),
+        mesh.indices.len() / 3
+    );
+}
+
+#[test]
+fn bad_input_is_an_error() {
+    let m = model();
+    let mut mean = m.instance(&[], &[]);
+    assert_eq!(
+        gem::build_cameo(&[], &m.shape.triangles, &CameoParams::default()).unwrap_err(),
+        GemError::EmptyFace
+    );
+    mean[5] = f32::NAN;
+    assert_eq!(
+        gem::build_cameo(&mean, &m.shape.triangles, &CameoParams::default()).unwrap_err(),
+        GemError::NonFinite
+    );
+    let tiny = CameoParams {
+        cell: 1e-4,
+        ..CameoParams::default()
+    };
+    assert!(matches!(
+        gem::build_relief(&m.instance(&[], &[]), &m.shape.triangles, &tiny),
+        Err(GemError::BadParams(_))
+    ));
+    // Triangles pointing past the vertex list are skipped, not a panic.
+    let bogus = vec![[0u32, 1, 99_999]];
+    assert!(gem::build_relief(&m.instance(&[], &[]), &bogus, &CameoParams::default()).is_ok());
+}
