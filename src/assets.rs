@@ -15,7 +15,8 @@ pub const SFM_ENV: &str = "GLYPTIC_SFM_DIR";
 pub const ORT_ENV: &str = "ORT_DYLIB_PATH";
 
 fn looks_like_root(dir: &Path) -> bool {
-    dir.join("models").join("centerface.onnx").is_file() || dir.join("shapemodel").join("sfm").is_dir()
+    dir.join("models").join("centerface.onnx").is_file()
+        || dir.join("shapemodel").join("sfm").is_dir()
 }
 
 /// The project root holding set-up's files (see the module doc for the search order).
@@ -57,7 +58,10 @@ pub fn models_dir() -> PathBuf {
 pub fn onnxruntime_lib() -> PathBuf {
     match std::env::var_os(ORT_ENV) {
         Some(p) => PathBuf::from(p),
-        None => root().join(".deps").join("onnxruntime").join("libonnxruntime.so.1.31.1"),
+        None => root()
+            .join(".deps")
+            .join("onnxruntime")
+            .join("libonnxruntime.so.1.31.1"),
     }
 }
 

@@ -1,7 +1,18 @@
 //! glyptic: a face becomes an engraved gem.
 //!
 //! The modules follow the pipeline: [`capture`] -> [`detect`] -> [`landmarks`] -> [`fit`] ->
-//! [`gem`] -> [`render`], driven by the binary's `app`. Pure computation (landmark regression,
-//! fitting, relief geometry) does no I/O and no GPU work.
+//! [`gem`] -> [`render`], tied together by [`pipeline`] and
+//! the binary. Pure computation (landmark regression, fitting, relief geometry) does
+//! no I/O and no GPU work; [`shapemodel`] and [`assets`] are where files are read.
 
 pub mod assets;
+pub mod capture;
+#[cfg(feature = "face")]
+pub mod detect;
+pub mod fit;
+pub mod gem;
+pub mod landmarks;
+#[cfg(feature = "face")]
+pub mod pipeline;
+pub mod render;
+pub mod shapemodel;

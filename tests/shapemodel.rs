@@ -16,14 +16,24 @@ fn loads_the_real_model_with_known_values() {
     assert_eq!(m.blendshapes.offsets.ncols(), 6);
     assert_eq!(
         m.blendshapes.names,
-        ["anger", "disgust", "fear", "happiness", "sadness", "surprise"]
+        [
+            "anger",
+            "disgust",
+            "fear",
+            "happiness",
+            "sadness",
+            "surprise"
+        ]
     );
     assert_eq!(m.shape.texcoords.len(), 3448);
     // Known values.
     let close = |a: f32, b: f32| (a - b).abs() < 1e-4;
     assert!(close(m.shape.mean[0], -54.126328));
-    assert!(close(m.shape.mean[2], -71.230698));
-    assert_eq!(m.shape.mean_vertex(114).map(|v| (v * 1e3).round() / 1e3), [-0.288, -2.02, 3.337]);
+    assert!(close(m.shape.mean[2], -71.2307));
+    assert_eq!(
+        m.shape.mean_vertex(114).map(|v| (v * 1e3).round() / 1e3),
+        [-0.288, -2.02, 3.337]
+    );
     assert!(close(m.shape.orthonormal_basis[(2, 0)], -0.029617684));
     assert!((m.shape.eigenvalues[0] - 56502.367).abs() < 0.01);
     assert!((m.shape.eigenvalues[62] - 45.57958).abs() < 1e-3);
@@ -35,7 +45,10 @@ fn loads_the_real_model_with_known_values() {
     for i in 0..63 {
         for j in 0..63 {
             let want = if i == j { 1.0 } else { 0.0 };
-            assert!((g[(i, j)] - want).abs() < 1e-3, "basis not orthonormal at {i},{j}");
+            assert!(
+                (g[(i, j)] - want).abs() < 1e-3,
+                "basis not orthonormal at {i},{j}"
+            );
         }
     }
     assert!((m.shape.rescaled_basis[(2, 0)] - b[(2, 0)] * 56502.367f32.sqrt()).abs() < 1e-3);
@@ -58,9 +71,18 @@ fn loads_the_real_model_with_known_values() {
             hi[a] = hi[a].max(p[a]);
         }
     }
-    assert!((hi[0] - 74.0).abs() < 2.0 && (lo[0] + 74.0).abs() < 2.0, "{lo:?} {hi:?}");
-    assert!((lo[1] + 83.0).abs() < 2.0 && (hi[1] - 105.0).abs() < 2.0, "{lo:?} {hi:?}");
-    assert!((lo[2] + 104.0).abs() < 2.0 && (hi[2] - 3.4).abs() < 0.5, "{lo:?} {hi:?}");
+    assert!(
+        (hi[0] - 74.0).abs() < 2.0 && (lo[0] + 74.0).abs() < 2.0,
+        "{lo:?} {hi:?}"
+    );
+    assert!(
+        (lo[1] + 83.0).abs() < 2.0 && (hi[1] - 105.0).abs() < 2.0,
+        "{lo:?} {hi:?}"
+    );
+    assert!(
+        (lo[2] + 104.0).abs() < 2.0 && (hi[2] - 3.4).abs() < 0.5,
+        "{lo:?} {hi:?}"
+    );
 }
 
 #[test]
@@ -80,7 +102,12 @@ fn truncated_or_corrupt_files_give_typed_errors() {
     assert!(shapemodel::parse_shape_model(&huge, "shape.bin").is_err());
     let mut nan = bytes.clone();
     nan[12..16].copy_from_slice(&f32::NAN.to_le_bytes());
-    assert!(shapemodel::parse_shape_model(&nan, "shape.bin").unwrap_err().to_string().contains("NaN"));
+    assert!(
+        shapemodel::parse_shape_model(&nan, "shape.bin")
+            .unwrap_err()
+            .to_string()
+            .contains("NaN")
+    );
 
     let blend = std::fs::read(dir.join(shapemodel::BLENDSHAPES_FILE)).unwrap();
     for cut in [0, 8, 20, 30, blend.len() / 2, blend.len() - 1] {
@@ -88,7 +115,9 @@ fn truncated_or_corrupt_files_give_typed_errors() {
     }
 
     let map = std::fs::read_to_string(dir.join(shapemodel::MAPPING_FILE)).unwrap();
-    assert!(shapemodel::parse_mapping(&map.replace("[landmark_mappings]", "[x]"), "m.txt").is_err());
+    assert!(
+        shapemodel::parse_mapping(&map.replace("[landmark_mappings]", "[x]"), "m.txt").is_err()
+    );
     assert!(shapemodel::parse_mapping(&map.replace("31 =   114", "31 =  -114"), "m.txt").is_err());
     assert!(shapemodel::parse_mapping(&map.replace("31 =   114", "99 =   114"), "m.txt").is_err());
     assert!(shapemodel::parse_edge_topology("{\"edge_topology\": {}}", "e.json").is_err());
@@ -109,13 +138,23 @@ fn a_mapping_to_a_missing_vertex_is_rejected_with_file_and_field() {
         std::fs::copy(src.join(f), tmp.join(f)).unwrap();
     }
     let map = std::fs::read_to_string(src.join(shapemodel::MAPPING_FILE)).unwrap();
-    std::fs::write(tmp.join(shapemodel::MAPPING_FILE), map.replace("31 =   114", "31 =  9999")).unwrap();
+    std::fs::write(
+        tmp.join(shapemodel::MAPPING_FILE),
+        map.replace("31 =   114", "31 =  9999"),
+    )
+    .unwrap();
     let err = SurreyModel::load_dir(&tmp).unwrap_err();
     assert!(matches!(err, ModelError::Invalid { .. }));
     let text = err.to_string();
-    assert!(text.contains("ibug_to_sfm.txt") && text.contains("landmark_mappings.31"), "{text}");
+    assert!(
+        text.contains("ibug_to_sfm.txt") && text.contains("landmark_mappings.31"),
+        "{text}"
+    );
     std::fs::remove_file(tmp.join(shapemodel::SHAPE_FILE)).unwrap();
     let err = SurreyModel::load_dir(&tmp).unwrap_err();
-    assert!(matches!(err, ModelError::Missing { .. }) && err.to_string().contains("non-commercial"), "{err}");
+    assert!(
+        matches!(err, ModelError::Missing { .. }) && err.to_string().contains("non-commercial"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&tmp).ok();
 }

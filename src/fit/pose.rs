@@ -33,7 +33,10 @@ impl Pose {
     /// Projection into the y-up image frame.
     pub(crate) fn project_up(&self, x: &Vector3<f64>) -> Vector2<f64> {
         let r = self.rotation * x;
-        Vector2::new(self.scale * r.x + self.translation.x, self.scale * r.y + self.translation.y)
+        Vector2::new(
+            self.scale * r.x + self.translation.x,
+            self.scale * r.y + self.translation.y,
+        )
     }
 
     /// Yaw (about y), pitch (about x), roll (about z) in degrees, for `R = Rz(roll) Ry(yaw) Rx(pitch)`.
@@ -45,9 +48,14 @@ impl Pose {
 }
 
 /// Centroid and RMS distance from it, for Hartley-style normalisation.
-fn normalisation<const D: usize>(pts: &[nalgebra::SVector<f64, D>]) -> (nalgebra::SVector<f64, D>, f64) {
+fn normalisation<const D: usize>(
+    pts: &[nalgebra::SVector<f64, D>],
+) -> (nalgebra::SVector<f64, D>, f64) {
     let n = pts.len() as f64;
-    let c = pts.iter().fold(nalgebra::SVector::<f64, D>::zeros(), |a, p| a + p) / n;
+    let c = pts
+        .iter()
+        .fold(nalgebra::SVector::<f64, D>::zeros(), |a, p| a + p)
+        / n;
     let rms = (pts.iter().map(|p| (p - c).norm_squared()).sum::<f64>() / n).sqrt();
     (c, rms)
 }
@@ -56,15 +64,23 @@ fn normalisation<const D: usize>(pts: &[nalgebra::SVector<f64, D>]) -> (nalgebra
 /// rotation (SVD, determinant fixed) and the mean of the two row norms as scale (as eos does).
 ///
 /// `image_up` are image points in the y-up frame.
-pub fn estimate_linear(model: &[Vector3<f64>], image_up: &[Vector2<f64>]) -> Result<Pose, FitError> {
+pub fn estimate_linear(
+    model: &[Vector3<f64>],
+    image_up: &[Vector2<f64>],
+) -> Result<Pose, FitError> {
     let n = model.len();
     if n < 4 || image_up.len() != n {
-        return Err(FitError::TooFewLandmarks { usable: n.min(image_up.len()), needed: 4 });
+        return Err(FitError::TooFewLandmarks {
+            usable: n.min(image_up.len()),
+            needed: 4,
+        });
     }
     let (cm, sm) = normalisation(model);
     let (ci, si) = normalisation(image_up);
     if !(sm > 1e-12 && si > 1e-12 && sm.is_finite() && si.is_finite()) {
-        return Err(FitError::Degenerate("all landmarks fall on one point".into()));
+        return Err(FitError::Degenerate(
+            "all landmarks fall on one point".into(),
+        ));
     }
     // Normal equations of the 4-parameter problem per image axis: M^T M a = M^T u.
     let mut mtm = nalgebra::Matrix4::<f64>::zeros();
@@ -81,18 +97,29 @@ pub fn estimate_linear(model: &[Vector3<f64>], image_up: &[Vector2<f64>]) -> Res
     let svd = SVD::new(mtm, true, true);
     let smax = svd.singular_values.max();
     if svd.singular_values.min() < 1e-9 * smax {
-        return Err(FitError::Degenerate("the mapped model points are coplanar".into()));
+        return Err(FitError::Degenerate(
+            "the mapped model points are coplanar".into(),
+        ));
     }
-    let ax = svd.solve(&mtx, 1e-12).map_err(|e| FitError::Degenerate(e.into()))?;
-    let ay = svd.solve(&mty, 1e-12).map_err(|e| FitError::Degenerate(e.into()))?;
+    let ax = svd
+        .solve(&mtx, 1e-12)
+        .map_err(|e| FitError::Degenerate(e.into()))?;
+    let ay = svd
+        .solve(&mty, 1e-12)
+        .map_err(|e| FitError::Degenerate(e.into()))?;
     // Undo the normalisation: u = si * (A (X - cm)/sm + a) + ci.
     let k = si / sm;
     let l0 = Vector3::new(ax[0], ax[1], ax[2]) * k;
     let l1 = Vector3::new(ay[0], ay[1], ay[2]) * k;
-    let t = Vector2::new(si * ax[3] + ci.x - l0.dot(&cm), si * ay[3] + ci.y - l1.dot(&cm));
+    let t = Vector2::new(
+        si * ax[3] + ci.x - l0.dot(&cm),
+        si * ay[3] + ci.y - l1.dot(&cm),
+    );
     let (n0, n1) = (l0.norm(), l1.norm());
     let affine = nalgebra::Matrix2x3::from_rows(&[l0.transpose(), l1.transpose()]);
     let sv = affine.singular_values();
+    // Written so that NaN singular values also count as degenerate.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(sv.min() > MIN_AFFINE_CONDITION * sv.max()) {
         return Err(FitError::Degenerate(
             "the landmarks are (nearly) collinear: no head rotation fits them".into(),
@@ -102,7 +129,11 @@ pub fn estimate_linear(model: &[Vector3<f64>], image_up: &[Vector2<f64>]) -> Res
     let r1 = l1 / n1;
     let r = Matrix3::from_rows(&[r0.transpose(), r1.transpose(), r0.cross(&r1).transpose()]);
     let rotation = nearest_rotation(&r);
-    Ok(Pose { rotation, scale: 0.5 * (n0 + n1), translation: t })
+    Ok(Pose {
+        rotation,
+        scale: 0.5 * (n0 + n1),
+        translation: t,
+    })
 }
 
 /// The rotation nearest to `m` in the Frobenius norm.
@@ -122,7 +153,12 @@ pub fn nearest_rotation(m: &Matrix3<f64>) -> Matrix3<f64> {
 
 /// Gauss-Newton on rotation, scale and translation, minimising the weighted reprojection error.
 /// Starts from `pose`; stops when the step is tiny. Never returns a worse pose than it was given.
-pub fn refine(pose: Pose, model: &[Vector3<f64>], image_up: &[Vector2<f64>], iterations: usize) -> Pose {
+pub fn refine(
+    pose: Pose,
+    model: &[Vector3<f64>],
+    image_up: &[Vector2<f64>],
+    iterations: usize,
+) -> Pose {
     let cost = |p: &Pose| -> f64 {
         model
             .iter()
@@ -161,6 +197,8 @@ pub fn refine(pose: Pose, model: &[Vector3<f64>], image_up: &[Vector2<f64>], ite
             translation: best.translation + Vector2::new(step[4], step[5]),
         };
         let c = cost(&candidate);
+        // A NaN cost stops the search too.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !(c < best_cost) {
             break;
         }

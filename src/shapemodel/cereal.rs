@@ -62,9 +62,10 @@ impl<'a> Reader<'a> {
     pub fn len_prefix(&mut self, min_elem_bytes: usize) -> Result<usize, CerealError> {
         let offset = self.pos;
         let n = self.u64()?;
-        let fits = usize::try_from(n)
-            .ok()
-            .filter(|&n| n.checked_mul(min_elem_bytes.max(1)).is_some_and(|b| b <= self.remaining()));
+        let fits = usize::try_from(n).ok().filter(|&n| {
+            n.checked_mul(min_elem_bytes.max(1))
+                .is_some_and(|b| b <= self.remaining())
+        });
         fits.ok_or(CerealError::BadSize {
             offset,
             value: i64::try_from(n).unwrap_or(i64::MAX),
@@ -152,12 +153,24 @@ mod tests {
         let mut b = Vec::new();
         b.extend_from_slice(&i32::MAX.to_le_bytes());
         b.extend_from_slice(&i32::MAX.to_le_bytes());
-        assert!(matches!(Reader::new(&b).f32_matrix(), Err(CerealError::BadSize { .. })));
+        assert!(matches!(
+            Reader::new(&b).f32_matrix(),
+            Err(CerealError::BadSize { .. })
+        ));
         let b = u64::MAX.to_le_bytes();
-        assert!(matches!(Reader::new(&b).string(), Err(CerealError::BadSize { .. })));
-        assert!(matches!(Reader::new(&b).triangles(), Err(CerealError::BadSize { .. })));
+        assert!(matches!(
+            Reader::new(&b).string(),
+            Err(CerealError::BadSize { .. })
+        ));
+        assert!(matches!(
+            Reader::new(&b).triangles(),
+            Err(CerealError::BadSize { .. })
+        ));
         let neg = [(-1i32).to_le_bytes(), 1i32.to_le_bytes()].concat();
-        assert!(matches!(Reader::new(&neg).f32_matrix(), Err(CerealError::BadSize { .. })));
+        assert!(matches!(
+            Reader::new(&neg).f32_matrix(),
+            Err(CerealError::BadSize { .. })
+        ));
     }
 
     #[test]
@@ -165,7 +178,10 @@ mod tests {
         let b = [1u8, 2];
         assert_eq!(
             Reader::new(&b).u32(),
-            Err(CerealError::Truncated { offset: 0, needed: 2 })
+            Err(CerealError::Truncated {
+                offset: 0,
+                needed: 2
+            })
         );
     }
 }

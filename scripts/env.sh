@@ -1,0 +1,6 @@
+# Sourced by the scripts: environment for running glyptic and its tests headless.
+# lavapipe/llvmpipe want a runtime dir; without one Vulkan prints a harmless warning.
+if [ -z "${XDG_RUNTIME_DIR:-}" ] || [ ! -d "${XDG_RUNTIME_DIR}" ]; then
+  export XDG_RUNTIME_DIR="${TMPDIR:-/tmp}/glyptic-xdg-$(id -u)"
+  mkdir -p "$XDG_RUNTIME_DIR" && chmod 700 "$XDG_RUNTIME_DIR"
+fi

@@ -1,0 +1,268 @@
+//! Sub-commands. Each stage prints one line with its time.
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, anyhow, bail};
+use clap::{Parser, Subcommand, ValueEnum};
+
+use glyptic::gem::{self, CameoParams};
+use glyptic::pipeline::{FacePipeline, Stage, timed};
+use glyptic::render::{Material, RenderParams, Renderer};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "glyptic",
+    version,
+    about = "Turns a face into an engraved gem: a cameo portrait in marble or agate."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Makes a gem image from a portrait photo.
+    Photo(PhotoArgs),
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MaterialArg {
+    Marble,
+    Agate,
+}
+
+impl From<MaterialArg> for Material {
+    fn from(m: MaterialArg) -> Self {
+        match m {
+            MaterialArg::Marble => Material::Marble,
+            MaterialArg::Agate => Material::Agate,
+        }
+    }
+}
+
+/// `WxH` in pixels.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Size {
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Frame sizes accepted on the command line, pixels per side.
+const SIZE_RANGE: std::ops::RangeInclusive<u32> = 16..=8192;
+
+impl std::str::FromStr for Size {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (w, h) = s
+            .split_once(['x', 'X'])
+            .ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT"))?;
+        let parse = |v: &str| {
+            v.trim()
+                .parse::<u32>()
+                .map_err(|_| format!("`{v}` is not a whole number of pixels"))
+        };
+        let (width, height) = (parse(w)?, parse(h)?);
+        if !SIZE_RANGE.contains(&width) || !SIZE_RANGE.contains(&height) {
+            return Err(format!(
+                "{width}x{height}: each side must be {}..={} pixels",
+                SIZE_RANGE.start(),
+                SIZE_RANGE.end()
+            ));
+        }
+        Ok(Size { width, height })
+    }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct PhotoArgs {
+    /// Portrait photo (JPEG, PNG, PPM, BMP, TIFF, WebP).
+    pub image: PathBuf,
+    /// Output PNG.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Stone of the cameo.
+    #[arg(long, value_enum, default_value_t = MaterialArg::Marble)]
+    pub material: MaterialArg,
+    /// Image size, WIDTHxHEIGHT pixels.
+    #[arg(long, default_value = "640x800")]
+    pub size: Size,
+    /// Also write the 68 landmarks as an iBUG .pts file (1-based, like menpo's).
+    #[arg(long, value_name = "FILE.pts")]
+    pub landmarks_out: Option<PathBuf>,
+    /// Also write the fitted face mesh (model millimetres) as Wavefront OBJ.
+    #[arg(long, value_name = "FILE.obj")]
+    pub obj: Option<PathBuf>,
+    /// Orbit the view around the gem, degrees (0 looks straight at it).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub yaw: f32,
+    /// Tilt the view, degrees.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub pitch: f32,
+}
+
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Photo(args) => photo(&args),
+    }
+}
+
+fn print_stage(s: &Stage) {
+    println!("{:<16} {:>9.1} ms  {}", s.name, s.ms, s.detail);
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same folder, so that a failure
+/// never leaves a partial file and an existing file is replaced whole.
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .ok_or_else(|| anyhow!("{}: not a file name", path.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.{}.tmp",
+        name.to_string_lossy(),
+        std::process::id()
+    ));
+    let result = (|| -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.with_context(|| format!("{}: cannot write", path.display()))
+}
+
+fn photo(args: &PhotoArgs) -> Result<()> {
+    let start = Instant::now();
+    for out in [
+        Some(&args.output),
+        args.landmarks_out.as_ref(),
+        args.obj.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
+            && !dir.is_dir()
+        {
+            bail!("{}: output folder does not exist", dir.display());
+        }
+    }
+    let image_path = &args.image;
+    let ctx = || image_path.display().to_string();
+
+    // The GPU device and pipelines are independent of the face: start them now.
+    let renderer_thread = std::thread::spawn(|| {
+        let t = Instant::now();
+        Renderer::new_headless().map(|r| (r, t.elapsed().as_secs_f64() * 1e3))
+    });
+
+    let mut stages = Vec::new();
+    let img = timed(
+        &mut stages,
+        "decode",
+        || glyptic::capture::load_photo(image_path),
+        |i| format!("{}x{}", i.width(), i.height()),
+    )?;
+    print_stage(&stages[0]);
+    let mut pipeline = FacePipeline::load(
+        &glyptic::assets::models_dir().join("centerface.onnx"),
+        &glyptic::assets::onnxruntime_lib(),
+        &glyptic::landmarks::default_model_path(),
+        &glyptic::assets::sfm_dir(),
+        &mut stages,
+    )?;
+    let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
+    let mut gem_stages = Vec::new();
+    let params = CameoParams::default();
+    let mesh = timed(
+        &mut gem_stages,
+        "gem",
+        || gem::build_cameo(&face.mesh, &pipeline.model.shape.triangles, &params),
+        |m| {
+            format!(
+                "{} vertices, {} triangles",
+                m.vertices.len(),
+                m.indices.len() / 3
+            )
+        },
+    )?;
+    stages.extend(gem_stages);
+    for s in &stages[1..] {
+        print_stage(s);
+    }
+
+    let (mut renderer, init_ms) = renderer_thread
+        .join()
+        .map_err(|_| anyhow!("the renderer thread panicked"))?
+        .context("starting the renderer")?;
+    print_stage(&Stage {
+        name: "gpu init",
+        ms: init_ms,
+        detail: format!("{} (in parallel)", renderer.adapter_info()),
+    });
+    let render_params = RenderParams {
+        width: args.size.width,
+        height: args.size.height,
+        material: args.material.into(),
+        yaw_deg: args.yaw,
+        pitch_deg: args.pitch,
+        ..RenderParams::default()
+    };
+    let mut stages = Vec::new();
+    let rgba = timed(
+        &mut stages,
+        "render",
+        || renderer.render(&mesh, &render_params),
+        |_| {
+            format!(
+                "{}x{} {:?}",
+                args.size.width, args.size.height, args.material
+            )
+        },
+    )?;
+    print_stage(&stages[0]);
+
+    let t = Instant::now();
+    let mut png = Vec::new();
+    image::DynamicImage::ImageRgba8(rgba)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .context("encoding the PNG")?;
+    // Everything succeeded: now write, so a failure above leaves no output behind.
+    if let Some(pts) = &args.landmarks_out {
+        write_atomic(
+            pts,
+            glyptic::landmarks::pts::write_pts(&face.landmarks).as_bytes(),
+        )?;
+    }
+    if let Some(obj) = &args.obj {
+        let comment = format!(
+            "glyptic fitted face from {}\nSurrey Face Model mesh, model millimetres (non-commercial licence)",
+            image_path.display()
+        );
+        write_atomic(
+            obj,
+            gem::to_obj(&face.mesh, &pipeline.model.shape.triangles, &comment).as_bytes(),
+        )?;
+    }
+    write_atomic(&args.output, &png)?;
+    print_stage(&Stage {
+        name: "write",
+        ms: t.elapsed().as_secs_f64() * 1e3,
+        detail: args.output.display().to_string(),
+    });
+    print_stage(&Stage {
+        name: "total",
+        ms: start.elapsed().as_secs_f64() * 1e3,
+        detail: String::new(),
+    });
+    Ok(())
+}

