@@ -26,6 +26,47 @@ pub struct Cli {
 pub enum Command {
     /// Makes a gem image from a portrait photo.
     Photo(PhotoArgs),
+    /// Renders the cameo with the Surrey model's mean face (no photo needed).
+    Render(RenderArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct RenderArgs {
+    /// Output PNG.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub view: ViewArgs,
+}
+
+/// How the gem is shown.
+#[derive(clap::Args, Debug)]
+pub struct ViewArgs {
+    /// Stone of the cameo.
+    #[arg(long, value_enum, default_value_t = MaterialArg::Marble)]
+    pub material: MaterialArg,
+    /// Image size, WIDTHxHEIGHT pixels.
+    #[arg(long, default_value = "640x800")]
+    pub size: Size,
+    /// Orbit the view around the gem, degrees (0 looks straight at it).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub yaw: f32,
+    /// Tilt the view, degrees.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub pitch: f32,
+}
+
+impl ViewArgs {
+    fn params(&self) -> RenderParams {
+        RenderParams {
+            width: self.size.width,
+            height: self.size.height,
+            material: self.material.into(),
+            yaw_deg: self.yaw,
+            pitch_deg: self.pitch,
+            ..RenderParams::default()
+        }
+    }
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -83,30 +124,108 @@ pub struct PhotoArgs {
     /// Output PNG.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Stone of the cameo.
-    #[arg(long, value_enum, default_value_t = MaterialArg::Marble)]
-    pub material: MaterialArg,
-    /// Image size, WIDTHxHEIGHT pixels.
-    #[arg(long, default_value = "640x800")]
-    pub size: Size,
+    #[command(flatten)]
+    pub view: ViewArgs,
     /// Also write the 68 landmarks as an iBUG .pts file (1-based, like menpo's).
     #[arg(long, value_name = "FILE.pts")]
     pub landmarks_out: Option<PathBuf>,
     /// Also write the fitted face mesh (model millimetres) as Wavefront OBJ.
     #[arg(long, value_name = "FILE.obj")]
     pub obj: Option<PathBuf>,
-    /// Orbit the view around the gem, degrees (0 looks straight at it).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub yaw: f32,
-    /// Tilt the view, degrees.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub pitch: f32,
 }
 
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Photo(args) => photo(&args),
+        Command::Render(args) => render_mean(&args),
     }
+}
+
+/// Fails early, before any work, if an output's folder is missing.
+fn check_output_dirs<'a>(outputs: impl IntoIterator<Item = &'a PathBuf>) -> Result<()> {
+    for out in outputs {
+        if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
+            && !dir.is_dir()
+        {
+            bail!("{}: output folder does not exist", dir.display());
+        }
+    }
+    Ok(())
+}
+
+/// Renders `mesh` and writes the PNG atomically, printing the stages.
+fn render_and_write(
+    renderer: &mut Renderer,
+    mesh: &glyptic::render::Mesh,
+    view: &ViewArgs,
+    output: &Path,
+) -> Result<Vec<u8>> {
+    let mut stages = Vec::new();
+    let rgba = timed(
+        &mut stages,
+        "render",
+        || renderer.render(mesh, &view.params()),
+        |_| {
+            format!(
+                "{}x{} {:?}",
+                view.size.width, view.size.height, view.material
+            )
+        },
+    )?;
+    print_stage(&stages[0]);
+    let mut png = Vec::new();
+    image::DynamicImage::ImageRgba8(rgba)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .with_context(|| format!("{}: encoding the PNG", output.display()))?;
+    Ok(png)
+}
+
+fn render_mean(args: &RenderArgs) -> Result<()> {
+    let start = Instant::now();
+    check_output_dirs([&args.output])?;
+    let renderer_thread = std::thread::spawn(|| {
+        let t = Instant::now();
+        Renderer::new_headless().map(|r| (r, t.elapsed().as_secs_f64() * 1e3))
+    });
+    let mut stages = Vec::new();
+    let sfm = glyptic::assets::sfm_dir();
+    let model = timed(
+        &mut stages,
+        "load face model",
+        || glyptic::shapemodel::SurreyModel::load_dir(&sfm),
+        |m| format!("{} vertices (mean face)", m.shape.num_vertices()),
+    )?;
+    let mean = model.instance(&[], &[]);
+    let mesh = timed(
+        &mut stages,
+        "gem",
+        || gem::build_cameo(&mean, &model.shape.triangles, &CameoParams::default()),
+        |m| {
+            format!(
+                "{} vertices, {} triangles",
+                m.vertices.len(),
+                m.indices.len() / 3
+            )
+        },
+    )?;
+    stages.iter().for_each(print_stage);
+    let (mut renderer, init_ms) = renderer_thread
+        .join()
+        .map_err(|_| anyhow!("the renderer thread panicked"))?
+        .context("starting the renderer")?;
+    print_stage(&Stage {
+        name: "gpu init",
+        ms: init_ms,
+        detail: format!("{} (in parallel)", renderer.adapter_info()),
+    });
+    let png = render_and_write(&mut renderer, &mesh, &args.view, &args.output)?;
+    write_atomic(&args.output, &png)?;
+    print_stage(&Stage {
+        name: "total",
+        ms: start.elapsed().as_secs_f64() * 1e3,
+        detail: args.output.display().to_string(),
+    });
+    Ok(())
 }
 
 fn print_stage(s: &Stage) {
@@ -209,33 +328,8 @@ fn photo(args: &PhotoArgs) -> Result<()> {
         ms: init_ms,
         detail: format!("{} (in parallel)", renderer.adapter_info()),
     });
-    let render_params = RenderParams {
-        width: args.size.width,
-        height: args.size.height,
-        material: args.material.into(),
-        yaw_deg: args.yaw,
-        pitch_deg: args.pitch,
-        ..RenderParams::default()
-    };
-    let mut stages = Vec::new();
-    let rgba = timed(
-        &mut stages,
-        "render",
-        || renderer.render(&mesh, &render_params),
-        |_| {
-            format!(
-                "{}x{} {:?}",
-                args.size.width, args.size.height, args.material
-            )
-        },
-    )?;
-    print_stage(&stages[0]);
-
+    let png = render_and_write(&mut renderer, &mesh, &args.view, &args.output)?;
     let t = Instant::now();
-    let mut png = Vec::new();
-    image::DynamicImage::ImageRgba8(rgba)
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .context("encoding the PNG")?;
     // Everything succeeded: now write, so a failure above leaves no output behind.
     if let Some(pts) = &args.landmarks_out {
         write_atomic(

@@ -73,6 +73,10 @@ const BEZEL_PROFILE: [[f32; 2]; 7] = [
 const RING_SEGMENTS: usize = 360;
 /// Depth of the gold back below the ground, gem mm.
 const BACK_Z: f32 = -3.0;
+/// How far the portrait's outline stands above the ground, model mm, and over what height
+/// of the underlying surface the edge rises.
+const PORTRAIT_LIFT_MM: f32 = 8.0;
+const LIFT_RAMP_MM: f32 = 2.5;
 /// Relief below this height (gem mm) counts as ground.
 const GROUND_EPS: f32 = 0.03;
 
@@ -172,7 +176,10 @@ pub fn build_relief(
             );
             let (u, v) = (x / k + p.portrait_centre[0], y / k + p.portrait_centre[1]);
             let w = field.hair[i];
-            let mut h = field.height[i];
+            // Lift the portrait off the ground, as carvers do, so its outline is a steep edge
+            // instead of fading into the ground along the profile's centre line.
+            let mut h =
+                field.height[i] + PORTRAIT_LIFT_MM * smoothstep(0.0, LIFT_RAMP_MM, field.height[i]);
             // Carved hair: wavy strands sweeping back around the ear.
             if w > 0.0 {
                 let [eu, ev] = p.head.ear_centre;

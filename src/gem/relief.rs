@@ -23,6 +23,8 @@ pub struct HeightField {
     pub height: Vec<f32>,
     /// 1 where the generated hair dominates, 0 elsewhere (soft edge in between).
     pub hair: Vec<f32>,
+    /// Cells covered by the face mesh itself (the rest is head, extension or ground).
+    pub face_mask: Vec<bool>,
 }
 
 impl HeightField {
@@ -148,7 +150,7 @@ impl HeadShape {
 }
 
 /// Rasterises triangles (model mm) into a max-height grid over the profile plane.
-/// Returns heights (NaN where no triangle covers a cell).
+/// Only the near half (x >= 0) is drawn. Returns heights (NaN where no triangle covers a cell).
 pub fn rasterise_profile(
     positions: &[f32],
     triangles: &[[u32; 3]],
@@ -172,6 +174,13 @@ pub fn rasterise_profile(
         let (Some(a), Some(b), Some(c)) = (plane(t[0]), plane(t[1]), plane(t[2])) else {
             continue;
         };
+        // The far half of the head (x < 0) is hidden behind the near half; where its outline
+        // pokes past the near half's edge it would leave slivers of zero height inside the
+        // footprint (seen at the top of the forehead). Triangles that reach the centre plane
+        // stay: they make the profile's outline.
+        if a[2].max(b[2]).max(c[2]) < 0.0 {
+            continue;
+        }
         let area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
         if area.abs() < 1e-12 {
             continue;
@@ -318,6 +327,7 @@ pub fn portrait(
         }
     }
     smooth(&mut height, cols, rows, 2);
+    let face_mask = face.iter().map(|v| v.is_finite()).collect();
     HeightField {
         origin,
         cell,
@@ -325,6 +335,7 @@ pub fn portrait(
         rows,
         height,
         hair,
+        face_mask,
     }
 }
 
