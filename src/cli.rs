@@ -28,6 +28,33 @@ pub enum Command {
     Photo(PhotoArgs),
     /// Renders the cameo with the Surrey model's mean face (no photo needed).
     Render(RenderArgs),
+    /// Fits the face model to a landmark file (iBUG .pts, 1-based) and reports pose and error.
+    Fit(FitArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct FitArgs {
+    /// 68 landmarks, iBUG .pts (1-based coordinates, as menpo writes them).
+    #[arg(long, value_name = "FILE.pts")]
+    pub landmarks: PathBuf,
+    /// Size of the image the landmarks belong to, WIDTHxHEIGHT pixels.
+    #[arg(long)]
+    pub size: Size,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Leave out the contour landmarks (face outline).
+    #[arg(long)]
+    pub no_contour: bool,
+    /// Outer iterations.
+    #[arg(long, default_value_t = 5)]
+    pub iterations: usize,
+    /// Fit this many times and report the median time (the model is loaded once).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub repeat: u32,
+    /// Also write the fitted face mesh (model millimetres) as Wavefront OBJ.
+    #[arg(long, value_name = "FILE.obj")]
+    pub obj: Option<PathBuf>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -138,7 +165,95 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Photo(args) => photo(&args),
         Command::Render(args) => render_mean(&args),
+        Command::Fit(args) => fit_landmarks(&args),
     }
+}
+
+fn fit_landmarks(args: &FitArgs) -> Result<()> {
+    check_output_dirs(args.obj.iter())?;
+    let path = &args.landmarks;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let points =
+        glyptic::landmarks::pts::read_pts(&text).with_context(|| path.display().to_string())?;
+    let (w, h) = (args.size.width as f32, args.size.height as f32);
+    let outside = points
+        .iter()
+        .filter(|p| {
+            p[0].is_finite()
+                && p[1].is_finite()
+                && !(p[0] >= -0.5 * w && p[0] <= 1.5 * w && p[1] >= -0.5 * h && p[1] <= 1.5 * h)
+        })
+        .count();
+    if outside > 0 {
+        bail!(
+            "{}: {outside} landmarks lie far outside a {}x{} image",
+            path.display(),
+            args.size.width,
+            args.size.height
+        );
+    }
+    let load = Instant::now();
+    let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir())?;
+    let load_ms = load.elapsed().as_secs_f64() * 1e3;
+    let opts = glyptic::fit::FitOptions {
+        contour: !args.no_contour,
+        iterations: args.iterations,
+        ..Default::default()
+    };
+    let mut times = Vec::with_capacity(args.repeat as usize);
+    let mut fitted = None;
+    for _ in 0..args.repeat {
+        let t = Instant::now();
+        fitted = Some(
+            glyptic::fit::fit(&model, &points, &opts)
+                .with_context(|| path.display().to_string())?,
+        );
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    let fit = fitted.ok_or_else(|| anyhow!("no fit was run"))?;
+    times.sort_by(f64::total_cmp);
+    let fit_ms = times[times.len() / 2];
+    let [yaw, pitch, roll] = fit.pose.yaw_pitch_roll_deg();
+    if let Some(obj) = &args.obj {
+        let mesh = model.instance(&fit.shape, &fit.expression);
+        let comment = format!(
+            "glyptic fit of {}\nSurrey Face Model mesh, model millimetres (non-commercial licence)",
+            path.display()
+        );
+        write_atomic(
+            obj,
+            gem::to_obj(&mesh, &model.shape.triangles, &comment).as_bytes(),
+        )?;
+    }
+    if args.json {
+        let out = serde_json::json!({
+            "yaw_deg": yaw, "pitch_deg": pitch, "roll_deg": roll,
+            "scale_px_per_mm": fit.pose.scale,
+            "shape": fit.shape, "expression": fit.expression,
+            "expression_names": model.blendshapes.names,
+            "reprojection_px": fit.reprojection_px, "max_reprojection_px": fit.max_reprojection_px,
+            "mapped_landmarks": fit.mapped_landmarks,
+            "iterations": fit.iterations, "fit_ms": fit_ms, "load_ms": load_ms,
+            "contour": !args.no_contour,
+        });
+        println!("{out}");
+    } else {
+        println!(
+            "{:<16} {load_ms:>9.1} ms  {} vertices",
+            "load face model",
+            model.shape.num_vertices()
+        );
+        println!(
+            "{:<16} {fit_ms:>9.2} ms  yaw {yaw:.1} pitch {pitch:.1} roll {roll:.1} deg, reprojection {:.2} px mean, {:.2} px max over {} mapped landmarks, {} iterations",
+            "fit",
+            fit.reprojection_px,
+            fit.max_reprojection_px,
+            fit.mapped_landmarks,
+            fit.iterations
+        );
+    }
+    Ok(())
 }
 
 /// Fails early, before any work, if an output's folder is missing.

@@ -14,10 +14,12 @@
 //! All of this is pure computation on [`SurreyModel`]: no I/O, no allocation proportional to
 //! the mesh until [`SurreyModel::instance`] is called for the full face.
 
+mod occluding;
 mod pose;
 
 use nalgebra::{DMatrix, DVector, Vector2, Vector3};
 
+pub use occluding::visible_occluding_vertices;
 pub use pose::{Pose, estimate_linear, nearest_rotation, refine};
 
 use crate::shapemodel::SurreyModel;
@@ -60,6 +62,11 @@ pub struct FitOptions {
     pub sigma_mm: f64,
     /// Use contour landmarks (face outline, iBUG 1-8 and 10-17).
     pub contour: bool,
+    /// With `contour`: tie the outline landmarks of the side turned away from the camera to
+    /// the mesh's visible occluding boundary.
+    pub occluding_edges: bool,
+    /// Largest landmark-to-boundary distance (model mm) for an occluding-edge correspondence.
+    pub occluding_max_mm: f64,
     /// Stop when the mean reprojection error improves by less than this fraction.
     pub tolerance: f64,
 }
@@ -73,6 +80,8 @@ impl Default for FitOptions {
             lambda_expression: 0.1,
             sigma_mm: 1.0,
             contour: true,
+            occluding_edges: true,
+            occluding_max_mm: 12.0,
             tolerance: 1e-3,
         }
     }
@@ -110,41 +119,27 @@ impl SurreyModel {
     pub fn vertex(&self, v: usize, shape: &[f32], expression: &[f32]) -> Vector3<f64> {
         let mut p = Vector3::zeros();
         for axis in 0..3 {
-            let row = 3 * v + axis;
-            let mut x = self.shape.mean[row] as f64;
-            for (k, c) in shape
-                .iter()
-                .enumerate()
-                .take(self.shape.rescaled_basis.ncols())
-            {
-                x += self.shape.rescaled_basis[(row, k)] as f64 * *c as f64;
-            }
-            for (k, e) in expression
-                .iter()
-                .enumerate()
-                .take(self.blendshapes.offsets.ncols())
-            {
-                x += self.blendshapes.offsets[(row, k)] as f64 * *e as f64;
-            }
-            p[axis] = x;
+            let (mean, identity, expr) = self.packed.row(3 * v + axis);
+            let dot = |a: &[f32], b: &[f32]| {
+                a.iter()
+                    .zip(b)
+                    .map(|(x, y)| *x as f64 * *y as f64)
+                    .sum::<f64>()
+            };
+            p[axis] = mean as f64 + dot(identity, shape) + dot(expr, expression);
         }
         p
     }
 
     /// All vertex positions (mm) for the given coefficients, `[x0, y0, z0, x1, ...]`.
     pub fn instance(&self, shape: &[f32], expression: &[f32]) -> Vec<f32> {
-        let k = shape.len().min(self.shape.rescaled_basis.ncols());
-        let e = expression.len().min(self.blendshapes.offsets.ncols());
-        let mut out = self.shape.mean.clone();
-        if k > 0 {
-            let c = DVector::from_column_slice(&shape[..k]);
-            out.gemv(1.0, &self.shape.rescaled_basis.columns(0, k), &c, 1.0);
-        }
-        if e > 0 {
-            let w = DVector::from_column_slice(&expression[..e]);
-            out.gemv(1.0, &self.blendshapes.offsets.columns(0, e), &w, 1.0);
-        }
-        out.as_slice().to_vec()
+        (0..self.packed.rows())
+            .map(|r| {
+                let (mean, identity, expr) = self.packed.row(r);
+                let dot = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f32>();
+                mean + dot(identity, shape) + dot(expr, expression)
+            })
+            .collect()
     }
 }
 
@@ -206,16 +201,8 @@ pub fn fit(
     let mut iterations = 0;
     for _ in 0..opts.iterations {
         iterations += 1;
-        let mut corr = mapped.clone();
-        if opts.contour {
-            corr.extend(contour_correspondences(
-                model,
-                landmarks,
-                &pose,
-                &shape,
-                &expression,
-            ));
-        }
+        let corr =
+            outline_correspondences(model, landmarks, &mapped, &pose, &shape, &expression, opts);
         pose = estimate(&corr, &shape, &expression)?;
         expression = fit_expressions(model, &corr, &pose, &shape, opts)?;
         shape = fit_shape(model, &corr, &pose, &expression, opts)?;
@@ -231,16 +218,7 @@ pub fn fit(
         }
     }
     // Final pose for the final shape, so the reported pose and error belong together.
-    let mut corr = mapped.clone();
-    if opts.contour {
-        corr.extend(contour_correspondences(
-            model,
-            landmarks,
-            &pose,
-            &shape,
-            &expression,
-        ));
-    }
+    let corr = outline_correspondences(model, landmarks, &mapped, &pose, &shape, &expression, opts);
     pose = estimate(&corr, &shape, &expression)?;
     let (mean, max) = reprojection(model, &mapped, &pose, &shape, &expression);
     let finite = mean.is_finite()
@@ -299,53 +277,50 @@ fn reprojection(
     (sum / corr.len().max(1) as f64, max)
 }
 
-/// Rows of `s * P R M_v` for one correspondence, where `M_v` is a 3 x n block of a basis.
-fn projected_block(pose: &Pose, basis: &DMatrix<f32>, vertex: usize, cols: usize) -> [Vec<f64>; 2] {
-    let r = &pose.rotation;
-    let mut rows = [vec![0.0; cols], vec![0.0; cols]];
-    for k in 0..cols {
-        let m = Vector3::new(
-            basis[(3 * vertex, k)] as f64,
-            basis[(3 * vertex + 1, k)] as f64,
-            basis[(3 * vertex + 2, k)] as f64,
-        );
-        let rm = r * m;
-        rows[0][k] = pose.scale * rm.x;
-        rows[1][k] = pose.scale * rm.y;
-    }
-    rows
+/// Which coefficients a design matrix differentiates.
+#[derive(Clone, Copy)]
+enum Block {
+    /// The first `n` identity coefficients.
+    Identity(usize),
+    Expressions,
 }
 
-/// Solves `min |A x - b|^2 / (s sigma)^2 + lambda |x|^2` given the projected blocks.
-/// Returns the normal-equation matrix and right-hand side, in model millimetres.
+/// Design matrix `s * P R M_v` (two rows per correspondence) for a block of coefficients, and
+/// the weighted normal equations `(w A^T A, w A^T t)` with `w = 1 / (s sigma)^2`, i.e. the
+/// residuals measured in model millimetres.
 fn normal_equations(
-    a_rows: &[[Vec<f64>; 2]],
-    residual_targets: &[Vector2<f64>],
+    model: &SurreyModel,
+    corr: &[Correspondence],
+    targets: &[Vector2<f64>],
     pose: &Pose,
+    block: Block,
     sigma_mm: f64,
-    n: usize,
 ) -> (DMatrix<f64>, DVector<f64>) {
-    let w = 1.0 / (pose.scale * sigma_mm).powi(2);
-    let mut ata = DMatrix::<f64>::zeros(n, n);
-    let mut atb = DVector::<f64>::zeros(n);
-    for (rows, target) in a_rows.iter().zip(residual_targets) {
-        for (axis, row) in rows.iter().enumerate() {
-            let t = target[axis];
-            for i in 0..n {
-                let ri = row[i] * w;
-                atb[i] += ri * t;
-                for j in i..n {
-                    ata[(i, j)] += ri * row[j];
-                }
+    let n = match block {
+        Block::Identity(n) => n,
+        Block::Expressions => model.packed.expressions,
+    };
+    let r = pose.rotation * pose.scale;
+    let mut a = DMatrix::<f64>::zeros(2 * corr.len(), n);
+    let mut t = DVector::<f64>::zeros(2 * corr.len());
+    for (i, (c, target)) in corr.iter().zip(targets).enumerate() {
+        let rows = [0, 1, 2].map(|axis| {
+            let (_, identity, expr) = model.packed.row(3 * c.vertex + axis);
+            match block {
+                Block::Identity(n) => &identity[..n],
+                Block::Expressions => expr,
             }
+        });
+        for k in 0..n {
+            let m = Vector3::new(rows[0][k] as f64, rows[1][k] as f64, rows[2][k] as f64);
+            a[(2 * i, k)] = r.row(0).dot(&m.transpose());
+            a[(2 * i + 1, k)] = r.row(1).dot(&m.transpose());
         }
+        t[2 * i] = target.x;
+        t[2 * i + 1] = target.y;
     }
-    for i in 0..n {
-        for j in 0..i {
-            ata[(i, j)] = ata[(j, i)];
-        }
-    }
-    (ata, atb)
+    let w = 1.0 / (pose.scale * sigma_mm).powi(2);
+    (a.tr_mul(&a) * w, a.tr_mul(&t) * w)
 }
 
 /// Identity by regularised linear least squares, with the expressions held fixed.
@@ -360,19 +335,18 @@ fn fit_shape(
     if n == 0 {
         return Ok(Vec::new());
     }
-    let mut blocks = Vec::with_capacity(corr.len());
-    let mut targets = Vec::with_capacity(corr.len());
-    for c in corr {
-        blocks.push(projected_block(
-            pose,
-            &model.shape.rescaled_basis,
-            c.vertex,
-            n,
-        ));
-        let base = model.vertex(c.vertex, &[], expression);
-        targets.push(c.image_up - pose.project_up(&base));
-    }
-    let (ata, atb) = normal_equations(&blocks, &targets, pose, opts.sigma_mm, n);
+    let targets: Vec<Vector2<f64>> = corr
+        .iter()
+        .map(|c| c.image_up - pose.project_up(&model.vertex(c.vertex, &[], expression)))
+        .collect();
+    let (ata, atb) = normal_equations(
+        model,
+        corr,
+        &targets,
+        pose,
+        Block::Identity(n),
+        opts.sigma_mm,
+    );
     // Trust region on the prior: inconsistent landmarks (duplicates, outliers) can ask for an
     // implausible face; raise the prior weight until every coefficient is within the bound.
     let mut lambda = opts.lambda_shape.max(1e-6);
@@ -402,19 +376,18 @@ fn fit_expressions(
     if n == 0 {
         return Ok(Vec::new());
     }
-    let mut blocks = Vec::with_capacity(corr.len());
-    let mut targets = Vec::with_capacity(corr.len());
-    for c in corr {
-        blocks.push(projected_block(
-            pose,
-            &model.blendshapes.offsets,
-            c.vertex,
-            n,
-        ));
-        let base = model.vertex(c.vertex, shape, &[]);
-        targets.push(c.image_up - pose.project_up(&base));
-    }
-    let (mut ata, atb) = normal_equations(&blocks, &targets, pose, opts.sigma_mm, n);
+    let targets: Vec<Vector2<f64>> = corr
+        .iter()
+        .map(|c| c.image_up - pose.project_up(&model.vertex(c.vertex, shape, &[])))
+        .collect();
+    let (mut ata, atb) = normal_equations(
+        model,
+        corr,
+        &targets,
+        pose,
+        Block::Expressions,
+        opts.sigma_mm,
+    );
     for i in 0..n {
         ata[(i, i)] += opts.lambda_expression;
     }
@@ -470,6 +443,106 @@ fn nnls(q: &DMatrix<f64>, rhs: &DVector<f64>) -> Result<DVector<f64>, FitError> 
     }
 }
 
+/// The mapped correspondences plus, if enabled, the outline ones: front-facing contour
+/// correspondences and occluding-edge correspondences for the side turned away.
+#[allow(clippy::too_many_arguments)]
+fn outline_correspondences(
+    model: &SurreyModel,
+    landmarks: &[[f32; 2]],
+    mapped: &[Correspondence],
+    pose: &Pose,
+    shape: &[f32],
+    expr: &[f32],
+    opts: &FitOptions,
+) -> Vec<Correspondence> {
+    let mut corr = mapped.to_vec();
+    if opts.contour {
+        corr.extend(contour_correspondences(model, landmarks, pose, shape, expr));
+        if opts.occluding_edges {
+            corr.extend(occluding_correspondences(
+                model,
+                landmarks,
+                pose,
+                shape,
+                expr,
+                opts.occluding_max_mm,
+            ));
+        }
+    }
+    corr
+}
+
+/// How much each side of the face (right, left) turns towards the camera: the z of its
+/// outward direction in camera space, as a sine (positive = towards the camera).
+fn side_facing(model: &SurreyModel, pose: &Pose, shape: &[f32], expr: &[f32]) -> [f64; 2] {
+    [&model.contour.right, &model.contour.left].map(|verts| {
+        if verts.is_empty() {
+            return -1.0;
+        }
+        let mean_x = verts
+            .iter()
+            .map(|&v| model.vertex(v as usize, shape, expr).x)
+            .sum::<f64>()
+            / verts.len() as f64;
+        // The model's centre line is x = 0, so a side's outward direction is along its mean x.
+        let outward = pose.rotation * Vector3::new(mean_x, 0.0, 0.0);
+        outward.z / outward.norm().max(1e-12)
+    })
+}
+
+/// Outline landmarks of the side turned away from the camera, each tied to the visible
+/// occluding-boundary vertices whose projection lies within `max_mm` of it (nearest landmark).
+fn occluding_correspondences(
+    model: &SurreyModel,
+    landmarks: &[[f32; 2]],
+    pose: &Pose,
+    shape: &[f32],
+    expr: &[f32],
+    max_mm: f64,
+) -> Vec<Correspondence> {
+    let [right, left] = side_facing(model, pose, shape, expr);
+    let away = if right < left {
+        &model.mapping.contour_right
+    } else {
+        &model.mapping.contour_left
+    };
+    let targets: Vec<Vector2<f64>> = away
+        .iter()
+        .filter_map(|&lm| landmarks.get(lm as usize - 1))
+        .filter(|p| p[0].is_finite() && p[1].is_finite())
+        .map(|p| Vector2::new(p[0] as f64, -(p[1] as f64)))
+        .collect();
+    if targets.is_empty() {
+        return Vec::new();
+    }
+    let mesh = model.instance(shape, expr);
+    let positions: Vec<Vector3<f64>> = mesh
+        .chunks_exact(3)
+        .map(|v| Vector3::new(v[0] as f64, v[1] as f64, v[2] as f64))
+        .collect();
+    let boundary = visible_occluding_vertices(
+        &positions,
+        &model.shape.triangles,
+        &model.edges,
+        &pose.rotation,
+    );
+    let max_px = max_mm * pose.scale;
+    boundary
+        .iter()
+        .filter_map(|&v| {
+            let p = pose.project_up(&positions[v as usize]);
+            let (d, target) = targets
+                .iter()
+                .map(|t| ((t - p).norm(), *t))
+                .min_by(|a, b| a.0.total_cmp(&b.0))?;
+            (d <= max_px).then_some(Correspondence {
+                image_up: target,
+                vertex: v as usize,
+            })
+        })
+        .collect()
+}
+
 /// Outline landmarks tied to the nearest projected vertex of the model's outline, on each side
 /// of the face that is turned towards the camera (eos: yaw within +-7.5 degrees uses both).
 fn contour_correspondences(
@@ -481,25 +554,19 @@ fn contour_correspondences(
 ) -> Vec<Correspondence> {
     let mut out = Vec::new();
     let max_away = (7.5f64).to_radians().sin();
+    let facing = side_facing(model, pose, shape, expr);
     let sides = [
         (&model.mapping.contour_right, &model.contour.right),
         (&model.mapping.contour_left, &model.contour.left),
     ];
-    for (lms, verts) in sides {
-        if lms.is_empty() || verts.is_empty() {
+    for ((lms, verts), facing) in sides.into_iter().zip(facing) {
+        if lms.is_empty() || verts.is_empty() || facing < -max_away {
             continue;
         }
         let positions: Vec<Vector3<f64>> = verts
             .iter()
             .map(|&v| model.vertex(v as usize, shape, expr))
             .collect();
-        // Outward direction of this side, in camera space: its z tells whether it faces us.
-        let mean = positions.iter().fold(Vector3::zeros(), |a, p| a + p) / positions.len() as f64;
-        // The model's centre line is x = 0, so a side's outward direction is along its mean x.
-        let outward = pose.rotation * Vector3::new(mean.x, 0.0, 0.0);
-        if outward.z < -max_away * outward.norm() {
-            continue;
-        }
         let projected: Vec<Vector2<f64>> = positions.iter().map(|p| pose.project_up(p)).collect();
         for &lm in lms {
             let Some(p) = landmarks.get(lm as usize - 1) else {

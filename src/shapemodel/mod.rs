@@ -140,6 +140,58 @@ pub struct SurreyModel {
     pub mapping: LandmarkMapping,
     pub contour: ModelContour,
     pub edges: EdgeTopology,
+    /// Vertex-major copy of mean, rescaled identity basis and expression offsets.
+    pub packed: PackedRows,
+}
+
+/// The model's rows laid out vertex-major: coordinate row `r = 3 v + axis` holds
+/// `[mean, identity basis (K, eigenvalue-scaled), expression offsets (E)]` contiguously, so
+/// that evaluating or differentiating one vertex reads one short run of memory (the
+/// column-major PCA matrices put a vertex's values 10,344 floats apart).
+#[derive(Clone, Debug)]
+pub struct PackedRows {
+    pub identity: usize,
+    pub expressions: usize,
+    data: Vec<f32>,
+}
+
+impl PackedRows {
+    pub fn new(shape: &ShapeModel, blendshapes: &Blendshapes) -> Self {
+        let (k, e) = (shape.rescaled_basis.ncols(), blendshapes.offsets.ncols());
+        let rows = shape.mean.len();
+        let stride = 1 + k + e;
+        let mut data = vec![0f32; rows * stride];
+        for (r, row) in data.chunks_exact_mut(stride).enumerate() {
+            row[0] = shape.mean[r];
+            for c in 0..k {
+                row[1 + c] = shape.rescaled_basis[(r, c)];
+            }
+            for c in 0..e {
+                row[1 + k + c] = blendshapes.offsets[(r, c)];
+            }
+        }
+        PackedRows {
+            identity: k,
+            expressions: e,
+            data,
+        }
+    }
+
+    /// Coordinate row `r` (= 3 * vertex + axis): `(mean, identity row, expression row)`.
+    #[inline]
+    pub fn row(&self, r: usize) -> (f32, &[f32], &[f32]) {
+        let stride = 1 + self.identity + self.expressions;
+        let row = &self.data[r * stride..(r + 1) * stride];
+        (
+            row[0],
+            &row[1..1 + self.identity],
+            &row[1 + self.identity..],
+        )
+    }
+
+    pub fn rows(&self) -> usize {
+        self.data.len() / (1 + self.identity + self.expressions)
+    }
 }
 
 impl SurreyModel {
@@ -167,12 +219,14 @@ impl SurreyModel {
         let mapping = parse_mapping(&text(MAPPING_FILE)?, MAPPING_FILE)?;
         let contour = parse_model_contour(&text(CONTOURS_FILE)?, CONTOURS_FILE)?;
         let edges = parse_edge_topology(&text(EDGE_TOPOLOGY_FILE)?, EDGE_TOPOLOGY_FILE)?;
+        let packed = PackedRows::new(&shape, &blendshapes);
         let model = SurreyModel {
             shape,
             blendshapes,
             mapping,
             contour,
             edges,
+            packed,
         };
         model.validate()?;
         Ok(model)

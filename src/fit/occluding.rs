@@ -1,0 +1,176 @@
+//! Occluding-boundary vertices of a posed mesh, and their correspondences with the outline
+//! landmarks on the side of the face turned away from the camera (eos's "occluding edge"
+//! fitting).
+//!
+//! An edge is occluding when one of its two faces points towards the camera and the other away
+//! (mesh-boundary edges are skipped, as in eos). Its vertices are kept only if nothing else of
+//! the mesh lies between them and the camera. eos tests that by casting one ray per vertex
+//! against every triangle (about 50 ms per iteration); here the triangles are bucketed once
+//! into a grid over the image plane, so each ray meets only the few triangles of its cell.
+//!
+//! Frames: positions in model mm; `rotation` maps them to camera space, where the camera looks
+//! along -z (larger z is nearer) and projection is orthographic.
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::shapemodel::EdgeTopology;
+
+/// Grid cells along the longer side of the projected mesh.
+const GRID_CELLS: usize = 96;
+/// Depth margin (mm) so that a vertex is not hidden by triangles it almost touches.
+const DEPTH_EPS_MM: f64 = 0.5;
+
+/// Vertices on occluding edges that the mesh does not hide from the camera, sorted.
+pub fn visible_occluding_vertices(
+    positions: &[Vector3<f64>],
+    triangles: &[[u32; 3]],
+    edges: &EdgeTopology,
+    rotation: &Matrix3<f64>,
+) -> Vec<u32> {
+    let rotated: Vec<Vector3<f64>> = positions.iter().map(|p| rotation * p).collect();
+    let n = rotated.len();
+    let valid = |t: &[u32; 3]| t.iter().all(|&v| (v as usize) < n);
+    // Which way each face points (z of its normal in camera space).
+    let facing: Vec<Option<bool>> = triangles
+        .iter()
+        .map(|t| {
+            valid(t).then(|| {
+                let (a, b, c) = (
+                    rotated[t[0] as usize],
+                    rotated[t[1] as usize],
+                    rotated[t[2] as usize],
+                );
+                (b - a).cross(&(c - a)).z > 0.0
+            })
+        })
+        .collect();
+    let mut candidates: Vec<u32> = Vec::new();
+    for (faces, verts) in edges.adjacent_faces.iter().zip(&edges.adjacent_vertices) {
+        let ([Some(f0), Some(f1)], [Some(v0), Some(v1)]) = (faces, verts) else {
+            continue;
+        };
+        let (Some(Some(a)), Some(Some(b))) = (facing.get(*f0 as usize), facing.get(*f1 as usize))
+        else {
+            continue;
+        };
+        if a != b {
+            candidates.extend([*v0, *v1]);
+        }
+    }
+    candidates.retain(|&v| (v as usize) < n);
+    candidates.sort_unstable();
+    candidates.dedup();
+    if candidates.is_empty() {
+        return candidates;
+    }
+    let grid = TriangleGrid::new(&rotated, triangles);
+    candidates.retain(|&v| !grid.occluded(v, &rotated, triangles));
+    candidates
+}
+
+/// Triangles bucketed by the image-plane cells their bounding boxes touch (CSR layout).
+struct TriangleGrid {
+    min: [f64; 2],
+    cell: f64,
+    cols: usize,
+    rows: usize,
+    starts: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl TriangleGrid {
+    fn new(rotated: &[Vector3<f64>], triangles: &[[u32; 3]]) -> Self {
+        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+        for p in rotated {
+            lo = [lo[0].min(p.x), lo[1].min(p.y)];
+            hi = [hi[0].max(p.x), hi[1].max(p.y)];
+        }
+        let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(1e-6);
+        let cell = extent / GRID_CELLS as f64;
+        let cols = ((hi[0] - lo[0]) / cell) as usize + 1;
+        let rows = ((hi[1] - lo[1]) / cell) as usize + 1;
+        let n = rotated.len();
+        let cell_range = |t: &[u32; 3]| -> Option<(usize, usize, usize, usize)> {
+            if t.iter().any(|&v| v as usize >= n) {
+                return None;
+            }
+            let ps = t.map(|v| rotated[v as usize]);
+            let x0 = ps.iter().map(|p| p.x).fold(f64::MAX, f64::min);
+            let x1 = ps.iter().map(|p| p.x).fold(f64::MIN, f64::max);
+            let y0 = ps.iter().map(|p| p.y).fold(f64::MAX, f64::min);
+            let y1 = ps.iter().map(|p| p.y).fold(f64::MIN, f64::max);
+            let c = |v: f64, o: f64, max: usize| (((v - o) / cell).max(0.0) as usize).min(max - 1);
+            Some((
+                c(x0, lo[0], cols),
+                c(x1, lo[0], cols),
+                c(y0, lo[1], rows),
+                c(y1, lo[1], rows),
+            ))
+        };
+        let mut counts = vec![0u32; cols * rows + 1];
+        for t in triangles {
+            if let Some((cx0, cx1, cy0, cy1)) = cell_range(t) {
+                for cy in cy0..=cy1 {
+                    for cx in cx0..=cx1 {
+                        counts[cy * cols + cx + 1] += 1;
+                    }
+                }
+            }
+        }
+        for i in 1..counts.len() {
+            counts[i] += counts[i - 1];
+        }
+        let mut fill = counts.clone();
+        let mut items = vec![0u32; counts[cols * rows] as usize];
+        for (ti, t) in triangles.iter().enumerate() {
+            if let Some((cx0, cx1, cy0, cy1)) = cell_range(t) {
+                for cy in cy0..=cy1 {
+                    for cx in cx0..=cx1 {
+                        let slot = &mut fill[cy * cols + cx];
+                        items[*slot as usize] = ti as u32;
+                        *slot += 1;
+                    }
+                }
+            }
+        }
+        TriangleGrid {
+            min: lo,
+            cell,
+            cols,
+            rows,
+            starts: counts,
+            items,
+        }
+    }
+
+    /// Whether a triangle not touching vertex `v` lies in front of it along the view ray.
+    fn occluded(&self, v: u32, rotated: &[Vector3<f64>], triangles: &[[u32; 3]]) -> bool {
+        let p = rotated[v as usize];
+        let cx = (((p.x - self.min[0]) / self.cell).max(0.0) as usize).min(self.cols - 1);
+        let cy = (((p.y - self.min[1]) / self.cell).max(0.0) as usize).min(self.rows - 1);
+        let cell = cy * self.cols + cx;
+        let range = self.starts[cell] as usize..self.starts[cell + 1] as usize;
+        self.items[range].iter().any(|&ti| {
+            let t = triangles[ti as usize];
+            if t.contains(&v) {
+                return false;
+            }
+            let (a, b, c) = (
+                rotated[t[0] as usize],
+                rotated[t[1] as usize],
+                rotated[t[2] as usize],
+            );
+            let area = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+            if area.abs() < 1e-12 {
+                return false;
+            }
+            let w0 = ((b.x - p.x) * (c.y - p.y) - (c.x - p.x) * (b.y - p.y)) / area;
+            let w1 = ((c.x - p.x) * (a.y - p.y) - (a.x - p.x) * (c.y - p.y)) / area;
+            let w2 = 1.0 - w0 - w1;
+            w0 >= 0.0
+                && w1 >= 0.0
+                && w2 >= 0.0
+                && w0 * a.z + w1 * b.z + w2 * c.z > p.z + DEPTH_EPS_MM
+        })
+    }
+}
