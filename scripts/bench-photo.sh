@@ -13,6 +13,13 @@ for i in $(seq "$n"); do
   "$bin" photo "$img" -o "$out/gem.png" "$@" | sed -E 's/^(.{16}) +([0-9.]+) ms.*/\1\t\2/' >> "$out/times.tsv"
 done
 echo "median of $n runs, $img, $(nproc) cores, $(date -u +%F)"
-awk -F'\t' '{gsub(/ +$/, "", $1); t[$1] = t[$1] " " $2; if (!($1 in seen)) { order[++k] = $1; seen[$1] = 1 } }
-  END { for (i = 1; i <= k; i++) { s = order[i]; m = split(t[s], v, " "); asort(v); printf "%-16s %9.1f ms\n", s, (m % 2) ? v[(m + 1) / 2] : (v[m / 2] + v[m / 2 + 1]) / 2 } }' "$out/times.tsv"
+python3 - "$out/times.tsv" <<'PY'
+import statistics, sys
+times = {}
+for line in open(sys.argv[1]):
+    stage, ms = line.rstrip("\n").split("\t")
+    times.setdefault(stage.strip(), []).append(float(ms))
+for stage, values in times.items():
+    print(f"{stage:<16} {statistics.median(values):9.1f} ms")
+PY
 rm -rf "$out"
