@@ -29,19 +29,21 @@ pub fn visible_occluding_vertices(
 ) -> Vec<u32> {
     let rotated: Vec<Vector3<f64>> = positions.iter().map(|p| rotation * p).collect();
     let n = rotated.len();
-    let valid = |t: &[u32; 3]| t.iter().all(|&v| (v as usize) < n);
-    // Which way each face points (z of its normal in camera space).
-    let facing: Vec<Option<bool>> = triangles
+    // Which way each face points (sign of its normal's z in camera space); 0 = invalid.
+    let facing: Vec<i8> = triangles
         .iter()
         .map(|t| {
-            valid(t).then(|| {
-                let (a, b, c) = (
-                    rotated[t[0] as usize],
-                    rotated[t[1] as usize],
-                    rotated[t[2] as usize],
-                );
-                (b - a).cross(&(c - a)).z > 0.0
-            })
+            if t.iter().any(|&v| v as usize >= n) {
+                return 0;
+            }
+            let (a, b, c) = (
+                rotated[t[0] as usize],
+                rotated[t[1] as usize],
+                rotated[t[2] as usize],
+            );
+            // z of (b - a) x (c - a), without forming the whole cross product.
+            let z = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+            if z > 0.0 { 1 } else { -1 }
         })
         .collect();
     let mut candidates: Vec<u32> = Vec::new();
@@ -49,11 +51,11 @@ pub fn visible_occluding_vertices(
         let ([Some(f0), Some(f1)], [Some(v0), Some(v1)]) = (faces, verts) else {
             continue;
         };
-        let (Some(Some(a)), Some(Some(b))) = (facing.get(*f0 as usize), facing.get(*f1 as usize))
-        else {
-            continue;
-        };
-        if a != b {
+        let (a, b) = (
+            facing.get(*f0 as usize).copied().unwrap_or(0),
+            facing.get(*f1 as usize).copied().unwrap_or(0),
+        );
+        if a != 0 && b != 0 && a != b {
             candidates.extend([*v0, *v1]);
         }
     }
@@ -63,7 +65,7 @@ pub fn visible_occluding_vertices(
     if candidates.is_empty() {
         return candidates;
     }
-    let grid = TriangleGrid::new(&rotated, triangles);
+    let grid = TriangleGrid::new(&rotated, triangles, &candidates);
     candidates.retain(|&v| !grid.occluded(v, &rotated, triangles));
     candidates
 }
@@ -79,7 +81,9 @@ struct TriangleGrid {
 }
 
 impl TriangleGrid {
-    fn new(rotated: &[Vector3<f64>], triangles: &[[u32; 3]]) -> Self {
+    /// Buckets the triangles, but only into cells that hold one of `queries` (the only cells
+    /// that will be asked about).
+    fn new(rotated: &[Vector3<f64>], triangles: &[[u32; 3]], queries: &[u32]) -> Self {
         let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
         for p in rotated {
             lo = [lo[0].min(p.x), lo[1].min(p.y)];
@@ -89,31 +93,36 @@ impl TriangleGrid {
         let cell = extent / GRID_CELLS as f64;
         let cols = ((hi[0] - lo[0]) / cell) as usize + 1;
         let rows = ((hi[1] - lo[1]) / cell) as usize + 1;
+        let to_cell =
+            |v: f64, o: f64, max: usize| (((v - o) / cell).max(0.0) as usize).min(max - 1);
+        let mut wanted = vec![false; cols * rows];
+        for &q in queries {
+            let p = rotated[q as usize];
+            wanted[to_cell(p.y, lo[1], rows) * cols + to_cell(p.x, lo[0], cols)] = true;
+        }
         let n = rotated.len();
-        let cell_range = |t: &[u32; 3]| -> Option<(usize, usize, usize, usize)> {
-            if t.iter().any(|&v| v as usize >= n) {
-                return None;
-            }
-            let ps = t.map(|v| rotated[v as usize]);
-            let x0 = ps.iter().map(|p| p.x).fold(f64::MAX, f64::min);
-            let x1 = ps.iter().map(|p| p.x).fold(f64::MIN, f64::max);
-            let y0 = ps.iter().map(|p| p.y).fold(f64::MAX, f64::min);
-            let y1 = ps.iter().map(|p| p.y).fold(f64::MIN, f64::max);
-            let c = |v: f64, o: f64, max: usize| (((v - o) / cell).max(0.0) as usize).min(max - 1);
-            Some((
-                c(x0, lo[0], cols),
-                c(x1, lo[0], cols),
-                c(y0, lo[1], rows),
-                c(y1, lo[1], rows),
-            ))
-        };
+        // Each valid triangle's cell range, computed once for both passes.
+        let ranges: Vec<Option<[u16; 4]>> = triangles
+            .iter()
+            .map(|t| {
+                if t.iter().any(|&v| v as usize >= n) {
+                    return None;
+                }
+                let [a, b, c] = t.map(|v| rotated[v as usize]);
+                Some([
+                    to_cell(a.x.min(b.x).min(c.x), lo[0], cols) as u16,
+                    to_cell(a.x.max(b.x).max(c.x), lo[0], cols) as u16,
+                    to_cell(a.y.min(b.y).min(c.y), lo[1], rows) as u16,
+                    to_cell(a.y.max(b.y).max(c.y), lo[1], rows) as u16,
+                ])
+            })
+            .collect();
         let mut counts = vec![0u32; cols * rows + 1];
-        for t in triangles {
-            if let Some((cx0, cx1, cy0, cy1)) = cell_range(t) {
-                for cy in cy0..=cy1 {
-                    for cx in cx0..=cx1 {
-                        counts[cy * cols + cx + 1] += 1;
-                    }
+        for [x0, x1, y0, y1] in ranges.iter().flatten().map(|r| r.map(usize::from)) {
+            for cy in y0..=y1 {
+                for cx in x0..=x1 {
+                    let c = cy * cols + cx;
+                    counts[c + 1] += wanted[c] as u32;
                 }
             }
         }
@@ -122,13 +131,16 @@ impl TriangleGrid {
         }
         let mut fill = counts.clone();
         let mut items = vec![0u32; counts[cols * rows] as usize];
-        for (ti, t) in triangles.iter().enumerate() {
-            if let Some((cx0, cx1, cy0, cy1)) = cell_range(t) {
-                for cy in cy0..=cy1 {
-                    for cx in cx0..=cx1 {
-                        let slot = &mut fill[cy * cols + cx];
-                        items[*slot as usize] = ti as u32;
-                        *slot += 1;
+        for (ti, range) in ranges.iter().enumerate() {
+            let Some([x0, x1, y0, y1]) = range.map(|r| r.map(usize::from)) else {
+                continue;
+            };
+            for cy in y0..=y1 {
+                for cx in x0..=x1 {
+                    let c = cy * cols + cx;
+                    if wanted[c] {
+                        items[fill[c] as usize] = ti as u32;
+                        fill[c] += 1;
                     }
                 }
             }

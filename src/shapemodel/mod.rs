@@ -192,6 +192,40 @@ impl PackedRows {
     pub fn rows(&self) -> usize {
         self.data.len() / (1 + self.identity + self.expressions)
     }
+
+    /// All coordinates for the given coefficients (missing ones count as 0), `[x0, y0, z0, ...]`.
+    pub fn evaluate(&self, identity: &[f32], expressions: &[f32]) -> Vec<f32> {
+        let k = identity.len().min(self.identity);
+        let e = expressions.len().min(self.expressions);
+        // One coefficient vector laid out like a row, so each coordinate is one dot product.
+        let stride = 1 + self.identity + self.expressions;
+        let mut coeffs = vec![0f32; stride];
+        coeffs[0] = 1.0;
+        coeffs[1..1 + k].copy_from_slice(&identity[..k]);
+        coeffs[1 + self.identity..1 + self.identity + e].copy_from_slice(&expressions[..e]);
+        self.data
+            .chunks_exact(stride)
+            .map(|row| dot(row, &coeffs))
+            .collect()
+    }
+}
+
+/// Dot product with eight independent partial sums, which the compiler can keep in SIMD
+/// registers (a single running sum fixes the order of additions and cannot be vectorised).
+#[inline]
+pub fn dot(a: &[f32], b: &[f32]) -> f32 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0f32; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for i in 0..8 {
+            acc[i] += x[i] * y[i];
+        }
+    }
+    let tail: f32 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    acc.iter().sum::<f32>() + tail
 }
 
 impl SurreyModel {
