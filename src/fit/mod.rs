@@ -28,6 +28,9 @@ use crate::shapemodel::SurreyModel;
 /// any component has probability below 1e-6 under the model).
 pub const MAX_SHAPE_SD: f64 = 5.0;
 
+/// iBUG inner-lip landmarks (1-based) facing each other across the mouth: upper, lower.
+pub const INNER_LIP_PAIRS: [(u32, u32); 3] = [(62, 68), (63, 67), (64, 66)];
+
 /// Number of iBUG landmarks the fitter expects.
 pub const IBUG_POINTS: usize = 68;
 
@@ -69,6 +72,14 @@ pub struct FitOptions {
     pub occluding_max_mm: f64,
     /// Stop when the mean reprojection error improves by less than this fraction.
     pub tolerance: f64,
+    /// Close the mouth when the landmarks say it is closed: each upper inner-lip vertex is
+    /// tied to the lower one opposite it in 3D (eos leaves the mean face's slight opening).
+    pub close_mouth: bool,
+    /// The mouth counts as closed when the inner-lip gap is below this fraction of the mouth's
+    /// width (corner to corner), pair by pair.
+    pub closed_gap_ratio: f64,
+    /// How tightly closed lips are held together, model mm (standard deviation).
+    pub sigma_closed_mm: f64,
 }
 
 impl Default for FitOptions {
@@ -83,6 +94,9 @@ impl Default for FitOptions {
             occluding_edges: true,
             occluding_max_mm: 12.0,
             tolerance: 1e-3,
+            close_mouth: true,
+            closed_gap_ratio: 0.06,
+            sigma_closed_mm: 0.1,
         }
     }
 }
@@ -139,6 +153,64 @@ pub fn fit(
     landmarks: &[[f32; 2]],
     opts: &FitOptions,
 ) -> Result<Fit, FitError> {
+    fit_impl(model, landmarks, opts, None)
+}
+
+/// Fits starting from a previous frame's fit (video): pose, identity and expression start where
+/// they were, so one or two iterations suffice. With `hold_identity` the identity stays as it
+/// was and only pose and expression follow the landmarks.
+pub fn fit_from(
+    model: &SurreyModel,
+    landmarks: &[[f32; 2]],
+    opts: &FitOptions,
+    previous: &Fit,
+    hold_identity: bool,
+) -> Result<Fit, FitError> {
+    fit_impl(model, landmarks, opts, Some((previous, hold_identity)))
+}
+
+/// Vertex pairs (upper, lower inner lip) that the landmarks show closed.
+fn closed_lip_pairs(
+    model: &SurreyModel,
+    landmarks: &[[f32; 2]],
+    opts: &FitOptions,
+) -> Vec<(usize, usize)> {
+    if !opts.close_mouth {
+        return Vec::new();
+    }
+    let at = |lm: u32| {
+        landmarks
+            .get(lm as usize - 1)
+            .filter(|p| p[0].is_finite() && p[1].is_finite())
+    };
+    // Mouth width from the inner corners, else the outer ones.
+    let width = [(61, 65), (49, 55)].iter().find_map(|&(a, b)| {
+        let (p, q) = (at(a)?, at(b)?);
+        Some(((p[0] - q[0]) as f64).hypot((p[1] - q[1]) as f64))
+    });
+    let Some(width) = width.filter(|w| *w > 0.0) else {
+        return Vec::new();
+    };
+    INNER_LIP_PAIRS
+        .iter()
+        .filter_map(|&(up, low)| {
+            let (p, q) = (at(up)?, at(low)?);
+            let gap = ((p[0] - q[0]) as f64).hypot((p[1] - q[1]) as f64);
+            let (vu, vl) = (
+                model.mapping.to_vertex.get(&up)?,
+                model.mapping.to_vertex.get(&low)?,
+            );
+            (gap < opts.closed_gap_ratio * width).then_some((*vu as usize, *vl as usize))
+        })
+        .collect()
+}
+
+fn fit_impl(
+    model: &SurreyModel,
+    landmarks: &[[f32; 2]],
+    opts: &FitOptions,
+    start: Option<(&Fit, bool)>,
+) -> Result<Fit, FitError> {
     if landmarks.len() != IBUG_POINTS {
         return Err(FitError::WrongCount {
             expected: IBUG_POINTS,
@@ -170,8 +242,19 @@ pub fn fit(
 
     let n_shape = opts.shape_coefficients;
     let n_expr = model.blendshapes.offsets.ncols();
+    let hold_identity = start.is_some_and(|(_, hold)| hold);
     let mut shape = vec![0f32; n_shape];
     let mut expression = vec![0f32; n_expr];
+    if let Some((previous, _)) = start {
+        for (dst, src) in shape
+            .iter_mut()
+            .zip(&previous.shape)
+            .chain(expression.iter_mut().zip(&previous.expression))
+        {
+            *dst = if src.is_finite() { *src } else { 0.0 };
+        }
+    }
+    let closed_lips = closed_lip_pairs(model, landmarks, opts);
 
     let positions = |corr: &[Correspondence], shape: &[f32], expr: &[f32]| -> Vec<Vector3<f64>> {
         corr.iter()
@@ -203,8 +286,10 @@ pub fn fit(
             &mut cache,
         );
         pose = estimate(&corr, &shape, &expression)?;
-        expression = fit_expressions(model, &corr, &pose, &shape, opts)?;
-        shape = fit_shape(model, &corr, &pose, &expression, opts)?;
+        expression = fit_expressions(model, &corr, &pose, &shape, &closed_lips, opts)?;
+        if !hold_identity {
+            shape = fit_shape(model, &corr, &pose, &expression, &closed_lips, opts)?;
+        }
         let (mean, _) = reprojection(model, &mapped, &pose, &shape, &expression);
         if !mean.is_finite() {
             return Err(FitError::NotFinite);
@@ -376,6 +461,7 @@ fn fit_shape(
     corr: &[Correspondence],
     pose: &Pose,
     expression: &[f32],
+    closed_lips: &[(usize, usize)],
     opts: &FitOptions,
 ) -> Result<Vec<f32>, FitError> {
     let n = opts.shape_coefficients;
@@ -386,13 +472,23 @@ fn fit_shape(
         .iter()
         .map(|c| c.image_up - pose.project_up(&model.vertex(c.vertex, &[], expression)))
         .collect();
-    let (ata, atb) = normal_equations(
+    let (mut ata, mut atb) = normal_equations(
         model,
         corr,
         &targets,
         pose,
         Block::Identity(n),
         opts.sigma_mm,
+    );
+    add_closed_lips(
+        model,
+        closed_lips,
+        Block::Identity(n),
+        &[],
+        expression,
+        opts.sigma_closed_mm,
+        &mut ata,
+        &mut atb,
     );
     // Trust region on the prior: inconsistent landmarks (duplicates, outliers) can ask for an
     // implausible face; raise the prior weight until every coefficient is within the bound.
@@ -417,6 +513,7 @@ fn fit_expressions(
     corr: &[Correspondence],
     pose: &Pose,
     shape: &[f32],
+    closed_lips: &[(usize, usize)],
     opts: &FitOptions,
 ) -> Result<Vec<f32>, FitError> {
     let n = model.blendshapes.offsets.ncols();
@@ -427,7 +524,7 @@ fn fit_expressions(
         .iter()
         .map(|c| c.image_up - pose.project_up(&model.vertex(c.vertex, shape, &[])))
         .collect();
-    let (mut ata, atb) = normal_equations(
+    let (mut ata, mut atb) = normal_equations(
         model,
         corr,
         &targets,
@@ -435,11 +532,60 @@ fn fit_expressions(
         Block::Expressions,
         opts.sigma_mm,
     );
+    add_closed_lips(
+        model,
+        closed_lips,
+        Block::Expressions,
+        shape,
+        &[],
+        opts.sigma_closed_mm,
+        &mut ata,
+        &mut atb,
+    );
     for i in 0..n {
         ata[(i, i)] += opts.lambda_expression;
     }
     let x = nnls(&ata, &atb)?;
     Ok(x.iter().map(|&v| v as f32).collect())
+}
+
+/// Adds soft 3D constraints `upper = lower` for closed lip pairs to normal equations over a
+/// block of coefficients; the other block's coefficients (`shape` or `expression`) are fixed.
+#[allow(clippy::too_many_arguments)]
+fn add_closed_lips(
+    model: &SurreyModel,
+    pairs: &[(usize, usize)],
+    block: Block,
+    shape: &[f32],
+    expression: &[f32],
+    sigma_mm: f64,
+    ata: &mut DMatrix<f64>,
+    atb: &mut DVector<f64>,
+) {
+    let w = 1.0 / sigma_mm.powi(2);
+    let n = atb.len();
+    for &(upper, lower) in pairs {
+        // Residual per axis: (base_u - base_l) + (M_u - M_l) x, with the block's coefficients x.
+        let gap = model.vertex(upper, shape, expression) - model.vertex(lower, shape, expression);
+        for axis in 0..3 {
+            let (_, iu, eu) = model.packed.row(3 * upper + axis);
+            let (_, il, el) = model.packed.row(3 * lower + axis);
+            let d: Vec<f64> = match block {
+                Block::Identity(k) => iu[..k]
+                    .iter()
+                    .zip(&il[..k])
+                    .map(|(a, b)| (a - b) as f64)
+                    .collect(),
+                Block::Expressions => eu.iter().zip(el).map(|(a, b)| (a - b) as f64).collect(),
+            };
+            for i in 0..n.min(d.len()) {
+                atb[i] -= w * d[i] * gap[axis];
+                for j in 0..n.min(d.len()) {
+                    ata[(i, j)] += w * d[i] * d[j];
+                }
+            }
+        }
+    }
 }
 
 /// Solves a symmetric positive (semi)definite system; falls back to a pseudo-inverse solve.
