@@ -49,6 +49,10 @@ pub struct FitArgs {
     /// Outer iterations.
     #[arg(long, default_value_t = 5)]
     pub iterations: usize,
+    /// Use a perspective (pinhole) camera with this horizontal field of view, degrees, centred
+    /// on the image; for faces close to the camera (a webcam: about 60). Default: orthographic.
+    #[arg(long, value_name = "DEG")]
+    pub fov: Option<f64>,
     /// Fit this many times and report the median time (the model is loaded once).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub repeat: u32,
@@ -201,14 +205,22 @@ fn fit_landmarks(args: &FitArgs) -> Result<()> {
         iterations: args.iterations,
         ..Default::default()
     };
+    let intrinsics = match args.fov {
+        Some(fov) if fov > 1.0 && fov < 170.0 => {
+            Some(glyptic::fit::Intrinsics::from_fov(w as f64, h as f64, fov))
+        }
+        Some(fov) => bail!("--fov {fov}: the field of view must be between 1 and 170 degrees"),
+        None => None,
+    };
     let mut times = Vec::with_capacity(args.repeat as usize);
     let mut fitted = None;
     for _ in 0..args.repeat {
         let t = Instant::now();
-        fitted = Some(
-            glyptic::fit::fit(&model, &points, &opts)
-                .with_context(|| path.display().to_string())?,
-        );
+        let result = match intrinsics {
+            Some(k) => glyptic::fit::fit_perspective(&model, &points, &opts, k),
+            None => glyptic::fit::fit(&model, &points, &opts),
+        };
+        fitted = Some(result.with_context(|| path.display().to_string())?);
         times.push(t.elapsed().as_secs_f64() * 1e3);
     }
     let fit = fitted.ok_or_else(|| anyhow!("no fit was run"))?;
@@ -236,6 +248,8 @@ fn fit_landmarks(args: &FitArgs) -> Result<()> {
             "mapped_landmarks": fit.mapped_landmarks,
             "iterations": fit.iterations, "fit_ms": fit_ms, "load_ms": load_ms,
             "contour": !args.no_contour,
+            "camera": if fit.perspective.is_some() { "perspective" } else { "orthographic" },
+            "depth_mm": fit.perspective.map(|p| p.depth_mm()),
         });
         println!("{out}");
     } else {

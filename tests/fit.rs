@@ -461,3 +461,86 @@ mod properties {
         }
     }
 }
+
+/// Landmarks of a synthetic face seen by a pinhole camera `depth_mm` away.
+fn synthetic_perspective(
+    shape: &[f32],
+    expr: &[f32],
+    yaw_deg: f64,
+    pitch_deg: f64,
+    depth_mm: f64,
+    intr: fit::Intrinsics,
+) -> Vec<[f32; 2]> {
+    let m = model();
+    let rot =
+        nalgebra::Rotation3::from_euler_angles(pitch_deg.to_radians(), yaw_deg.to_radians(), 0.05)
+            .into_inner();
+    // The head's centre (about 90 mm behind the model origin) sits on the optical axis.
+    let t =
+        nalgebra::Vector3::new(0.0, 0.0, -depth_mm) - rot * nalgebra::Vector3::new(0.0, 0.0, -90.0);
+    let cam = fit::PerspectivePose {
+        rotation: rot,
+        translation: t,
+        intrinsics: intr,
+    };
+    let mut lm = vec![[f32::NAN; 2]; 68];
+    for (&l, &v) in &m.mapping.to_vertex {
+        let p = fit::Camera::project_up(&cam, &m.vertex(v as usize, shape, expr));
+        lm[l as usize - 1] = [p.x as f32, -p.y as f32];
+    }
+    lm
+}
+
+#[test]
+fn perspective_beats_orthographic_on_close_faces() {
+    let m = model();
+    let intr = fit::Intrinsics::from_fov(1280.0, 960.0, 60.0);
+    let mut state = 99u64;
+    let mut rnd = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 33) as f64 / (1u64 << 31) as f64) * 2.0 - 1.0
+    };
+    for depth in [500.0, 5000.0] {
+        let (mut e_o, mut e_p, mut r_o, mut r_p) = (0.0, 0.0, 0.0, 0.0);
+        let n = 12;
+        for _ in 0..n {
+            let shape: Vec<f32> = (0..63).map(|_| rnd() as f32).collect();
+            let (yaw, pitch) = (40.0 * rnd(), 15.0 * rnd());
+            let lm = synthetic_perspective(&shape, &[0.0; 6], yaw, pitch, depth, intr);
+            let truth = m.instance(&shape, &[]);
+            let opts = FitOptions::default();
+            let o = fit::fit(m, &lm, &opts).unwrap();
+            let p = fit::fit_perspective(m, &lm, &opts, intr).unwrap();
+            e_o += rms_mm(&m.instance(&o.shape, &o.expression), &truth) / n as f64;
+            e_p += rms_mm(&m.instance(&p.shape, &p.expression), &truth) / n as f64;
+            r_o += o.reprojection_px / n as f64;
+            r_p += p.reprojection_px / n as f64;
+            let cam = p.perspective.unwrap();
+            assert!(
+                (cam.depth_mm() - depth).abs() < 0.25 * depth,
+                "depth {} for {depth}",
+                cam.depth_mm()
+            );
+        }
+        println!(
+            "depth {depth} mm: orthographic {e_o:.2} mm 3D, {r_o:.2} px; perspective {e_p:.2} mm 3D, {r_p:.2} px"
+        );
+        if depth < 1000.0 {
+            assert!(
+                r_p < 0.8 * r_o,
+                "close range: perspective should reproject better ({r_p} vs {r_o})"
+            );
+            assert!(
+                e_p < e_o,
+                "close range: perspective should recover the face better ({e_p} vs {e_o})"
+            );
+        } else {
+            assert!(
+                (e_p - e_o).abs() < 0.3,
+                "far away both cameras agree ({e_p} vs {e_o})"
+            );
+        }
+    }
+}

@@ -14,11 +14,13 @@
 //! All of this is pure computation on [`SurreyModel`]: no I/O, no allocation proportional to
 //! the mesh until [`SurreyModel::instance`] is called for the full face.
 
+mod camera;
 mod occluding;
 mod pose;
 
 use nalgebra::{DMatrix, DVector, Vector2, Vector3};
 
+pub use camera::{Camera, Intrinsics, PerspectivePose, refine_perspective};
 pub use occluding::visible_occluding_vertices;
 pub use pose::{Pose, estimate_linear, nearest_rotation, refine};
 
@@ -104,7 +106,10 @@ impl Default for FitOptions {
 /// The result of a fit.
 #[derive(Clone, Debug)]
 pub struct Fit {
+    /// Scaled-orthographic pose (for a perspective fit: the stand-in at the model origin).
     pub pose: Pose,
+    /// The pinhole camera, for [`fit_perspective`].
+    pub perspective: Option<PerspectivePose>,
     /// Identity, in standard deviations of the PCA model.
     pub shape: Vec<f32>,
     /// Expression weights (>= 0), one per blendshape.
@@ -218,21 +223,7 @@ fn fit_impl(
         });
     }
     validate_options(opts, model)?;
-    let usable = |p: &[f32; 2]| p[0].is_finite() && p[1].is_finite();
-    let up = |p: &[f32; 2]| Vector2::new(p[0] as f64, -(p[1] as f64));
-
-    let mapped: Vec<Correspondence> = model
-        .mapping
-        .to_vertex
-        .iter()
-        .filter_map(|(&lm, &v)| {
-            let p = landmarks.get(lm as usize - 1)?;
-            usable(p).then(|| Correspondence {
-                image_up: up(p),
-                vertex: v as usize,
-            })
-        })
-        .collect();
+    let mapped = mapped_correspondences(model, landmarks);
     if mapped.len() < 4 {
         return Err(FitError::TooFewLandmarks {
             usable: mapped.len(),
@@ -256,20 +247,155 @@ fn fit_impl(
     }
     let closed_lips = closed_lip_pairs(model, landmarks, opts);
 
-    let positions = |corr: &[Correspondence], shape: &[f32], expr: &[f32]| -> Vec<Vector3<f64>> {
-        corr.iter()
-            .map(|c| model.vertex(c.vertex, shape, expr))
-            .collect()
-    };
-    let estimate =
-        |corr: &[Correspondence], shape: &[f32], expr: &[f32]| -> Result<Pose, FitError> {
-            let x = positions(corr, shape, expr);
-            let u: Vec<Vector2<f64>> = corr.iter().map(|c| c.image_up).collect();
-            let linear = estimate_linear(&x, &u)?;
-            Ok(refine(linear, &x, &u, 10))
-        };
+    let pose = estimate_orthographic(model, &mapped, &shape, &expression)?;
+    let state = run_loop(
+        model,
+        landmarks,
+        opts,
+        &mapped,
+        &closed_lips,
+        Solution {
+            camera: pose,
+            shape,
+            expression,
+        },
+        hold_identity,
+        |_, corr, shape, expr| estimate_orthographic(model, corr, shape, expr),
+    )?;
+    Ok(Fit {
+        pose: state.solution.camera,
+        perspective: None,
+        shape: state.solution.shape,
+        expression: state.solution.expression,
+        reprojection_px: state.mean,
+        max_reprojection_px: state.max,
+        mapped_landmarks: mapped.len(),
+        iterations: state.iterations,
+    })
+}
 
-    let mut pose = estimate(&mapped, &shape, &expression)?;
+/// Fits with a pinhole camera of known intrinsics, for faces close to the camera (a kiosk
+/// visitor at about 50 cm), where a scaled-orthographic camera distorts: it starts from the
+/// orthographic fit and refines pose, identity and expression under perspective.
+pub fn fit_perspective(
+    model: &SurreyModel,
+    landmarks: &[[f32; 2]],
+    opts: &FitOptions,
+    intrinsics: Intrinsics,
+) -> Result<Fit, FitError> {
+    if !(intrinsics.focal_px.is_finite()
+        && intrinsics.focal_px > 0.0
+        && intrinsics.principal.iter().all(|c| c.is_finite()))
+    {
+        return Err(FitError::BadOption(format!(
+            "invalid camera intrinsics {intrinsics:?}"
+        )));
+    }
+    let ortho = fit(model, landmarks, opts)?;
+    let mapped = mapped_correspondences(model, landmarks);
+    let closed_lips = closed_lip_pairs(model, landmarks, opts);
+    let start = PerspectivePose::from_orthographic(&ortho.pose, intrinsics);
+    let estimate =
+        |camera: &PerspectivePose, corr: &[Correspondence], shape: &[f32], expr: &[f32]| {
+            let x: Vec<Vector3<f64>> = corr
+                .iter()
+                .map(|c| model.vertex(c.vertex, shape, expr))
+                .collect();
+            let u: Vec<Vector2<f64>> = corr.iter().map(|c| c.image_up).collect();
+            refine_perspective(*camera, &x, &u, 20)
+        };
+    let state = run_loop(
+        model,
+        landmarks,
+        opts,
+        &mapped,
+        &closed_lips,
+        Solution {
+            camera: start,
+            shape: ortho.shape,
+            expression: ortho.expression,
+        },
+        false,
+        estimate,
+    )?;
+    Ok(Fit {
+        pose: state.solution.camera.to_orthographic(),
+        perspective: Some(state.solution.camera),
+        shape: state.solution.shape,
+        expression: state.solution.expression,
+        reprojection_px: state.mean,
+        max_reprojection_px: state.max,
+        mapped_landmarks: mapped.len(),
+        iterations: state.iterations + ortho.iterations,
+    })
+}
+
+/// The fixed iBUG-to-vertex correspondences for the landmarks that are present.
+fn mapped_correspondences(model: &SurreyModel, landmarks: &[[f32; 2]]) -> Vec<Correspondence> {
+    model
+        .mapping
+        .to_vertex
+        .iter()
+        .filter_map(|(&lm, &v)| {
+            let p = landmarks.get(lm as usize - 1)?;
+            (p[0].is_finite() && p[1].is_finite()).then(|| Correspondence {
+                image_up: Vector2::new(p[0] as f64, -(p[1] as f64)),
+                vertex: v as usize,
+            })
+        })
+        .collect()
+}
+
+/// Linear scaled-orthographic estimate polished by Gauss-Newton.
+fn estimate_orthographic(
+    model: &SurreyModel,
+    corr: &[Correspondence],
+    shape: &[f32],
+    expr: &[f32],
+) -> Result<Pose, FitError> {
+    let x: Vec<Vector3<f64>> = corr
+        .iter()
+        .map(|c| model.vertex(c.vertex, shape, expr))
+        .collect();
+    let u: Vec<Vector2<f64>> = corr.iter().map(|c| c.image_up).collect();
+    let linear = estimate_linear(&x, &u)?;
+    Ok(refine(linear, &x, &u, 10))
+}
+
+/// A camera with identity and expression coefficients.
+struct Solution<C> {
+    camera: C,
+    shape: Vec<f32>,
+    expression: Vec<f32>,
+}
+
+/// Where the loop ended.
+struct LoopState<C> {
+    solution: Solution<C>,
+    mean: f64,
+    max: f64,
+    iterations: usize,
+}
+
+/// The outer loop: correspondences, camera, expressions, identity, until the error settles;
+/// then the camera once more for the final shape, so the reported pose and error belong
+/// together.
+#[allow(clippy::too_many_arguments)]
+fn run_loop<C: Camera>(
+    model: &SurreyModel,
+    landmarks: &[[f32; 2]],
+    opts: &FitOptions,
+    mapped: &[Correspondence],
+    closed_lips: &[(usize, usize)],
+    start: Solution<C>,
+    hold_identity: bool,
+    mut estimate: impl FnMut(&C, &[Correspondence], &[f32], &[f32]) -> Result<C, FitError>,
+) -> Result<LoopState<C>, FitError> {
+    let Solution {
+        camera: mut pose,
+        mut shape,
+        mut expression,
+    } = start;
     let mut cache = BoundaryCache::default();
     let mut last_error = f64::INFINITY;
     let mut iterations = 0;
@@ -278,19 +404,19 @@ fn fit_impl(
         let corr = outline_correspondences(
             model,
             landmarks,
-            &mapped,
+            mapped,
             &pose,
             &shape,
             &expression,
             opts,
             &mut cache,
         );
-        pose = estimate(&corr, &shape, &expression)?;
-        expression = fit_expressions(model, &corr, &pose, &shape, &closed_lips, opts)?;
+        pose = estimate(&pose, &corr, &shape, &expression)?;
+        expression = fit_expressions(model, &corr, &pose, &shape, &expression, closed_lips, opts)?;
         if !hold_identity {
-            shape = fit_shape(model, &corr, &pose, &expression, &closed_lips, opts)?;
+            shape = fit_shape(model, &corr, &pose, &shape, &expression, closed_lips, opts)?;
         }
-        let (mean, _) = reprojection(model, &mapped, &pose, &shape, &expression);
+        let (mean, _) = reprojection(model, mapped, &pose, &shape, &expression);
         if !mean.is_finite() {
             return Err(FitError::NotFinite);
         }
@@ -301,33 +427,33 @@ fn fit_impl(
             break;
         }
     }
-    // Final pose for the final shape, so the reported pose and error belong together.
     let corr = outline_correspondences(
         model,
         landmarks,
-        &mapped,
+        mapped,
         &pose,
         &shape,
         &expression,
         opts,
         &mut cache,
     );
-    pose = estimate(&corr, &shape, &expression)?;
-    let (mean, max) = reprojection(model, &mapped, &pose, &shape, &expression);
+    pose = estimate(&pose, &corr, &shape, &expression)?;
+    let (mean, max) = reprojection(model, mapped, &pose, &shape, &expression);
     let finite = mean.is_finite()
-        && pose.scale.is_finite()
-        && pose.rotation.iter().all(|v| v.is_finite())
+        && pose.scale().is_finite()
+        && pose.rotation().iter().all(|v| v.is_finite())
         && shape.iter().chain(&expression).all(|v| v.is_finite());
     if !finite {
         return Err(FitError::NotFinite);
     }
-    Ok(Fit {
-        pose,
-        shape,
-        expression,
-        reprojection_px: mean,
-        max_reprojection_px: max,
-        mapped_landmarks: mapped.len(),
+    Ok(LoopState {
+        solution: Solution {
+            camera: pose,
+            shape,
+            expression,
+        },
+        mean,
+        max,
         iterations,
     })
 }
@@ -353,10 +479,10 @@ fn validate_options(opts: &FitOptions, model: &SurreyModel) -> Result<(), FitErr
 }
 
 /// Mean and max reprojection error (pixels) over the given correspondences.
-fn reprojection(
+fn reprojection<C: Camera>(
     model: &SurreyModel,
     corr: &[Correspondence],
-    pose: &Pose,
+    pose: &C,
     shape: &[f32],
     expr: &[f32],
 ) -> (f64, f64) {
@@ -381,11 +507,12 @@ enum Block {
 /// Design matrix `s * P R M_v` (two rows per correspondence) for a block of coefficients, and
 /// the weighted normal equations `(w A^T A, w A^T t)` with `w = 1 / (s sigma)^2`, i.e. the
 /// residuals measured in model millimetres.
-fn normal_equations(
+fn normal_equations<C: Camera>(
     model: &SurreyModel,
     corr: &[Correspondence],
     targets: &[Vector2<f64>],
-    pose: &Pose,
+    jacobians: &[nalgebra::Matrix2x3<f64>],
+    pose: &C,
     block: Block,
     sigma_mm: f64,
 ) -> (DMatrix<f64>, DVector<f64>) {
@@ -393,14 +520,13 @@ fn normal_equations(
         Block::Identity(n) => n,
         Block::Expressions => model.packed.expressions,
     };
-    let sr = pose.rotation * pose.scale;
-    let (r0, r1) = (
-        [sr[(0, 0)], sr[(0, 1)], sr[(0, 2)]],
-        [sr[(1, 0)], sr[(1, 1)], sr[(1, 2)]],
-    );
     let mut a = DMatrix::<f64>::zeros(2 * corr.len(), n);
     let mut t = DVector::<f64>::zeros(2 * corr.len());
-    for (i, (c, target)) in corr.iter().zip(targets).enumerate() {
+    for (i, ((c, target), j)) in corr.iter().zip(targets).zip(jacobians).enumerate() {
+        let (r0, r1) = (
+            [j[(0, 0)], j[(0, 1)], j[(0, 2)]],
+            [j[(1, 0)], j[(1, 1)], j[(1, 2)]],
+        );
         let rows = [0, 1, 2].map(|axis| {
             let (_, identity, expr) = model.packed.row(3 * c.vertex + axis);
             match block {
@@ -416,7 +542,7 @@ fn normal_equations(
         t[2 * i] = target.x;
         t[2 * i + 1] = target.y;
     }
-    let w = 1.0 / (pose.scale * sigma_mm).powi(2);
+    let w = 1.0 / (pose.scale() * sigma_mm).powi(2);
     weighted_gram(&a, &t, w)
 }
 
@@ -455,11 +581,33 @@ fn weighted_gram(a: &DMatrix<f64>, t: &DVector<f64>, w: f64) -> (DMatrix<f64>, D
     (gram, rhs)
 }
 
-/// Identity by regularised linear least squares, with the expressions held fixed.
-fn fit_shape(
+/// Linearised targets and Jacobians for a block of coefficients: with `X` the current vertex
+/// and `base` the vertex without the block's contribution, the block's coefficients `x` should
+/// satisfy `J (M x) ~ p - proj(X) + J (X - base)`. For an orthographic camera `proj` is affine
+/// and this is exactly `p - proj(base)`; for a perspective camera it is one Gauss-Newton step.
+fn linearised<C: Camera>(
     model: &SurreyModel,
     corr: &[Correspondence],
-    pose: &Pose,
+    pose: &C,
+    current: (&[f32], &[f32]),
+    base: (&[f32], &[f32]),
+) -> (Vec<Vector2<f64>>, Vec<nalgebra::Matrix2x3<f64>>) {
+    corr.iter()
+        .map(|c| {
+            let x = model.vertex(c.vertex, current.0, current.1);
+            let b = model.vertex(c.vertex, base.0, base.1);
+            let j = pose.jacobian(&x);
+            (c.image_up - pose.project_up(&x) + j * (x - b), j)
+        })
+        .unzip()
+}
+
+/// Identity by regularised linear least squares, with the expressions held fixed.
+fn fit_shape<C: Camera>(
+    model: &SurreyModel,
+    corr: &[Correspondence],
+    pose: &C,
+    shape: &[f32],
     expression: &[f32],
     closed_lips: &[(usize, usize)],
     opts: &FitOptions,
@@ -468,14 +616,13 @@ fn fit_shape(
     if n == 0 {
         return Ok(Vec::new());
     }
-    let targets: Vec<Vector2<f64>> = corr
-        .iter()
-        .map(|c| c.image_up - pose.project_up(&model.vertex(c.vertex, &[], expression)))
-        .collect();
+    let (targets, jacobians) =
+        linearised(model, corr, pose, (shape, expression), (&[], expression));
     let (mut ata, mut atb) = normal_equations(
         model,
         corr,
         &targets,
+        &jacobians,
         pose,
         Block::Identity(n),
         opts.sigma_mm,
@@ -508,11 +655,12 @@ fn fit_shape(
 }
 
 /// Expressions by non-negative least squares with a small ridge, identity held fixed.
-fn fit_expressions(
+fn fit_expressions<C: Camera>(
     model: &SurreyModel,
     corr: &[Correspondence],
-    pose: &Pose,
+    pose: &C,
     shape: &[f32],
+    expression: &[f32],
     closed_lips: &[(usize, usize)],
     opts: &FitOptions,
 ) -> Result<Vec<f32>, FitError> {
@@ -520,14 +668,12 @@ fn fit_expressions(
     if n == 0 {
         return Ok(Vec::new());
     }
-    let targets: Vec<Vector2<f64>> = corr
-        .iter()
-        .map(|c| c.image_up - pose.project_up(&model.vertex(c.vertex, shape, &[])))
-        .collect();
+    let (targets, jacobians) = linearised(model, corr, pose, (shape, expression), (shape, &[]));
     let (mut ata, mut atb) = normal_equations(
         model,
         corr,
         &targets,
+        &jacobians,
         pose,
         Block::Expressions,
         opts.sigma_mm,
@@ -651,15 +797,15 @@ impl BoundaryCache {
     const MAX_TURN_DEG: f64 = 1.0;
     const ALWAYS_FIRST: usize = 2;
 
-    fn boundary(
+    fn boundary<C: Camera>(
         &mut self,
         model: &SurreyModel,
-        pose: &Pose,
+        pose: &C,
         shape: &[f32],
         expr: &[f32],
     ) -> &[u32] {
         let turned = self.rotation.is_none_or(|r| {
-            let cos = ((r.transpose() * pose.rotation).trace() - 1.0) * 0.5;
+            let cos = ((r.transpose() * pose.rotation()).trace() - 1.0) * 0.5;
             cos.clamp(-1.0, 1.0).acos().to_degrees() > Self::MAX_TURN_DEG
         });
         if turned || self.computed < Self::ALWAYS_FIRST {
@@ -672,9 +818,9 @@ impl BoundaryCache {
                 &positions,
                 &model.shape.triangles,
                 &model.edges,
-                &pose.rotation,
+                pose.rotation(),
             );
-            self.rotation = Some(pose.rotation);
+            self.rotation = Some(*pose.rotation());
             self.computed += 1;
         }
         &self.vertices
@@ -684,11 +830,11 @@ impl BoundaryCache {
 /// The mapped correspondences plus, if enabled, the outline ones: front-facing contour
 /// correspondences and occluding-edge correspondences for the side turned away.
 #[allow(clippy::too_many_arguments)]
-fn outline_correspondences(
+fn outline_correspondences<C: Camera>(
     model: &SurreyModel,
     landmarks: &[[f32; 2]],
     mapped: &[Correspondence],
-    pose: &Pose,
+    pose: &C,
     shape: &[f32],
     expr: &[f32],
     opts: &FitOptions,
@@ -714,7 +860,7 @@ fn outline_correspondences(
 
 /// How much each side of the face (right, left) turns towards the camera: the z of its
 /// outward direction in camera space, as a sine (positive = towards the camera).
-fn side_facing(model: &SurreyModel, pose: &Pose, shape: &[f32], expr: &[f32]) -> [f64; 2] {
+fn side_facing<C: Camera>(model: &SurreyModel, pose: &C, shape: &[f32], expr: &[f32]) -> [f64; 2] {
     [&model.contour.right, &model.contour.left].map(|verts| {
         if verts.is_empty() {
             return -1.0;
@@ -725,17 +871,17 @@ fn side_facing(model: &SurreyModel, pose: &Pose, shape: &[f32], expr: &[f32]) ->
             .sum::<f64>()
             / verts.len() as f64;
         // The model's centre line is x = 0, so a side's outward direction is along its mean x.
-        let outward = pose.rotation * Vector3::new(mean_x, 0.0, 0.0);
+        let outward = pose.rotation() * Vector3::new(mean_x, 0.0, 0.0);
         outward.z / outward.norm().max(1e-12)
     })
 }
 
 /// Outline landmarks of the side turned away from the camera, each tied to the nearest
 /// visible occluding-boundary vertex if its projection lies within `max_mm`.
-fn occluding_correspondences(
+fn occluding_correspondences<C: Camera>(
     model: &SurreyModel,
     landmarks: &[[f32; 2]],
-    pose: &Pose,
+    pose: &C,
     shape: &[f32],
     expr: &[f32],
     max_mm: f64,
@@ -757,7 +903,7 @@ fn occluding_correspondences(
         return Vec::new();
     }
     let boundary = cache.boundary(model, pose, shape, expr);
-    let max_px = max_mm * pose.scale;
+    let max_px = max_mm * pose.scale();
     let projected: Vec<(u32, Vector2<f64>)> = boundary
         .iter()
         .map(|&v| (v, pose.project_up(&model.vertex(v as usize, shape, expr))))
@@ -782,10 +928,10 @@ fn occluding_correspondences(
 
 /// Outline landmarks tied to the nearest projected vertex of the model's outline, on each side
 /// of the face that is turned towards the camera (eos: yaw within +-7.5 degrees uses both).
-fn contour_correspondences(
+fn contour_correspondences<C: Camera>(
     model: &SurreyModel,
     landmarks: &[[f32; 2]],
-    pose: &Pose,
+    pose: &C,
     shape: &[f32],
     expr: &[f32],
 ) -> Vec<Correspondence> {
