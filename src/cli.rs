@@ -34,7 +34,8 @@ pub enum Command {
 
 #[derive(clap::Args, Debug)]
 pub struct FitArgs {
-    /// 68 landmarks, iBUG .pts (1-based coordinates, as menpo writes them).
+    /// 68 landmarks, iBUG .pts (1-based coordinates, as menpo writes them); a landmark that
+    /// was not found may be written `nan nan`.
     #[arg(long, value_name = "FILE.pts")]
     pub landmarks: PathBuf,
     /// Size of the image the landmarks belong to, WIDTHxHEIGHT pixels.

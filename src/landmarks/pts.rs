@@ -19,8 +19,19 @@ use super::LandmarkError;
 /// ```
 ///
 /// Header lines before `{` are `key: value`; `n_points`, when present, must match the
-/// number of points. Returns 0-based `[x, y]`.
+/// number of points. Returns 0-based `[x, y]`. Every coordinate must be a finite number.
 pub fn read_pts(text: &str) -> Result<Vec<[f32; 2]>, LandmarkError> {
+    parse_pts(text, false)
+}
+
+/// [`read_pts`] for landmark sets with gaps: a point written `nan nan` is a landmark that was
+/// not found (hidden, or dropped by a detector) and comes back as `[NaN, NaN]`, which the
+/// fitter leaves out. Infinities, and a NaN in only one coordinate, are still errors.
+pub fn read_pts_with_missing(text: &str) -> Result<Vec<[f32; 2]>, LandmarkError> {
+    parse_pts(text, true)
+}
+
+fn parse_pts(text: &str, allow_missing: bool) -> Result<Vec<[f32; 2]>, LandmarkError> {
     let err = |line: usize, problem: String| LandmarkError::Parse {
         format: "pts",
         line,
@@ -74,6 +85,11 @@ pub fn read_pts(text: &str) -> Result<Vec<[f32; 2]>, LandmarkError> {
                 format!("expected two numbers 'x y', found {line:?}"),
             ));
         };
+        let is_nan = |s: &str| s.eq_ignore_ascii_case("nan");
+        if allow_missing && is_nan(xs) && is_nan(ys) {
+            points.push([f32::NAN, f32::NAN]);
+            continue;
+        }
         let parse = |s: &str| -> Result<f32, LandmarkError> {
             match s.parse::<f32>() {
                 Ok(v) if v.is_finite() => Ok(v),
@@ -225,5 +241,22 @@ fn yx_point(p: &serde_json::Value, index: usize) -> Result<[f32; 2], LandmarkErr
             line: 0,
             problem: format!("point {index} is not two finite numbers [y, x]: {p}"),
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn missing_points_only_where_allowed() {
+        let text = "version: 1\nn_points: 3\n{\n1 2\nnan nan\n3 4\n}\n";
+        assert!(read_pts(text).is_err(), "strict reading refuses NaN");
+        let p = read_pts_with_missing(text).unwrap();
+        assert_eq!(p[0], [0.0, 1.0]);
+        assert!(p[1][0].is_nan() && p[1][1].is_nan());
+        assert_eq!(p[2], [2.0, 3.0]);
+        assert!(read_pts_with_missing(&text.replace("nan nan", "nan 5")).is_err());
+        assert!(read_pts_with_missing(&text.replace("nan nan", "inf inf")).is_err());
     }
 }
