@@ -179,8 +179,8 @@ fn fit_landmarks(args: &FitArgs) -> Result<()> {
     let path = &args.landmarks;
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read", path.display()))?;
-    let points =
-        glyptic::landmarks::pts::read_pts(&text).with_context(|| path.display().to_string())?;
+    let points = glyptic::landmarks::pts::read_pts_with_missing(&text)
+        .with_context(|| path.display().to_string())?;
     let (w, h) = (args.size.width as f32, args.size.height as f32);
     let outside = points
         .iter()

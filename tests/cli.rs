@@ -170,3 +170,44 @@ fn einstein_photo_makes_a_gem_with_landmarks_and_mesh() {
     assert_eq!(models[0].mesh.positions.len(), 3448 * 3);
     assert_eq!(models[0].mesh.indices.len(), 6736 * 3);
 }
+
+#[test]
+fn fit_accepts_missing_landmarks_marked_nan() {
+    let d = scratch("fit");
+    let mut lm = common::truth("takeo");
+    lm[5] = [f32::NAN, f32::NAN];
+    lm[30] = [f32::NAN, f32::NAN];
+    let text = glyptic::landmarks::pts::write_pts(&lm).replace("NaN", "nan");
+    assert!(text.contains("nan nan"), "{text}");
+    let file = d.join("gaps.pts");
+    std::fs::write(&file, text).unwrap();
+    let run = glyptic()
+        .arg("fit")
+        .arg("--landmarks")
+        .arg(&file)
+        .args(["--size", "150x225", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(
+        json["mapped_landmarks"], 49,
+        "one mapped landmark (31) is missing"
+    );
+    assert_eq!(json["shape"].as_array().unwrap().len(), 63);
+    assert_eq!(json["expression"].as_array().unwrap().len(), 6);
+    for key in [
+        "yaw_deg",
+        "pitch_deg",
+        "roll_deg",
+        "reprojection_px",
+        "iterations",
+        "fit_ms",
+    ] {
+        assert!(json[key].is_number(), "{key} missing: {json}");
+    }
+}
