@@ -131,6 +131,31 @@ struct Correspondence {
     /// Image point, y-up frame, pixels.
     image_up: Vector2<f64>,
     vertex: usize,
+    /// A point between two vertices: `(second vertex, t)` for `(1 - t) v + t v2` (contours).
+    blend: Option<(usize, f64)>,
+    /// When set, only the residual along this unit image direction counts: the point may slide
+    /// along the outline it lies on (contour landmarks mark the outline, not fixed points).
+    normal: Option<Vector2<f64>>,
+}
+
+impl Correspondence {
+    fn at_vertex(image_up: Vector2<f64>, vertex: usize) -> Self {
+        Correspondence {
+            image_up,
+            vertex,
+            blend: None,
+            normal: None,
+        }
+    }
+
+    /// The model point (mm) this correspondence refers to.
+    fn position(&self, model: &SurreyModel, shape: &[f32], expr: &[f32]) -> Vector3<f64> {
+        let p = model.vertex(self.vertex, shape, expr);
+        match self.blend {
+            Some((v2, t)) => p * (1.0 - t) + model.vertex(v2, shape, expr) * t,
+            None => p,
+        }
+    }
 }
 
 impl SurreyModel {
@@ -299,7 +324,7 @@ pub fn fit_perspective(
         |camera: &PerspectivePose, corr: &[Correspondence], shape: &[f32], expr: &[f32]| {
             let x: Vec<Vector3<f64>> = corr
                 .iter()
-                .map(|c| model.vertex(c.vertex, shape, expr))
+                .map(|c| c.position(model, shape, expr))
                 .collect();
             let u: Vec<Vector2<f64>> = corr.iter().map(|c| c.image_up).collect();
             refine_perspective(*camera, &x, &u, 20)
@@ -338,9 +363,8 @@ fn mapped_correspondences(model: &SurreyModel, landmarks: &[[f32; 2]]) -> Vec<Co
         .iter()
         .filter_map(|(&lm, &v)| {
             let p = landmarks.get(lm as usize - 1)?;
-            (p[0].is_finite() && p[1].is_finite()).then(|| Correspondence {
-                image_up: Vector2::new(p[0] as f64, -(p[1] as f64)),
-                vertex: v as usize,
+            (p[0].is_finite() && p[1].is_finite()).then(|| {
+                Correspondence::at_vertex(Vector2::new(p[0] as f64, -(p[1] as f64)), v as usize)
             })
         })
         .collect()
@@ -355,7 +379,7 @@ fn estimate_orthographic(
 ) -> Result<Pose, FitError> {
     let x: Vec<Vector3<f64>> = corr
         .iter()
-        .map(|c| model.vertex(c.vertex, shape, expr))
+        .map(|c| c.position(model, shape, expr))
         .collect();
     let u: Vec<Vector2<f64>> = corr.iter().map(|c| c.image_up).collect();
     let linear = estimate_linear(&x, &u)?;
@@ -489,7 +513,7 @@ fn reprojection<C: Camera>(
     let mut sum = 0.0;
     let mut max = 0f64;
     for c in corr {
-        let d = (pose.project_up(&model.vertex(c.vertex, shape, expr)) - c.image_up).norm();
+        let d = (pose.project_up(&c.position(model, shape, expr)) - c.image_up).norm();
         sum += d;
         max = max.max(d);
     }
@@ -527,17 +551,40 @@ fn normal_equations<C: Camera>(
             [j[(0, 0)], j[(0, 1)], j[(0, 2)]],
             [j[(1, 0)], j[(1, 1)], j[(1, 2)]],
         );
-        let rows = [0, 1, 2].map(|axis| {
-            let (_, identity, expr) = model.packed.row(3 * c.vertex + axis);
+        let block_row = |vertex: usize, axis: usize| {
+            let (_, identity, expr) = model.packed.row(3 * vertex + axis);
             match block {
                 Block::Identity(n) => &identity[..n],
                 Block::Expressions => expr,
             }
-        });
+        };
+        let rows = [0, 1, 2].map(|axis| block_row(c.vertex, axis));
+        let second = c
+            .blend
+            .map(|(v2, t)| ([0, 1, 2].map(|axis| block_row(v2, axis)), t));
         for k in 0..n {
-            let m = [rows[0][k] as f64, rows[1][k] as f64, rows[2][k] as f64];
-            a[(2 * i, k)] = r0[0] * m[0] + r0[1] * m[1] + r0[2] * m[2];
-            a[(2 * i + 1, k)] = r1[0] * m[0] + r1[1] * m[1] + r1[2] * m[2];
+            let mut m = [rows[0][k] as f64, rows[1][k] as f64, rows[2][k] as f64];
+            if let Some((rows2, t)) = &second {
+                for axis in 0..3 {
+                    m[axis] = (1.0 - t) * m[axis] + t * rows2[axis][k] as f64;
+                }
+            }
+            let (u, v) = (
+                r0[0] * m[0] + r0[1] * m[1] + r0[2] * m[2],
+                r1[0] * m[0] + r1[1] * m[1] + r1[2] * m[2],
+            );
+            match c.normal {
+                // One equation along the normal; the second row stays zero.
+                Some(nrm) => a[(2 * i, k)] = nrm.x * u + nrm.y * v,
+                None => {
+                    a[(2 * i, k)] = u;
+                    a[(2 * i + 1, k)] = v;
+                }
+            }
+        }
+        if let Some(nrm) = c.normal {
+            t[2 * i] = nrm.dot(target);
+            continue;
         }
         t[2 * i] = target.x;
         t[2 * i + 1] = target.y;
@@ -594,8 +641,8 @@ fn linearised<C: Camera>(
 ) -> (Vec<Vector2<f64>>, Vec<nalgebra::Matrix2x3<f64>>) {
     corr.iter()
         .map(|c| {
-            let x = model.vertex(c.vertex, current.0, current.1);
-            let b = model.vertex(c.vertex, base.0, base.1);
+            let x = c.position(model, current.0, current.1);
+            let b = c.position(model, base.0, base.1);
             let j = pose.jacobian(&x);
             (c.image_up - pose.project_up(&x) + j * (x - b), j)
         })
@@ -916,15 +963,49 @@ fn occluding_correspondences<C: Camera>(
                 .iter()
                 .map(|(v, p)| (*v, (t - p).norm()))
                 .min_by(|a, b| a.1.total_cmp(&b.1))?;
-            (d <= max_px).then_some(Correspondence {
-                image_up: *t,
-                vertex: v as usize,
-            })
+            (d <= max_px).then_some(Correspondence::at_vertex(*t, v as usize))
         })
         .collect()
 }
 
-/// Outline landmarks tied to the nearest projected vertex of the model's outline, on each side
+/// The point of the projected outline polyline nearest to `target`, as a blend of the two
+/// vertices of its segment, free to slide along the segment (only the residual along the
+/// segment's normal counts).
+fn closest_on_outline(
+    projected: &[Vector2<f64>],
+    verts: &[u32],
+    target: Vector2<f64>,
+) -> Option<Correspondence> {
+    if projected.len() == 1 {
+        return Some(Correspondence::at_vertex(target, verts[0] as usize));
+    }
+    let mut best: Option<(f64, usize, f64)> = None;
+    for k in 0..projected.len() - 1 {
+        let (a, b) = (projected[k], projected[k + 1]);
+        let ab = b - a;
+        let len2 = ab.norm_squared();
+        let t = if len2 > 1e-12 {
+            ((target - a).dot(&ab) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let d = (a + ab * t - target).norm_squared();
+        if best.is_none_or(|(bd, ..)| d < bd) {
+            best = Some((d, k, t));
+        }
+    }
+    let (_, k, t) = best?;
+    let ab = projected[k + 1] - projected[k];
+    let normal = (ab.norm() > 1e-9).then(|| Vector2::new(-ab.y, ab.x) / ab.norm());
+    Some(Correspondence {
+        image_up: target,
+        vertex: verts[k] as usize,
+        blend: Some((verts[k + 1] as usize, t)),
+        normal,
+    })
+}
+
+/// Outline landmarks tied to the nearest point of the model's projected outline, on each side
 /// of the face that is turned towards the camera (eos: yaw within +-7.5 degrees uses both).
 fn contour_correspondences<C: Camera>(
     model: &SurreyModel,
@@ -957,16 +1038,8 @@ fn contour_correspondences<C: Camera>(
                 continue;
             }
             let target = Vector2::new(p[0] as f64, -(p[1] as f64));
-            let best = projected.iter().enumerate().min_by(|a, b| {
-                (a.1 - target)
-                    .norm_squared()
-                    .total_cmp(&(b.1 - target).norm_squared())
-            });
-            if let Some((i, _)) = best {
-                out.push(Correspondence {
-                    image_up: target,
-                    vertex: verts[i] as usize,
-                });
+            if let Some(c) = closest_on_outline(&projected, verts, target) {
+                out.push(c);
             }
         }
     }
