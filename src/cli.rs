@@ -283,7 +283,33 @@ fn check_output_dirs<'a>(outputs: impl IntoIterator<Item = &'a PathBuf>) -> Resu
     Ok(())
 }
 
-/// Renders `mesh` and writes the PNG atomically, printing the stages.
+/// Starts the GPU device and pipelines on another thread: they do not depend on the face, so
+/// they come up while the photo is decoded and fitted.
+fn spawn_renderer() -> std::thread::JoinHandle<Result<(Renderer, f64), glyptic::render::RenderError>>
+{
+    std::thread::spawn(|| {
+        let t = Instant::now();
+        Renderer::new_headless().map(|r| (r, t.elapsed().as_secs_f64() * 1e3))
+    })
+}
+
+/// Waits for [`spawn_renderer`] and prints its stage line.
+fn join_renderer(
+    handle: std::thread::JoinHandle<Result<(Renderer, f64), glyptic::render::RenderError>>,
+) -> Result<Renderer> {
+    let (renderer, init_ms) = handle
+        .join()
+        .map_err(|_| anyhow!("the renderer thread panicked"))?
+        .context("starting the renderer")?;
+    print_stage(&Stage {
+        name: "gpu init",
+        ms: init_ms,
+        detail: format!("{} (in parallel)", renderer.adapter_info()),
+    });
+    Ok(renderer)
+}
+
+/// Renders `mesh` and encodes the PNG, printing the stage.
 fn render_and_write(
     renderer: &mut Renderer,
     mesh: &glyptic::render::Mesh,
@@ -313,10 +339,7 @@ fn render_and_write(
 fn render_mean(args: &RenderArgs) -> Result<()> {
     let start = Instant::now();
     check_output_dirs([&args.output])?;
-    let renderer_thread = std::thread::spawn(|| {
-        let t = Instant::now();
-        Renderer::new_headless().map(|r| (r, t.elapsed().as_secs_f64() * 1e3))
-    });
+    let renderer_thread = spawn_renderer();
     let mut stages = Vec::new();
     let sfm = glyptic::assets::sfm_dir();
     let model = timed(
@@ -339,15 +362,7 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
         },
     )?;
     stages.iter().for_each(print_stage);
-    let (mut renderer, init_ms) = renderer_thread
-        .join()
-        .map_err(|_| anyhow!("the renderer thread panicked"))?
-        .context("starting the renderer")?;
-    print_stage(&Stage {
-        name: "gpu init",
-        ms: init_ms,
-        detail: format!("{} (in parallel)", renderer.adapter_info()),
-    });
+    let mut renderer = join_renderer(renderer_thread)?;
     let png = render_and_write(&mut renderer, &mesh, &args.view, &args.output)?;
     write_atomic(&args.output, &png)?;
     print_stage(&Stage {
@@ -409,10 +424,7 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     let ctx = || image_path.display().to_string();
 
     // The GPU device and pipelines are independent of the face: start them now.
-    let renderer_thread = std::thread::spawn(|| {
-        let t = Instant::now();
-        Renderer::new_headless().map(|r| (r, t.elapsed().as_secs_f64() * 1e3))
-    });
+    let renderer_thread = spawn_renderer();
 
     let mut stages = Vec::new();
     let img = timed(
@@ -449,15 +461,7 @@ fn photo(args: &PhotoArgs) -> Result<()> {
         print_stage(s);
     }
 
-    let (mut renderer, init_ms) = renderer_thread
-        .join()
-        .map_err(|_| anyhow!("the renderer thread panicked"))?
-        .context("starting the renderer")?;
-    print_stage(&Stage {
-        name: "gpu init",
-        ms: init_ms,
-        detail: format!("{} (in parallel)", renderer.adapter_info()),
-    });
+    let mut renderer = join_renderer(renderer_thread)?;
     let png = render_and_write(&mut renderer, &mesh, &args.view, &args.output)?;
     let t = Instant::now();
     // Everything succeeded: now write, so a failure above leaves no output behind.

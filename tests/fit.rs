@@ -84,23 +84,7 @@ fn synthetic(shape: &[f32], expr: &[f32], yaw_deg: f64, scale: f64) -> (Vec<[f32
     (lm, m.instance(shape, expr))
 }
 
-/// RMS distance (mm) between two meshes after removing the mean offset.
-fn rms_mm(a: &[f32], b: &[f32]) -> f64 {
-    let n = a.len() / 3;
-    let mut off = [0f64; 3];
-    for i in 0..n {
-        for k in 0..3 {
-            off[k] += (a[3 * i + k] - b[3 * i + k]) as f64 / n as f64;
-        }
-    }
-    let mut s = 0.0;
-    for i in 0..n {
-        for k in 0..3 {
-            s += ((a[3 * i + k] - b[3 * i + k]) as f64 - off[k]).powi(2);
-        }
-    }
-    (s / n as f64).sqrt()
-}
+use fit::mesh_rms_mm as rms_mm;
 
 #[test]
 fn synthetic_faces_are_recovered_better_than_the_mean_face() {

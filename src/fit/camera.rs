@@ -8,6 +8,7 @@
 
 use nalgebra::{Matrix2x3, Matrix3, Matrix6, Rotation3, Vector2, Vector3, Vector6};
 
+use super::pose::damped_gauss_newton;
 use super::{FitError, Pose, nearest_rotation};
 
 /// What the fitting loop needs from a camera.
@@ -157,16 +158,13 @@ pub fn refine_perspective(
             .map(|(x, u)| (p.project_up(x) - u).norm_squared())
             .sum()
     };
-    let mut best = start;
-    let mut best_cost = cost(&start);
-    for _ in 0..iterations {
+    let normal = |p: &PerspectivePose| {
         let mut jtj = Matrix6::<f64>::zeros();
         let mut jtr = Vector6::<f64>::zeros();
         for (x, u) in model.iter().zip(image_up) {
-            let rx = best.rotation * x;
-            let c = rx + best.translation;
-            let dproj = best.projection_derivative(&c);
-            let res = best.project_up(x) - u;
+            let rx = p.rotation * x;
+            let dproj = p.projection_derivative(&(rx + p.translation));
+            let res = p.project_up(x) - u;
             // d(c)/d(w) = -[R x]_x for a rotation increment applied on the left; d(c)/d(t) = I.
             let skew = Matrix3::new(0.0, rx.z, -rx.y, -rx.z, 0.0, rx.x, rx.y, -rx.x, 0.0);
             let jw = dproj * skew;
@@ -183,35 +181,18 @@ pub fn refine_perspective(
                 jtr += j * res[row];
             }
         }
-        let damping = 1e-6 * jtj.trace().max(1e-12);
-        let Some(step) = (jtj + Matrix6::identity() * damping)
-            .cholesky()
-            .map(|c| c.solve(&(-jtr)))
-        else {
-            break;
-        };
-        let w = Vector3::new(step[0], step[1], step[2]);
+        (jtj, jtr)
+    };
+    let step = |p: &PerspectivePose, d: &Vector6<f64>| {
+        let w = Vector3::new(d[0], d[1], d[2]);
         let candidate = PerspectivePose {
-            rotation: nearest_rotation(&(Rotation3::new(w).into_inner() * best.rotation)),
-            translation: best.translation + Vector3::new(step[3], step[4], step[5]),
-            intrinsics: best.intrinsics,
+            rotation: nearest_rotation(&(Rotation3::new(w).into_inner() * p.rotation)),
+            translation: p.translation + Vector3::new(d[3], d[4], d[5]),
+            intrinsics: p.intrinsics,
         };
-        if candidate.depth_mm() <= MIN_DEPTH_MM {
-            break;
-        }
-        let c = cost(&candidate);
-        // A NaN cost stops the search too.
-        #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        if !(c < best_cost) {
-            break;
-        }
-        let gain = best_cost - c;
-        best = candidate;
-        best_cost = c;
-        if gain < 1e-10 * (1.0 + c) {
-            break;
-        }
-    }
+        (candidate.depth_mm() > MIN_DEPTH_MM).then_some(candidate)
+    };
+    let (best, best_cost) = damped_gauss_newton(start, iterations, cost, normal, step);
     if !(best.depth_mm() > MIN_DEPTH_MM && best_cost.is_finite()) {
         return Err(FitError::Degenerate(
             "the face would be behind the camera".into(),

@@ -177,6 +177,28 @@ impl SurreyModel {
     }
 }
 
+/// RMS distance (mm) between corresponding vertices of two meshes (`[x0, y0, z0, ...]`) after
+/// removing their mean offset: the 3D error of a fit against a known face.
+pub fn mesh_rms_mm(a: &[f32], b: &[f32]) -> f64 {
+    let n = (a.len().min(b.len()) / 3).max(1);
+    let mut offset = [0f64; 3];
+    for (p, q) in a.chunks_exact(3).zip(b.chunks_exact(3)) {
+        for k in 0..3 {
+            offset[k] += (p[k] - q[k]) as f64 / n as f64;
+        }
+    }
+    let sum: f64 = a
+        .chunks_exact(3)
+        .zip(b.chunks_exact(3))
+        .map(|(p, q)| {
+            (0..3)
+                .map(|k| ((p[k] - q[k]) as f64 - offset[k]).powi(2))
+                .sum::<f64>()
+        })
+        .sum();
+    (sum / n as f64).sqrt()
+}
+
 /// Fits pose, identity and expression to 68 landmarks (see the module doc for frames and units).
 pub fn fit(
     model: &SurreyModel,
@@ -436,21 +458,19 @@ fn run_loop<C: Camera>(
         mut expression,
     } = start;
     let mut cache = BoundaryCache::default();
+    // Correspondences for the current state, then the camera for them.
+    let mut camera_step = |pose: &C, shape: &[f32], expression: &[f32], polish: bool| {
+        let corr = outline_correspondences(
+            model, landmarks, mapped, pose, shape, expression, opts, &mut cache,
+        );
+        estimate(pose, &corr, shape, expression, polish).map(|pose| (corr, pose))
+    };
     let mut last_error = f64::INFINITY;
     let mut iterations = 0;
     for _ in 0..opts.iterations {
         iterations += 1;
-        let corr = outline_correspondences(
-            model,
-            landmarks,
-            mapped,
-            &pose,
-            &shape,
-            &expression,
-            opts,
-            &mut cache,
-        );
-        pose = estimate(&pose, &corr, &shape, &expression, false)?;
+        let (corr, next) = camera_step(&pose, &shape, &expression, false)?;
+        pose = next;
         expression = fit_expressions(model, &corr, &pose, &shape, &expression, closed_lips, opts)?;
         if !hold_identity {
             shape = fit_shape(model, &corr, &pose, &shape, &expression, closed_lips, opts)?;
@@ -466,17 +486,7 @@ fn run_loop<C: Camera>(
             break;
         }
     }
-    let corr = outline_correspondences(
-        model,
-        landmarks,
-        mapped,
-        &pose,
-        &shape,
-        &expression,
-        opts,
-        &mut cache,
-    );
-    pose = estimate(&pose, &corr, &shape, &expression, true)?;
+    pose = camera_step(&pose, &shape, &expression, true)?.1;
     let (mean, max) = reprojection(model, mapped, &pose, &shape, &expression);
     let finite = mean.is_finite()
         && pose.scale().is_finite()

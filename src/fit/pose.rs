@@ -151,50 +151,31 @@ pub fn nearest_rotation(m: &Matrix3<f64>) -> Matrix3<f64> {
     r
 }
 
-/// Gauss-Newton on rotation, scale and translation, minimising the weighted reprojection error.
-/// Starts from `pose`; stops when the step is tiny. Never returns a worse pose than it was given.
-pub fn refine(
-    pose: Pose,
-    model: &[Vector3<f64>],
-    image_up: &[Vector2<f64>],
+/// Levenberg-damped Gauss-Newton over six parameters, shared by the cameras' pose polish.
+/// `normal` gives `(J^T J, J^T r)` at a point, `step` applies a parameter increment (or refuses
+/// it), `cost` scores a point. Stops at the first step that does not lower the cost (so the
+/// result is never worse than `start`), at a negligible gain, or after `iterations`.
+pub(crate) fn damped_gauss_newton<P: Copy>(
+    start: P,
     iterations: usize,
-) -> Pose {
-    let cost = |p: &Pose| -> f64 {
-        model
-            .iter()
-            .zip(image_up)
-            .map(|(x, u)| (p.project_up(x) - u).norm_squared())
-            .sum()
-    };
-    let mut best = pose;
-    let mut best_cost = cost(&pose);
+    cost: impl Fn(&P) -> f64,
+    normal: impl Fn(&P) -> (Matrix6<f64>, Vector6<f64>),
+    step: impl Fn(&P, &Vector6<f64>) -> Option<P>,
+) -> (P, f64) {
+    let mut best = start;
+    let mut best_cost = cost(&start);
     for _ in 0..iterations {
-        // Parameters: rotation increment w (left-multiplied), log-scale, translation.
-        let mut jtj = Matrix6::<f64>::zeros();
-        let mut jtr = Vector6::<f64>::zeros();
-        for (x, u) in model.iter().zip(image_up) {
-            let rx = best.rotation * x;
-            let proj = Vector2::new(best.scale * rx.x, best.scale * rx.y) + best.translation;
-            let res = proj - u;
-            // d(R x)/dw = -[R x]_x ; rows 0 and 1 only.
-            let s = best.scale;
-            let jx = Vector6::new(0.0, s * rx.z, -s * rx.y, s * rx.x, 1.0, 0.0);
-            let jy = Vector6::new(-s * rx.z, 0.0, s * rx.x, s * rx.y, 0.0, 1.0);
-            jtj += jx * jx.transpose() + jy * jy.transpose();
-            jtr += jx * res.x + jy * res.y;
-        }
+        let (jtj, jtr) = normal(&best);
         // Levenberg damping keeps the step sane when the problem is poorly conditioned.
         let damping = 1e-6 * jtj.trace().max(1e-12);
-        let a = jtj + Matrix6::identity() * damping;
-        let Some(step) = a.cholesky().map(|c| c.solve(&(-jtr))) else {
+        let Some(delta) = (jtj + Matrix6::identity() * damping)
+            .cholesky()
+            .map(|c| c.solve(&(-jtr)))
+        else {
             break;
         };
-        let w = Vector3::new(step[0], step[1], step[2]);
-        let rot = Rotation3::new(w).into_inner() * best.rotation;
-        let candidate = Pose {
-            rotation: nearest_rotation(&rot),
-            scale: best.scale * step[3].clamp(-0.5, 0.5).exp(),
-            translation: best.translation + Vector2::new(step[4], step[5]),
+        let Some(candidate) = step(&best, &delta) else {
+            break;
         };
         let c = cost(&candidate);
         // A NaN cost stops the search too.
@@ -209,5 +190,47 @@ pub fn refine(
             break;
         }
     }
-    best
+    (best, best_cost)
+}
+
+/// Gauss-Newton on rotation, scale and translation, minimising the reprojection error.
+/// Starts from `pose`; never returns a worse pose than it was given.
+pub fn refine(
+    pose: Pose,
+    model: &[Vector3<f64>],
+    image_up: &[Vector2<f64>],
+    iterations: usize,
+) -> Pose {
+    let cost = |p: &Pose| -> f64 {
+        model
+            .iter()
+            .zip(image_up)
+            .map(|(x, u)| (p.project_up(x) - u).norm_squared())
+            .sum()
+    };
+    // Parameters: rotation increment w (left-multiplied), log-scale, translation.
+    let normal = |p: &Pose| {
+        let mut jtj = Matrix6::<f64>::zeros();
+        let mut jtr = Vector6::<f64>::zeros();
+        for (x, u) in model.iter().zip(image_up) {
+            let rx = p.rotation * x;
+            let res = Vector2::new(p.scale * rx.x, p.scale * rx.y) + p.translation - u;
+            // d(R x)/dw = -[R x]_x ; rows 0 and 1 only.
+            let s = p.scale;
+            let jx = Vector6::new(0.0, s * rx.z, -s * rx.y, s * rx.x, 1.0, 0.0);
+            let jy = Vector6::new(-s * rx.z, 0.0, s * rx.x, s * rx.y, 0.0, 1.0);
+            jtj += jx * jx.transpose() + jy * jy.transpose();
+            jtr += jx * res.x + jy * res.y;
+        }
+        (jtj, jtr)
+    };
+    let step = |p: &Pose, d: &Vector6<f64>| {
+        let w = Vector3::new(d[0], d[1], d[2]);
+        Some(Pose {
+            rotation: nearest_rotation(&(Rotation3::new(w).into_inner() * p.rotation)),
+            scale: p.scale * d[3].clamp(-0.5, 0.5).exp(),
+            translation: p.translation + Vector2::new(d[4], d[5]),
+        })
+    };
+    damped_gauss_newton(pose, iterations, cost, normal, step).0
 }
