@@ -283,6 +283,27 @@ fn check_output_dirs<'a>(outputs: impl IntoIterator<Item = &'a PathBuf>) -> Resu
     Ok(())
 }
 
+/// Builds the cameo around a face mesh (model mm), as a timed stage.
+fn build_gem(
+    stages: &mut Vec<Stage>,
+    face: &[f32],
+    triangles: &[[u32; 3]],
+) -> Result<glyptic::render::Mesh> {
+    let mesh = timed(
+        stages,
+        "gem",
+        || gem::build_cameo(face, triangles, &CameoParams::default()),
+        |m| {
+            format!(
+                "{} vertices, {} triangles",
+                m.vertices.len(),
+                m.indices.len() / 3
+            )
+        },
+    )?;
+    Ok(mesh)
+}
+
 /// Starts the GPU device and pipelines on another thread: they do not depend on the face, so
 /// they come up while the photo is decoded and fitted.
 fn spawn_renderer() -> std::thread::JoinHandle<Result<(Renderer, f64), glyptic::render::RenderError>>
@@ -349,18 +370,7 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
         |m| format!("{} vertices (mean face)", m.shape.num_vertices()),
     )?;
     let mean = model.instance(&[], &[]);
-    let mesh = timed(
-        &mut stages,
-        "gem",
-        || gem::build_cameo(&mean, &model.shape.triangles, &CameoParams::default()),
-        |m| {
-            format!(
-                "{} vertices, {} triangles",
-                m.vertices.len(),
-                m.indices.len() / 3
-            )
-        },
-    )?;
+    let mesh = build_gem(&mut stages, &mean, &model.shape.triangles)?;
     stages.iter().for_each(print_stage);
     let mut renderer = join_renderer(renderer_thread)?;
     let png = render_and_write(&mut renderer, &mesh, &args.view, &args.output)?;
@@ -442,21 +452,7 @@ fn photo(args: &PhotoArgs) -> Result<()> {
         &mut stages,
     )?;
     let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
-    let mut gem_stages = Vec::new();
-    let params = CameoParams::default();
-    let mesh = timed(
-        &mut gem_stages,
-        "gem",
-        || gem::build_cameo(&face.mesh, &pipeline.model.shape.triangles, &params),
-        |m| {
-            format!(
-                "{} vertices, {} triangles",
-                m.vertices.len(),
-                m.indices.len() / 3
-            )
-        },
-    )?;
-    stages.extend(gem_stages);
+    let mesh = build_gem(&mut stages, &face.mesh, &pipeline.model.shape.triangles)?;
     for s in &stages[1..] {
         print_stage(s);
     }
