@@ -243,6 +243,10 @@ fn fit_landmarks(args: &FitArgs) -> Result<()> {
         let out = serde_json::json!({
             "yaw_deg": yaw, "pitch_deg": pitch, "roll_deg": roll,
             "scale_px_per_mm": fit.pose.scale,
+            // Where the model origin projects, image pixels (x right, y down): with the rotation
+            // and scale this is the whole orthographic camera.
+            "translation_px": [fit.pose.translation.x, -fit.pose.translation.y],
+            "rotation": (0..3).map(|r| (0..3).map(|c| fit.pose.rotation[(r, c)]).collect::<Vec<f64>>()).collect::<Vec<_>>(),
             "shape": fit.shape, "expression": fit.expression,
             "expression_names": model.blendshapes.names,
             "reprojection_px": fit.reprojection_px, "max_reprojection_px": fit.max_reprojection_px,
