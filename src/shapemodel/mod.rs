@@ -324,17 +324,20 @@ impl SurreyModel {
     }
 }
 
+/// Maps a byte-level error to one naming the file and the field being read.
+fn binary_error<'a>(file: &'a str, field: &'static str) -> impl Fn(CerealError) -> ModelError + 'a {
+    move |source| ModelError::Binary {
+        file: file.to_string(),
+        field,
+        source,
+    }
+}
+
 /// Parses eos's `MorphableModel` (cereal portable binary, class version 1): shape PCA model,
 /// an (empty) colour model and texture coordinates.
 pub fn parse_shape_model(bytes: &[u8], file: &str) -> Result<ShapeModel, ModelError> {
     let mut r = cereal::Reader::new(bytes);
-    let bin = |field: &'static str| {
-        move |source: CerealError| ModelError::Binary {
-            file: file.to_string(),
-            field,
-            source,
-        }
-    };
+    let bin = |field: &'static str| binary_error(file, field);
     let version = r.u32().map_err(bin("class version"))?;
     if version != 1 {
         return Err(ModelError::invalid(
@@ -435,13 +438,7 @@ pub fn parse_shape_model(bytes: &[u8], file: &str) -> Result<ShapeModel, ModelEr
 /// Parses eos's expression blendshapes: a vector of (name, 3N x 1 offset).
 pub fn parse_blendshapes(bytes: &[u8], file: &str) -> Result<Blendshapes, ModelError> {
     let mut r = cereal::Reader::new(bytes);
-    let bin = |field: &'static str| {
-        move |source: CerealError| ModelError::Binary {
-            file: file.to_string(),
-            field,
-            source,
-        }
-    };
+    let bin = |field: &'static str| binary_error(file, field);
     // Each blendshape needs at least a name length and two dims: bounds the count.
     let count = r.len_prefix(16).map_err(bin("count"))?;
     if count == 0 {
