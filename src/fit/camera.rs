@@ -6,7 +6,7 @@
 //! the origin looking along -z (so a visible point has z < 0, depth `d = -z`). Image points in
 //! the y-up frame `(x, -y)`, pixels.
 
-use nalgebra::{Matrix2x3, Matrix3, Matrix6, Rotation3, Vector2, Vector3, Vector6};
+use nalgebra::{Matrix2x3, Matrix2x6, Matrix3, Matrix6, Rotation3, Vector2, Vector3, Vector6};
 
 use super::pose::damped_gauss_newton;
 use super::{FitError, Pose, nearest_rotation};
@@ -21,6 +21,19 @@ pub trait Camera {
     fn rotation(&self) -> &Matrix3<f64>;
     /// Pixels per model millimetre at the face (weights and distance thresholds).
     fn scale(&self) -> f64;
+    /// Derivative of [`Camera::project_up`] at model point `x` with respect to the camera's six
+    /// parameters, in the order [`Camera::update`] takes them.
+    fn parameter_jacobian(&self, x: &Vector3<f64>) -> Matrix2x6<f64>;
+    /// The camera moved by a parameter increment (rotation increment first, applied on the
+    /// left), or `None` if the result is not a valid camera.
+    fn update(&self, delta: &Vector6<f64>) -> Option<Self>
+    where
+        Self: Sized;
+}
+
+/// `-[v]_x`: the derivative of `exp([w]_x) v` with respect to `w` at `w = 0`.
+fn neg_skew(v: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, v.z, -v.y, -v.z, 0.0, v.x, v.y, -v.x, 0.0)
 }
 
 impl Camera for Pose {
@@ -46,6 +59,36 @@ impl Camera for Pose {
 
     fn scale(&self) -> f64 {
         self.scale
+    }
+
+    /// Parameters: rotation increment (3), log-scale, translation (2).
+    fn parameter_jacobian(&self, x: &Vector3<f64>) -> Matrix2x6<f64> {
+        let rx = self.rotation * x;
+        let s = self.scale;
+        Matrix2x6::new(
+            0.0,
+            s * rx.z,
+            -s * rx.y,
+            s * rx.x,
+            1.0,
+            0.0,
+            -s * rx.z,
+            0.0,
+            s * rx.x,
+            s * rx.y,
+            0.0,
+            1.0,
+        )
+    }
+
+    fn update(&self, d: &Vector6<f64>) -> Option<Self> {
+        let w = Vector3::new(d[0], d[1], d[2]);
+        let pose = Pose {
+            rotation: nearest_rotation(&(Rotation3::new(w).into_inner() * self.rotation)),
+            scale: self.scale * d[3].clamp(-0.5, 0.5).exp(),
+            translation: self.translation + Vector2::new(d[4], d[5]),
+        };
+        (pose.scale.is_finite() && pose.scale > 0.0).then_some(pose)
     }
 }
 
@@ -140,6 +183,24 @@ impl Camera for PerspectivePose {
     fn scale(&self) -> f64 {
         self.intrinsics.focal_px / self.depth_mm().max(MIN_DEPTH_MM)
     }
+
+    /// Parameters: rotation increment (3), translation (3, mm).
+    fn parameter_jacobian(&self, x: &Vector3<f64>) -> Matrix2x6<f64> {
+        let rx = self.rotation * x;
+        let dproj = self.projection_derivative(&(rx + self.translation));
+        let jw = dproj * neg_skew(&rx);
+        Matrix2x6::from_fn(|r, c| if c < 3 { jw[(r, c)] } else { dproj[(r, c - 3)] })
+    }
+
+    fn update(&self, d: &Vector6<f64>) -> Option<Self> {
+        let w = Vector3::new(d[0], d[1], d[2]);
+        let candidate = PerspectivePose {
+            rotation: nearest_rotation(&(Rotation3::new(w).into_inner() * self.rotation)),
+            translation: self.translation + Vector3::new(d[3], d[4], d[5]),
+            intrinsics: self.intrinsics,
+        };
+        (candidate.depth_mm() > MIN_DEPTH_MM).then_some(candidate)
+    }
 }
 
 /// Gauss-Newton (Levenberg-damped) on rotation and translation of a perspective camera,
@@ -162,36 +223,14 @@ pub fn refine_perspective(
         let mut jtj = Matrix6::<f64>::zeros();
         let mut jtr = Vector6::<f64>::zeros();
         for (x, u) in model.iter().zip(image_up) {
-            let rx = p.rotation * x;
-            let dproj = p.projection_derivative(&(rx + p.translation));
+            let j = p.parameter_jacobian(x);
             let res = p.project_up(x) - u;
-            // d(c)/d(w) = -[R x]_x for a rotation increment applied on the left; d(c)/d(t) = I.
-            let skew = Matrix3::new(0.0, rx.z, -rx.y, -rx.z, 0.0, rx.x, rx.y, -rx.x, 0.0);
-            let jw = dproj * skew;
-            for row in 0..2 {
-                let j = Vector6::new(
-                    jw[(row, 0)],
-                    jw[(row, 1)],
-                    jw[(row, 2)],
-                    dproj[(row, 0)],
-                    dproj[(row, 1)],
-                    dproj[(row, 2)],
-                );
-                jtj += j * j.transpose();
-                jtr += j * res[row];
-            }
+            jtj += j.transpose() * j;
+            jtr += j.transpose() * res;
         }
         (jtj, jtr)
     };
-    let step = |p: &PerspectivePose, d: &Vector6<f64>| {
-        let w = Vector3::new(d[0], d[1], d[2]);
-        let candidate = PerspectivePose {
-            rotation: nearest_rotation(&(Rotation3::new(w).into_inner() * p.rotation)),
-            translation: p.translation + Vector3::new(d[3], d[4], d[5]),
-            intrinsics: p.intrinsics,
-        };
-        (candidate.depth_mm() > MIN_DEPTH_MM).then_some(candidate)
-    };
+    let step = |p: &PerspectivePose, d: &Vector6<f64>| p.update(d);
     let (best, best_cost) = damped_gauss_newton(start, iterations, cost, normal, step);
     if !(best.depth_mm() > MIN_DEPTH_MM && best_cost.is_finite()) {
         return Err(FitError::Degenerate(

@@ -6,7 +6,7 @@
 
 use nalgebra::{Matrix3, Matrix6, Rotation3, SVD, Vector2, Vector3, Vector6};
 
-use super::FitError;
+use super::{Camera, FitError};
 
 /// Smallest ratio of the affine camera's two singular values that we accept: below it the
 /// landmarks are (nearly) collinear and no rotation can be recovered from them.
@@ -208,29 +208,18 @@ pub fn refine(
             .map(|(x, u)| (p.project_up(x) - u).norm_squared())
             .sum()
     };
-    // Parameters: rotation increment w (left-multiplied), log-scale, translation.
+    // Parameters: rotation increment (left-multiplied), log-scale, translation.
     let normal = |p: &Pose| {
         let mut jtj = Matrix6::<f64>::zeros();
         let mut jtr = Vector6::<f64>::zeros();
         for (x, u) in model.iter().zip(image_up) {
-            let rx = p.rotation * x;
-            let res = Vector2::new(p.scale * rx.x, p.scale * rx.y) + p.translation - u;
-            // d(R x)/dw = -[R x]_x ; rows 0 and 1 only.
-            let s = p.scale;
-            let jx = Vector6::new(0.0, s * rx.z, -s * rx.y, s * rx.x, 1.0, 0.0);
-            let jy = Vector6::new(-s * rx.z, 0.0, s * rx.x, s * rx.y, 0.0, 1.0);
-            jtj += jx * jx.transpose() + jy * jy.transpose();
-            jtr += jx * res.x + jy * res.y;
+            let j = p.parameter_jacobian(x);
+            let res = p.project_up(x) - u;
+            jtj += j.transpose() * j;
+            jtr += j.transpose() * res;
         }
         (jtj, jtr)
     };
-    let step = |p: &Pose, d: &Vector6<f64>| {
-        let w = Vector3::new(d[0], d[1], d[2]);
-        Some(Pose {
-            rotation: nearest_rotation(&(Rotation3::new(w).into_inner() * p.rotation)),
-            scale: p.scale * d[3].clamp(-0.5, 0.5).exp(),
-            translation: p.translation + Vector2::new(d[4], d[5]),
-        })
-    };
+    let step = |p: &Pose, d: &Vector6<f64>| p.update(d);
     damped_gauss_newton(pose, iterations, cost, normal, step).0
 }
