@@ -73,6 +73,7 @@ fn block_products_generic(packed: &[f64], rows: usize, n: usize, g: &mut [f64]) 
 }
 
 /// Dot product with four partial sums, so it vectorises.
+#[inline(always)]
 fn dot(x: &[f64], y: &[f64]) -> f64 {
     let n = x.len().min(y.len());
     let (x, y) = (&x[..n], &y[..n]);
@@ -95,6 +96,22 @@ fn dot(x: &[f64], y: &[f64]) -> f64 {
 /// Cholesky factorisation in place: the lower triangle of the row-major `n x n` matrix `m`
 /// becomes `L` with `M = L L^T`. `false` if `M` is not numerically positive definite.
 pub(crate) fn cholesky(m: &mut [f64], n: usize) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU supports the features this function is compiled for (checked above).
+        return unsafe { cholesky_avx2(m, n) };
+    }
+    cholesky_generic(m, n)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn cholesky_avx2(m: &mut [f64], n: usize) -> bool {
+    cholesky_generic(m, n)
+}
+
+#[inline(always)]
+fn cholesky_generic(m: &mut [f64], n: usize) -> bool {
     debug_assert_eq!(m.len(), n * n);
     // L[i][j] = (M[i][j] - L[i][..j] . L[j][..j]) / L[j][j].
     for i in 0..n {

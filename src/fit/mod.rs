@@ -954,7 +954,9 @@ fn joint_step<C: Camera + Clone>(
     // Expressions at their bound (0) that the step would push below it are held there (active
     // set) and the step is solved again: a step computed with them free and then clipped loses
     // the coupled identity change that went with it, and can be far worse than no step.
-    let mut active = vec![false; n_expr];
+    let mut active: Vec<bool> = (0..n_expr)
+        .map(|e| expr[e] <= 1e-6 && grad[6 + n_shape + e] <= 0.0)
+        .collect();
     let mut m = Vec::new();
     let mut solved = None;
     for _ in 0..=n_expr {
