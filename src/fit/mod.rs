@@ -4,12 +4,16 @@
 //! detected" and is left out. Output: a scaled-orthographic pose, 63 shape coefficients (in units
 //! of standard deviations), non-negative expression weights, and the reprojection error.
 //!
-//! Each iteration: contour correspondences for the side of the face turned to the camera,
-//! pose (linear estimate + Gauss-Newton polish), expressions (non-negative least squares), then
-//! identity (regularised linear least squares on the eigenvalue-scaled basis). Residuals are
-//! divided by the camera scale, i.e. measured in model millimetres, so the prior weight does not
-//! depend on how many pixels the face covers (eos weighs pixels, so its prior is stronger on
-//! small faces than on large ones).
+//! Each iteration first updates the outline correspondences (contour landmarks on the side
+//! turned to the camera, occluding edges on the other). The first iteration then does what eos
+//! does, block by block: linear pose, expressions (non-negative least squares), identity
+//! (regularised linear least squares on the eigenvalue-scaled basis). Later iterations take one
+//! joint Levenberg-Marquardt step on camera, identity and expressions, which follows the valley
+//! where head turn and face shape trade off instead of crawling along it. Residuals are divided
+//! by the camera scale, i.e. measured in model millimetres, and weighted by the landmark noise,
+//! which is estimated from the residuals themselves; with the identity prior N(0, 1) at weight
+//! 1 this is the Bayesian (MAP) balance, whatever the face's size in pixels and however good the
+//! landmarks are (eos weighs pixels with a fixed prior, so the balance moves with both).
 //!
 //! All of this is pure computation on [`SurreyModel`]: no I/O, no allocation proportional to
 //! the mesh until [`SurreyModel::instance`] is called for the full face.
@@ -62,12 +66,14 @@ pub struct FitOptions {
     pub iterations: usize,
     /// Shape coefficients to fit (at most the model's 63).
     pub shape_coefficients: usize,
-    /// Weight of the identity prior (coefficients ~ N(0, 1)). 10 gave the lowest 3D error on
-    /// synthetic faces with 0-6 px landmark noise (eos uses 30-50 on pixel residuals).
+    /// Weight of the identity prior (coefficients ~ N(0, 1)) against landmark residuals in
+    /// units of their noise: 1 is the Bayesian value, and gave the lowest 3D error on synthetic
+    /// faces (`cargo run --release --example fit_floor`; eos uses 30-50 on pixel residuals).
     pub lambda_shape: f64,
     /// Weight of a small ridge on the expressions, keeping them bounded with few landmarks.
     pub lambda_expression: f64,
-    /// Landmark noise standard deviation, in model millimetres.
+    /// Landmark noise standard deviation, in model millimetres (the starting value when
+    /// `estimate_noise` is on).
     pub sigma_mm: f64,
     /// Use contour landmarks (face outline, iBUG 1-8 and 10-17).
     pub contour: bool,
