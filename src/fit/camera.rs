@@ -6,7 +6,7 @@
 //! the origin looking along -z (so a visible point has z < 0, depth `d = -z`). Image points in
 //! the y-up frame `(x, -y)`, pixels.
 
-use nalgebra::{Matrix2x3, Matrix2x6, Matrix3, Matrix6, Rotation3, Vector2, Vector3, Vector6};
+use nalgebra::{Matrix2x3, Matrix2x6, Matrix3, Rotation3, Vector2, Vector3, Vector6};
 
 use super::pose::damped_gauss_newton;
 use super::{FitError, Pose, nearest_rotation};
@@ -212,26 +212,7 @@ pub fn refine_perspective(
     image_up: &[Vector2<f64>],
     iterations: usize,
 ) -> Result<PerspectivePose, FitError> {
-    let cost = |p: &PerspectivePose| -> f64 {
-        model
-            .iter()
-            .zip(image_up)
-            .map(|(x, u)| (p.project_up(x) - u).norm_squared())
-            .sum()
-    };
-    let normal = |p: &PerspectivePose| {
-        let mut jtj = Matrix6::<f64>::zeros();
-        let mut jtr = Vector6::<f64>::zeros();
-        for (x, u) in model.iter().zip(image_up) {
-            let j = p.parameter_jacobian(x);
-            let res = p.project_up(x) - u;
-            jtj += j.transpose() * j;
-            jtr += j.transpose() * res;
-        }
-        (jtj, jtr)
-    };
-    let step = |p: &PerspectivePose, d: &Vector6<f64>| p.update(d);
-    let (best, best_cost) = damped_gauss_newton(start, iterations, cost, normal, step);
+    let (best, best_cost) = damped_gauss_newton(start, model, image_up, iterations);
     if !(best.depth_mm() > MIN_DEPTH_MM && best_cost.is_finite()) {
         return Err(FitError::Degenerate(
             "the face would be behind the camera".into(),

@@ -476,22 +476,16 @@ fn run_loop<C: Camera + Clone>(
         mut expression,
     } = start;
     let mut cache = BoundaryCache::default();
+    let correspondences = |pose: &C, shape: &[f32], expr: &[f32], cache: &mut BoundaryCache| {
+        outline_correspondences(model, landmarks, mapped, pose, shape, expr, opts, cache)
+    };
     let mut last_error = f64::INFINITY;
     let mut iterations = 0;
     let mut damping = 1e-3;
     let mut sigma_mm = opts.sigma_mm;
     for it in 0..opts.iterations {
         iterations += 1;
-        let corr = outline_correspondences(
-            model,
-            landmarks,
-            mapped,
-            &pose,
-            &shape,
-            &expression,
-            opts,
-            &mut cache,
-        );
+        let corr = correspondences(&pose, &shape, &expression, &mut cache);
         let mut settled = false;
         if opts.joint && it > 0 {
             let (next, converged) = joint_step(
@@ -531,16 +525,7 @@ fn run_loop<C: Camera + Clone>(
             break;
         }
     }
-    let corr = outline_correspondences(
-        model,
-        landmarks,
-        mapped,
-        &pose,
-        &shape,
-        &expression,
-        opts,
-        &mut cache,
-    );
+    let corr = correspondences(&pose, &shape, &expression, &mut cache);
     pose = estimate(&pose, &corr, &shape, &expression, true)?;
     let (mean, max) = reprojection(model, mapped, &pose, &shape, &expression);
     let finite = mean.is_finite()
@@ -830,15 +815,19 @@ impl Objective<'_> {
         (e, count)
     }
 
-    fn value<C: Camera>(&self, camera: &C, shape: &[f32], expression: &[f32]) -> f64 {
-        let mut e = self.weight * self.landmark_residuals(camera, shape, expression).0;
+    /// The objective, with the landmark residuals it was made of (see `landmark_residuals`).
+    fn value<C: Camera>(&self, camera: &C, shape: &[f32], expression: &[f32]) -> (f64, f64, usize) {
+        let (rss, count) = self.landmark_residuals(camera, shape, expression);
+        let mut e = self.weight * rss;
         for &(u, l) in self.closed_lips {
             let gap =
                 self.model.vertex(u, shape, expression) - self.model.vertex(l, shape, expression);
             e += self.weight_lips * gap.norm_squared();
         }
-        e + self.lambda_shape * shape.iter().map(|&a| (a as f64).powi(2)).sum::<f64>()
-            + self.lambda_expression * expression.iter().map(|&b| (b as f64).powi(2)).sum::<f64>()
+        let total = e
+            + self.lambda_shape * shape.iter().map(|&a| (a as f64).powi(2)).sum::<f64>()
+            + self.lambda_expression * expression.iter().map(|&b| (b as f64).powi(2)).sum::<f64>();
+        (total, rss, count)
     }
 }
 
@@ -947,16 +936,25 @@ fn joint_step<C: Camera + Clone>(
         }
     }
     let (mut gram, mut grad) = weighted_gram(&a, &t, 1.0);
-    // The priors: gradient of lambda |c|^2 at the current coefficients, and their curvature.
-    for k in 0..n_shape {
-        grad[6 + k] -= opts.lambda_shape * shape[k] as f64;
-        gram[(6 + k, 6 + k)] += opts.lambda_shape;
+    // The priors' weights per parameter (none on the camera), their gradient at the current
+    // coefficients and their curvature.
+    let prior: Vec<f64> = (0..p)
+        .map(|k| match k {
+            k if k < 6 => 0.0,
+            k if k < 6 + n_shape => opts.lambda_shape,
+            _ => opts.lambda_expression,
+        })
+        .collect();
+    let coefficient = |k: usize| match k {
+        k if k < 6 => 0.0,
+        k if k < 6 + n_shape => shape[k - 6] as f64,
+        k => expr[k - 6 - n_shape] as f64,
+    };
+    for (k, w) in prior.iter().enumerate() {
+        grad[k] -= w * coefficient(k);
+        gram[(k, k)] += w;
     }
-    for k in 0..n_expr {
-        grad[6 + n_shape + k] -= opts.lambda_expression * expr[k] as f64;
-        gram[(6 + n_shape + k, 6 + n_shape + k)] += opts.lambda_expression;
-    }
-    let before = objective.value(&current.camera, shape, expr);
+    let before = objective.value(&current.camera, shape, expr).0;
     // Expressions at their bound (0) that the step would push below it are held there (active
     // set) and the step is solved again: a step computed with them free and then clipped loses
     // the coupled identity change that went with it, and can be far worse than no step.
@@ -1049,20 +1047,12 @@ fn joint_step<C: Camera + Clone>(
         let new_expr: Vec<f32> = (0..n_expr)
             .map(|k| (expr[k] as f64 + f * delta[6 + n_shape + k]).max(0.0) as f32)
             .collect();
-        let after = objective.value(&camera, &new_shape, &new_expr);
+        let (after, rss, count) = objective.value(&camera, &new_shape, &new_expr);
         if after < before {
-            if estimate_noise {
-                let prior: Vec<f64> = (0..p)
-                    .map(|k| match k {
-                        k if k < 6 => 0.0,
-                        k if k < 6 + n_shape => opts.lambda_shape,
-                        _ => opts.lambda_expression,
-                    })
-                    .collect();
-                let (rss, count) = objective.landmark_residuals(&camera, &new_shape, &new_expr);
-                if let Some(sigma) = noise_estimate(rss, count, camera.scale(), &m, &prior) {
-                    *sigma_mm = sigma;
-                }
+            if estimate_noise
+                && let Some(sigma) = noise_estimate(rss, count, camera.scale(), &m, &prior)
+            {
+                *sigma_mm = sigma;
             }
             *damping = if halvings == 0 {
                 (*damping * 0.3).max(1e-9)
@@ -1252,7 +1242,10 @@ fn outline_correspondences<C: Camera>(
 ) -> Vec<Correspondence> {
     let mut corr = mapped.to_vec();
     if opts.contour {
-        corr.extend(contour_correspondences(model, landmarks, pose, shape, expr));
+        let facing = side_facing(model, pose, shape, expr);
+        corr.extend(contour_correspondences(
+            model, landmarks, pose, shape, expr, facing,
+        ));
         if opts.occluding_edges {
             corr.extend(occluding_correspondences(
                 model,
@@ -1260,6 +1253,7 @@ fn outline_correspondences<C: Camera>(
                 pose,
                 shape,
                 expr,
+                facing,
                 opts.occluding_max_mm,
                 cache,
             ));
@@ -1288,16 +1282,18 @@ fn side_facing<C: Camera>(model: &SurreyModel, pose: &C, shape: &[f32], expr: &[
 
 /// Outline landmarks of the side turned away from the camera, each tied to the nearest
 /// visible occluding-boundary vertex if its projection lies within `max_mm`.
+#[allow(clippy::too_many_arguments)]
 fn occluding_correspondences<C: Camera>(
     model: &SurreyModel,
     landmarks: &[[f32; 2]],
     pose: &C,
     shape: &[f32],
     expr: &[f32],
+    facing: [f64; 2],
     max_mm: f64,
     cache: &mut BoundaryCache,
 ) -> Vec<Correspondence> {
-    let [right, left] = side_facing(model, pose, shape, expr);
+    let [right, left] = facing;
     let away = if right < left {
         &model.mapping.contour_right
     } else {
@@ -1378,10 +1374,10 @@ fn contour_correspondences<C: Camera>(
     pose: &C,
     shape: &[f32],
     expr: &[f32],
+    facing: [f64; 2],
 ) -> Vec<Correspondence> {
     let mut out = Vec::new();
     let max_away = (7.5f64).to_radians().sin();
-    let facing = side_facing(model, pose, shape, expr);
     let sides = [
         (&model.mapping.contour_right, &model.contour.right),
         (&model.mapping.contour_left, &model.contour.left),

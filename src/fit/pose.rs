@@ -151,21 +151,34 @@ pub fn nearest_rotation(m: &Matrix3<f64>) -> Matrix3<f64> {
     r
 }
 
-/// Levenberg-damped Gauss-Newton over six parameters, shared by the cameras' pose polish.
-/// `normal` gives `(J^T J, J^T r)` at a point, `step` applies a parameter increment (or refuses
-/// it), `cost` scores a point. Stops at the first step that does not lower the cost (so the
-/// result is never worse than `start`), at a negligible gain, or after `iterations`.
-pub(crate) fn damped_gauss_newton<P: Copy>(
-    start: P,
+/// Levenberg-damped Gauss-Newton on a camera's six parameters ([`Camera::update`]),
+/// minimising the squared reprojection error of `model` points onto `image_up`; shared by the
+/// cameras' pose polish. Stops at the first step that does not lower the cost (so the result
+/// is never worse than `start`), at a negligible gain, or after `iterations`. Returns the
+/// camera and its cost.
+pub(crate) fn damped_gauss_newton<C: Camera + Copy>(
+    start: C,
+    model: &[Vector3<f64>],
+    image_up: &[Vector2<f64>],
     iterations: usize,
-    cost: impl Fn(&P) -> f64,
-    normal: impl Fn(&P) -> (Matrix6<f64>, Vector6<f64>),
-    step: impl Fn(&P, &Vector6<f64>) -> Option<P>,
-) -> (P, f64) {
+) -> (C, f64) {
+    let cost = |p: &C| -> f64 {
+        model
+            .iter()
+            .zip(image_up)
+            .map(|(x, u)| (p.project_up(x) - u).norm_squared())
+            .sum()
+    };
     let mut best = start;
     let mut best_cost = cost(&start);
     for _ in 0..iterations {
-        let (jtj, jtr) = normal(&best);
+        let mut jtj = Matrix6::<f64>::zeros();
+        let mut jtr = Vector6::<f64>::zeros();
+        for (x, u) in model.iter().zip(image_up) {
+            let j = best.parameter_jacobian(x);
+            jtj += j.transpose() * j;
+            jtr += j.transpose() * (best.project_up(x) - u);
+        }
         // Levenberg damping keeps the step sane when the problem is poorly conditioned.
         let damping = 1e-6 * jtj.trace().max(1e-12);
         let Some(delta) = (jtj + Matrix6::identity() * damping)
@@ -174,7 +187,7 @@ pub(crate) fn damped_gauss_newton<P: Copy>(
         else {
             break;
         };
-        let Some(candidate) = step(&best, &delta) else {
+        let Some(candidate) = best.update(&delta) else {
             break;
         };
         let c = cost(&candidate);
@@ -201,25 +214,5 @@ pub fn refine(
     image_up: &[Vector2<f64>],
     iterations: usize,
 ) -> Pose {
-    let cost = |p: &Pose| -> f64 {
-        model
-            .iter()
-            .zip(image_up)
-            .map(|(x, u)| (p.project_up(x) - u).norm_squared())
-            .sum()
-    };
-    // Parameters: rotation increment (left-multiplied), log-scale, translation.
-    let normal = |p: &Pose| {
-        let mut jtj = Matrix6::<f64>::zeros();
-        let mut jtr = Vector6::<f64>::zeros();
-        for (x, u) in model.iter().zip(image_up) {
-            let j = p.parameter_jacobian(x);
-            let res = p.project_up(x) - u;
-            jtj += j.transpose() * j;
-            jtr += j.transpose() * res;
-        }
-        (jtj, jtr)
-    };
-    let step = |p: &Pose, d: &Vector6<f64>| p.update(d);
-    damped_gauss_newton(pose, iterations, cost, normal, step).0
+    damped_gauss_newton(pose, model, image_up, iterations).0
 }
