@@ -250,7 +250,7 @@ fn fit_landmarks(args: &FitArgs) -> Result<()> {
             "shape": fit.shape, "expression": fit.expression,
             "expression_names": model.blendshapes.names,
             "reprojection_px": fit.reprojection_px, "max_reprojection_px": fit.max_reprojection_px,
-            "mapped_landmarks": fit.mapped_landmarks,
+            "mapped_landmarks": fit.mapped_landmarks, "noise_mm": fit.noise_mm,
             "iterations": fit.iterations, "fit_ms": fit_ms, "load_ms": load_ms,
             "contour": !args.no_contour,
             "camera": if fit.perspective.is_some() { "perspective" } else { "orthographic" },
@@ -264,11 +264,12 @@ fn fit_landmarks(args: &FitArgs) -> Result<()> {
             model.shape.num_vertices()
         );
         println!(
-            "{:<16} {fit_ms:>9.2} ms  yaw {yaw:.1} pitch {pitch:.1} roll {roll:.1} deg, reprojection {:.2} px mean, {:.2} px max over {} mapped landmarks, {} iterations",
+            "{:<16} {fit_ms:>9.2} ms  yaw {yaw:.1} pitch {pitch:.1} roll {roll:.1} deg, reprojection {:.2} px mean, {:.2} px max over {} mapped landmarks, landmark noise {:.2} mm, {} iterations",
             "fit",
             fit.reprojection_px,
             fit.max_reprojection_px,
             fit.mapped_landmarks,
+            fit.noise_mm,
             fit.iterations
         );
     }

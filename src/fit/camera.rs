@@ -17,6 +17,11 @@ pub trait Camera {
     fn project_up(&self, x: &Vector3<f64>) -> Vector2<f64>;
     /// Derivative of [`Camera::project_up`] with respect to the model point, pixels per mm.
     fn jacobian(&self, x: &Vector3<f64>) -> Matrix2x3<f64>;
+    /// The Jacobian when it is the same for every model point (an affine camera), which lets
+    /// the fitter use basis products summed once per model.
+    fn affine_jacobian(&self) -> Option<Matrix2x3<f64>> {
+        None
+    }
     /// Model-to-camera rotation.
     fn rotation(&self) -> &Matrix3<f64>;
     /// Pixels per model millimetre at the face (weights and distance thresholds).
@@ -51,6 +56,10 @@ impl Camera for Pose {
             r[(1, 1)],
             r[(1, 2)],
         )
+    }
+
+    fn affine_jacobian(&self) -> Option<Matrix2x3<f64>> {
+        Some(Camera::jacobian(self, &Vector3::zeros()))
     }
 
     fn rotation(&self) -> &Matrix3<f64> {

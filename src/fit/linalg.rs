@@ -2,6 +2,13 @@
 //! written for that size: nalgebra's generic Gram product and Cholesky were two thirds of a
 //! fit's time here (callgrind, `glyptic fit --no-contour --repeat 100`).
 
+/// Whether this CPU has AVX2 and FMA (checked once; the build targets baseline x86-64).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub(crate) fn has_avx2_fma() -> bool {
+    std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+}
+
 /// `(A^T A, A^T t)` for a column-major `rows x n` matrix `a`, as a full symmetric row-major
 /// `n x n` matrix and a vector. Blocks of 4x4 output entries share each row's loads, so the
 /// kernel does 16 multiply-adds per 8 loads instead of 1 per 2.
@@ -29,7 +36,7 @@ pub(crate) fn gram(a: &[f64], rows: usize, n: usize, t: &[f64]) -> (Vec<f64>, Ve
 /// to 4-wide fused multiply-adds, about twice as fast here.
 fn block_products(packed: &[f64], rows: usize, n: usize, g: &mut [f64]) {
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+    if has_avx2_fma() {
         // SAFETY: the CPU supports the features this function is compiled for (checked above).
         unsafe { block_products_avx2(packed, rows, n, g) };
         return;
@@ -93,11 +100,56 @@ fn dot(x: &[f64], y: &[f64]) -> f64 {
     acc[0] + acc[1] + acc[2] + acc[3] + tail
 }
 
-/// Cholesky factorisation in place: the lower triangle of the row-major `n x n` matrix `m`
-/// becomes `L` with `M = L L^T`. `false` if `M` is not numerically positive definite.
+/// `d -= f a`, on whole lanes of four (`[f64; 4]`, one vector register with AVX2) so that
+/// short rows do not fall back to scalar code.
+#[inline(always)]
+fn axpy(d: &mut [f64], a: &[f64], f: f64) {
+    let n = d.len().min(a.len());
+    let (d4, dr) = d[..n].as_chunks_mut::<4>();
+    let (a4, ar) = a[..n].as_chunks::<4>();
+    let a4 = &a4[..d4.len()];
+    for j in 0..d4.len() {
+        for q in 0..4 {
+            d4[j][q] -= f * a4[j][q];
+        }
+    }
+    for (d, a) in dr.iter_mut().zip(ar) {
+        *d -= f * a;
+    }
+}
+
+/// `d -= sum_q f[q] a[q]` for four rows at once (each element of `d` read and written once).
+#[inline(always)]
+fn axpy4(d: &mut [f64], a: [&[f64]; 4], f: [f64; 4]) {
+    let n = a.iter().fold(d.len(), |n, a| n.min(a.len()));
+    let (d4, dr) = d[..n].as_chunks_mut::<4>();
+    let c = d4.len();
+    let (a0, r0) = a[0][..n].as_chunks::<4>();
+    let (a1, r1) = a[1][..n].as_chunks::<4>();
+    let (a2, r2) = a[2][..n].as_chunks::<4>();
+    let (a3, r3) = a[3][..n].as_chunks::<4>();
+    let (a0, a1, a2, a3) = (&a0[..c], &a1[..c], &a2[..c], &a3[..c]);
+    for j in 0..c {
+        let (x0, x1, x2, x3) = (a0[j], a1[j], a2[j], a3[j]);
+        let mut v = d4[j];
+        for q in 0..4 {
+            v[q] -= (f[0] * x0[q] + f[1] * x1[q]) + (f[2] * x2[q] + f[3] * x3[q]);
+        }
+        d4[j] = v;
+    }
+    let r = dr.len();
+    let (r0, r1, r2, r3) = (&r0[..r], &r1[..r], &r2[..r], &r3[..r]);
+    for j in 0..r {
+        dr[j] -= (f[0] * r0[j] + f[1] * r1[j]) + (f[2] * r2[j] + f[3] * r3[j]);
+    }
+}
+
+/// Cholesky factorisation in place: the upper triangle of the row-major symmetric `n x n`
+/// matrix `m` becomes `U` with `M = U^T U` (the lower triangle is left as it was). `false` if
+/// `M` is not numerically positive definite.
 pub(crate) fn cholesky(m: &mut [f64], n: usize) -> bool {
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+    if has_avx2_fma() {
         // SAFETY: the CPU supports the features this function is compiled for (checked above).
         return unsafe { cholesky_avx2(m, n) };
     }
@@ -110,54 +162,158 @@ fn cholesky_avx2(m: &mut [f64], n: usize) -> bool {
     cholesky_generic(m, n)
 }
 
+/// Scales row `k` of the trailing matrix into row `k` of `U`; `false` if its pivot is not
+/// positive.
+#[inline(always)]
+fn cholesky_pivot(m: &mut [f64], n: usize, k: usize) -> bool {
+    let d = m[k * n + k];
+    if !(d > 0.0 && d.is_finite()) {
+        return false;
+    }
+    let u = d.sqrt();
+    m[k * n + k] = u;
+    let inv = 1.0 / u;
+    m[k * n + k + 1..(k + 1) * n]
+        .iter_mut()
+        .for_each(|v| *v *= inv);
+    true
+}
+
 #[inline(always)]
 fn cholesky_generic(m: &mut [f64], n: usize) -> bool {
     debug_assert_eq!(m.len(), n * n);
-    // L[i][j] = (M[i][j] - L[i][..j] . L[j][..j]) / L[j][j].
-    for i in 0..n {
-        for j in 0..=i {
-            let s = m[i * n + j] - dot(&m[i * n..i * n + j], &m[j * n..j * n + j]);
-            if i == j {
-                if !(s > 0.0 && s.is_finite()) {
-                    return false;
-                }
-                m[i * n + i] = s.sqrt();
-            } else {
-                m[i * n + j] = s / m[j * n + j];
+    // Right-looking in blocks of four pivots: inside a block, rank-one updates; then every
+    // trailing row segment `M[i][i..]` takes the block's four rows of U at once, in contiguous
+    // multiply-adds read and written once per block (no short dot products, no strided access).
+    let mut k = 0;
+    while k < n {
+        let b = 4.min(n - k);
+        for piv in k..k + b {
+            if !cholesky_pivot(m, n, piv) {
+                return false;
+            }
+            for i in piv + 1..k + b {
+                let (head, tail) = m.split_at_mut(i * n);
+                let u = &head[piv * n..(piv + 1) * n];
+                axpy(&mut tail[i..n], &u[i..n], u[i]);
             }
         }
+        let (head, tail) = m.split_at_mut((k + b) * n);
+        let block = &head[k * n..];
+        for (r, row) in tail.chunks_exact_mut(n).enumerate() {
+            let i = k + b + r;
+            if b == 4 {
+                let u = [
+                    &block[i..n],
+                    &block[n + i..2 * n],
+                    &block[2 * n + i..3 * n],
+                    &block[3 * n + i..4 * n],
+                ];
+                axpy4(&mut row[i..], u, [u[0][0], u[1][0], u[2][0], u[3][0]]);
+            } else {
+                for q in 0..b {
+                    let u = &block[q * n + i..(q + 1) * n];
+                    axpy(&mut row[i..], u, u[0]);
+                }
+            }
+        }
+        k += b;
     }
     true
 }
 
-/// Solves `L L^T x = b` with the factor from [`cholesky`]. `None` if `x` is not finite.
-pub(crate) fn cholesky_substitute(l: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64>> {
+/// Solves `U^T U x = b` with the factor from [`cholesky`]. `None` if `x` is not finite.
+pub(crate) fn cholesky_substitute(u: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64>> {
     let mut x = b.to_vec();
-    for i in 0..n {
-        x[i] = (x[i] - dot(&l[i * n..i * n + i], &x[..i])) / l[i * n + i];
+    // U^T y = b, column by column of U^T (rows of U, contiguous).
+    for k in 0..n {
+        let y = x[k] / u[k * n + k];
+        x[k] = y;
+        axpy(&mut x[k + 1..], &u[k * n + k + 1..(k + 1) * n], y);
     }
     for i in (0..n).rev() {
-        let mut s = x[i];
-        for k in i + 1..n {
-            s -= l[k * n + i] * x[k];
-        }
-        x[i] = s / l[i * n + i];
+        x[i] = (x[i] - dot(&u[i * n + i + 1..(i + 1) * n], &x[i + 1..])) / u[i * n + i];
     }
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// The diagonal of `M^-1` from the factor of [`cholesky`]: `(M^-1)_kk = sum_j (L^-1)_jk^2`.
-pub(crate) fn inverse_diagonal(l: &[f64], n: usize) -> Vec<f64> {
-    let mut diag = vec![0f64; n];
-    let mut col = vec![0f64; n];
-    for k in 0..n {
-        // Column k of L^-1 by forward substitution on e_k (zero above row k).
-        col[..k].iter_mut().for_each(|v| *v = 0.0);
-        for i in k..n {
-            let rhs = if i == k { 1.0 } else { 0.0 };
-            col[i] = (rhs - dot(&l[i * n + k..i * n + i], &col[k..i])) / l[i * n + i];
+/// The diagonal of `M^-1` from the factor of [`cholesky`]: with `X = U^-T` (lower
+/// triangular), `(M^-1)_kk = sum_i X_ik^2`.
+pub(crate) fn inverse_diagonal(u: &[f64], n: usize) -> Vec<f64> {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2_fma() {
+        // SAFETY: the CPU supports the features this function is compiled for (checked above).
+        return unsafe { inverse_diagonal_avx2(u, n) };
+    }
+    inverse_diagonal_generic(u, n)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn inverse_diagonal_avx2(u: &[f64], n: usize) -> Vec<f64> {
+    inverse_diagonal_generic(u, n)
+}
+
+#[inline(always)]
+fn inverse_diagonal_generic(u: &[f64], n: usize) -> Vec<f64> {
+    // U^T X = I, right-looking in blocks of four like the factorisation: row j of X is final
+    // once divided by U_jj; later rows i then subtract U_ji times it (only its first j+1
+    // entries are non-zero).
+    let mut x = vec![0f64; n * n];
+    for i in 0..n {
+        x[i * n + i] = 1.0;
+    }
+    let mut k = 0;
+    while k < n {
+        let b = 4.min(n - k);
+        let width = k + b;
+        for j in k..k + b {
+            let inv = 1.0 / u[j * n + j];
+            x[j * n..j * n + j + 1].iter_mut().for_each(|v| *v *= inv);
+            for i in j + 1..k + b {
+                let (head, tail) = x.split_at_mut(i * n);
+                axpy(
+                    &mut tail[..j + 1],
+                    &head[j * n..j * n + j + 1],
+                    u[j * n + i],
+                );
+            }
         }
-        diag[k] = col[k..].iter().map(|v| v * v).sum();
+        let (head, tail) = x.split_at_mut(width * n);
+        for (r, row) in tail.chunks_exact_mut(n).enumerate() {
+            let i = width + r;
+            if b == 4 {
+                let rows = [
+                    &head[k * n..k * n + width],
+                    &head[(k + 1) * n..(k + 1) * n + width],
+                    &head[(k + 2) * n..(k + 2) * n + width],
+                    &head[(k + 3) * n..(k + 3) * n + width],
+                ];
+                let f = [
+                    u[k * n + i],
+                    u[(k + 1) * n + i],
+                    u[(k + 2) * n + i],
+                    u[(k + 3) * n + i],
+                ];
+                axpy4(&mut row[..width], rows, f);
+            } else {
+                for q in 0..b {
+                    axpy(
+                        &mut row[..width],
+                        &head[(k + q) * n..][..width],
+                        u[(k + q) * n + i],
+                    );
+                }
+            }
+        }
+        k += b;
+    }
+    let mut diag = vec![0f64; n];
+    for (i, row) in x.chunks_exact(n).enumerate() {
+        diag[..=i]
+            .iter_mut()
+            .zip(&row[..=i])
+            .for_each(|(d, v)| *d += v * v);
     }
     diag
 }

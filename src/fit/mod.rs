@@ -20,6 +20,7 @@
 
 mod camera;
 mod linalg;
+mod normal;
 mod occluding;
 mod pose;
 
@@ -30,6 +31,7 @@ pub use occluding::visible_occluding_vertices;
 pub use pose::{Pose, estimate_linear, nearest_rotation, refine};
 
 use crate::shapemodel::SurreyModel;
+use normal::{At, FixedProducts, Params, Weights, absolute_rhs, normal_equations};
 
 /// Largest identity coefficient a fit may return, in standard deviations (a face beyond 5 SD in
 /// any component has probability below 1e-6 under the model).
@@ -40,6 +42,11 @@ pub const INNER_LIP_PAIRS: [(u32, u32); 3] = [(62, 68), (63, 67), (64, 66)];
 
 /// Joint steps after which the landmark noise estimate is left as it is.
 const NOISE_ESTIMATES: usize = 2;
+
+/// A joint step predicted to lower the objective (squared residuals in units of their noise,
+/// plus the priors) by less than this is the last: the optimum is within about one standard
+/// error in every direction.
+const CONVERGED_GAIN: f64 = 1.0;
 
 /// Number of iBUG landmarks the fitter expects.
 pub const IBUG_POINTS: usize = 68;
@@ -141,6 +148,9 @@ pub struct Fit {
     pub mapped_landmarks: usize,
     /// Outer iterations run.
     pub iterations: usize,
+    /// Landmark noise the fit weighed the landmarks by, model mm: estimated from the residuals
+    /// with [`FitOptions::estimate_noise`], else [`FitOptions::sigma_mm`].
+    pub noise_mm: f64,
 }
 
 /// A landmark tied to a model vertex.
@@ -167,26 +177,53 @@ impl Correspondence {
     }
 
     /// The model point (mm) this correspondence refers to.
-    fn position(&self, model: &SurreyModel, shape: &[f32], expr: &[f32]) -> Vector3<f64> {
-        let p = model.vertex(self.vertex, shape, expr);
+    fn position(&self, model: &SurreyModel, k: &Coefficients) -> Vector3<f64> {
+        let p = model.point(self.vertex, k);
         match self.blend {
-            Some((v2, t)) => p * (1.0 - t) + model.vertex(v2, shape, expr) * t,
+            Some((v2, t)) => p * (1.0 - t) + model.point(v2, k) * t,
             None => p,
         }
     }
 }
 
+/// Identity and expression coefficients laid out like a model row
+/// ([`crate::shapemodel::PackedRows::fill_coefficients`]): made once per solution, so that each
+/// vertex is then three dot products.
+struct Coefficients(Vec<f32>);
+
+impl Coefficients {
+    fn new(model: &SurreyModel, shape: &[f32], expression: &[f32]) -> Self {
+        let mut k = vec![0f32; model.packed.stride()];
+        model.packed.fill_coefficients(shape, expression, &mut k);
+        Coefficients(k)
+    }
+}
+
 impl SurreyModel {
+    /// Position (mm) of vertex `v` for coefficients made by [`Coefficients::new`].
+    #[inline]
+    fn point(&self, v: usize, k: &Coefficients) -> Vector3<f64> {
+        let p = self.packed.point(v, &k.0);
+        Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+    }
+
     /// Position (mm) of vertex `v` for the given coefficients; missing coefficients count as 0.
+    /// The same f32 sums as [`SurreyModel::instance`], so both give identical points.
+    #[inline]
     pub fn vertex(&self, v: usize, shape: &[f32], expression: &[f32]) -> Vector3<f64> {
-        use crate::shapemodel::dot;
-        let mut p = Vector3::zeros();
-        for axis in 0..3 {
-            // f32 sums of 69 terms of about 100 mm stay within 1e-4 mm of the f64 result.
-            let (mean, identity, expr) = self.packed.row(3 * v + axis);
-            p[axis] = (mean + dot(identity, shape) + dot(expr, expression)) as f64;
-        }
-        p
+        let stride = self.packed.stride();
+        let mut stack = [0f32; 128];
+        let mut heap = Vec::new();
+        let coefficients = if stride <= stack.len() {
+            &mut stack[..stride]
+        } else {
+            heap.resize(stride, 0.0);
+            &mut heap[..]
+        };
+        self.packed
+            .fill_coefficients(shape, expression, coefficients);
+        let p = self.packed.point(v, coefficients);
+        Vector3::new(p[0] as f64, p[1] as f64, p[2] as f64)
     }
 
     /// All vertex positions (mm) for the given coefficients, `[x0, y0, z0, x1, ...]`.
@@ -288,13 +325,11 @@ fn fit_impl(
         });
     }
     validate_options(opts, model)?;
-    let mapped = mapped_correspondences(model, landmarks);
-    if mapped.len() < 4 {
-        return Err(FitError::TooFewLandmarks {
-            usable: mapped.len(),
-            needed: 4,
-        });
+    let usable = mapped_correspondences(model, landmarks).0.len();
+    if usable < 4 {
+        return Err(FitError::TooFewLandmarks { usable, needed: 4 });
     }
+    let problem = Problem::new(model, landmarks, opts, true);
 
     let n_shape = opts.shape_coefficients;
     let n_expr = model.blendshapes.offsets.ncols();
@@ -310,21 +345,24 @@ fn fit_impl(
             *dst = if src.is_finite() { *src } else { 0.0 };
         }
     }
-    let closed_lips = closed_lip_pairs(model, landmarks, opts);
-
-    let pose = estimate_orthographic(model, &mapped, &shape, &expression, false)?;
+    let pose = estimate_orthographic(model, &problem.mapped, &shape, &expression, false)?;
+    // A previous frame's noise estimate is a better start than the default.
+    let sigma_mm = start
+        .map(|(previous, _)| previous.noise_mm)
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .unwrap_or(opts.sigma_mm);
     let state = run_loop(
-        model,
-        landmarks,
-        opts,
-        &mapped,
-        &closed_lips,
-        Solution {
-            camera: pose,
-            shape,
-            expression,
+        &problem,
+        Start {
+            solution: Solution {
+                camera: pose,
+                shape,
+                expression,
+            },
+            sigma_mm,
+            block_first: true,
+            hold_identity,
         },
-        hold_identity,
         |_, corr, shape, expr, polish| estimate_orthographic(model, corr, shape, expr, polish),
     )?;
     Ok(Fit {
@@ -334,8 +372,9 @@ fn fit_impl(
         expression: state.solution.expression,
         reprojection_px: state.mean,
         max_reprojection_px: state.max,
-        mapped_landmarks: mapped.len(),
+        mapped_landmarks: problem.mapped.len(),
         iterations: state.iterations,
+        noise_mm: state.sigma_mm,
     })
 }
 
@@ -357,33 +396,31 @@ pub fn fit_perspective(
         )));
     }
     let ortho = fit(model, landmarks, opts)?;
-    let mapped = mapped_correspondences(model, landmarks);
-    let closed_lips = closed_lip_pairs(model, landmarks, opts);
+    let problem = Problem::new(model, landmarks, opts, false);
     let start = PerspectivePose::from_orthographic(&ortho.pose, intrinsics);
     let estimate = |camera: &PerspectivePose,
                     corr: &[Correspondence],
                     shape: &[f32],
                     expr: &[f32],
                     _polish: bool| {
-        let x: Vec<Vector3<f64>> = corr
-            .iter()
-            .map(|c| c.position(model, shape, expr))
-            .collect();
+        let k = Coefficients::new(model, shape, expr);
+        let x: Vec<Vector3<f64>> = corr.iter().map(|c| c.position(model, &k)).collect();
         let u: Vec<Vector2<f64>> = corr.iter().map(|c| c.image_up).collect();
         refine_perspective(*camera, &x, &u, 20)
     };
+    // The orthographic fit is converged: joint steps from it, with its noise estimate.
     let state = run_loop(
-        model,
-        landmarks,
-        opts,
-        &mapped,
-        &closed_lips,
-        Solution {
-            camera: start,
-            shape: ortho.shape,
-            expression: ortho.expression,
+        &problem,
+        Start {
+            solution: Solution {
+                camera: start,
+                shape: ortho.shape,
+                expression: ortho.expression,
+            },
+            sigma_mm: ortho.noise_mm,
+            block_first: false,
+            hold_identity: false,
         },
-        false,
         estimate,
     )?;
     Ok(Fit {
@@ -393,24 +430,29 @@ pub fn fit_perspective(
         expression: state.solution.expression,
         reprojection_px: state.mean,
         max_reprojection_px: state.max,
-        mapped_landmarks: mapped.len(),
+        mapped_landmarks: problem.mapped.len(),
         iterations: state.iterations + ortho.iterations,
+        noise_mm: state.sigma_mm,
     })
 }
 
-/// The fixed iBUG-to-vertex correspondences for the landmarks that are present.
-fn mapped_correspondences(model: &SurreyModel, landmarks: &[[f32; 2]]) -> Vec<Correspondence> {
-    model
-        .mapping
-        .to_vertex
-        .iter()
-        .filter_map(|(&lm, &v)| {
-            let p = landmarks.get(lm as usize - 1)?;
-            (p[0].is_finite() && p[1].is_finite()).then(|| {
-                Correspondence::at_vertex(Vector2::new(p[0] as f64, -(p[1] as f64)), v as usize)
-            })
-        })
-        .collect()
+/// The fixed iBUG-to-vertex correspondences for the landmarks that are present, and the
+/// vertices of the mapped landmarks that are not.
+fn mapped_correspondences(
+    model: &SurreyModel,
+    landmarks: &[[f32; 2]],
+) -> (Vec<Correspondence>, Vec<usize>) {
+    let mut present = Vec::new();
+    let mut missing = Vec::new();
+    for (&lm, &v) in &model.mapping.to_vertex {
+        match landmarks.get(lm as usize - 1) {
+            Some(p) if p[0].is_finite() && p[1].is_finite() => present.push(
+                Correspondence::at_vertex(Vector2::new(p[0] as f64, -(p[1] as f64)), v as usize),
+            ),
+            _ => missing.push(v as usize),
+        }
+    }
+    (present, missing)
 }
 
 /// Linear scaled-orthographic estimate (affine camera, nearest rotation), optionally polished
@@ -428,10 +470,8 @@ fn estimate_orthographic(
     expr: &[f32],
     polish: bool,
 ) -> Result<Pose, FitError> {
-    let x: Vec<Vector3<f64>> = corr
-        .iter()
-        .map(|c| c.position(model, shape, expr))
-        .collect();
+    let k = Coefficients::new(model, shape, expr);
+    let x: Vec<Vector3<f64>> = corr.iter().map(|c| c.position(model, &k)).collect();
     let u: Vec<Vector2<f64>> = corr.iter().map(|c| c.image_up).collect();
     let linear = estimate_linear(&x, &u)?;
     Ok(if polish {
@@ -439,6 +479,38 @@ fn estimate_orthographic(
     } else {
         linear
     })
+}
+
+/// What stays fixed during one fit.
+struct Problem<'a> {
+    model: &'a SurreyModel,
+    landmarks: &'a [[f32; 2]],
+    opts: &'a FitOptions,
+    /// The mapped landmarks present; every correspondence list starts with them.
+    mapped: Vec<Correspondence>,
+    closed_lips: Vec<(usize, usize)>,
+    /// Basis products over `mapped`, for the orthographic camera.
+    fixed: Option<FixedProducts<'a>>,
+}
+
+impl<'a> Problem<'a> {
+    fn new(
+        model: &'a SurreyModel,
+        landmarks: &'a [[f32; 2]],
+        opts: &'a FitOptions,
+        affine: bool,
+    ) -> Self {
+        let (mapped, missing) = mapped_correspondences(model, landmarks);
+        let fixed = affine.then(|| FixedProducts::new(model, mapped.len(), &missing));
+        Problem {
+            model,
+            landmarks,
+            opts,
+            mapped,
+            closed_lips: closed_lip_pairs(model, landmarks, opts),
+            fixed,
+        }
+    }
 }
 
 /// A camera with identity and expression coefficients.
@@ -454,6 +526,19 @@ struct LoopState<C> {
     mean: f64,
     max: f64,
     iterations: usize,
+    sigma_mm: f64,
+}
+
+/// How the loop starts.
+struct Start<C> {
+    solution: Solution<C>,
+    /// Landmark noise to weigh by until it is estimated, model mm.
+    sigma_mm: f64,
+    /// Whether the first iteration solves block by block (eos's way; from a cold start it
+    /// finds the basin better than a joint step) or every iteration is a joint step (when the
+    /// start is already a fit).
+    block_first: bool,
+    hold_identity: bool,
 }
 
 /// The outer loop: correspondences, camera, expressions, identity, until the error settles;
@@ -461,20 +546,28 @@ struct LoopState<C> {
 /// together.
 #[allow(clippy::too_many_arguments)]
 fn run_loop<C: Camera + Clone>(
-    model: &SurreyModel,
-    landmarks: &[[f32; 2]],
-    opts: &FitOptions,
-    mapped: &[Correspondence],
-    closed_lips: &[(usize, usize)],
-    start: Solution<C>,
-    hold_identity: bool,
+    problem: &Problem,
+    start: Start<C>,
     mut estimate: impl FnMut(&C, &[Correspondence], &[f32], &[f32], bool) -> Result<C, FitError>,
 ) -> Result<LoopState<C>, FitError> {
-    let Solution {
-        camera: mut pose,
-        mut shape,
-        mut expression,
+    let Start {
+        solution:
+            Solution {
+                camera: mut pose,
+                mut shape,
+                mut expression,
+            },
+        mut sigma_mm,
+        block_first,
+        hold_identity,
     } = start;
+    let Problem {
+        model,
+        landmarks,
+        opts,
+        ..
+    } = *problem;
+    let mapped = &problem.mapped[..];
     let mut cache = BoundaryCache::default();
     let correspondences = |pose: &C, shape: &[f32], expr: &[f32], cache: &mut BoundaryCache| {
         outline_correspondences(model, landmarks, mapped, pose, shape, expr, opts, cache)
@@ -482,36 +575,34 @@ fn run_loop<C: Camera + Clone>(
     let mut last_error = f64::INFINITY;
     let mut iterations = 0;
     let mut damping = 1e-3;
-    let mut sigma_mm = opts.sigma_mm;
+    let mut joint_steps = 0;
     for it in 0..opts.iterations {
         iterations += 1;
         let corr = correspondences(&pose, &shape, &expression, &mut cache);
         let mut settled = false;
-        if opts.joint && it > 0 {
+        if opts.joint && (it > 0 || !block_first) {
+            joint_steps += 1;
             let (next, converged) = joint_step(
-                model,
+                problem,
                 &corr,
-                closed_lips,
                 Solution {
                     camera: pose,
                     shape,
                     expression,
                 },
                 hold_identity,
-                opts,
                 &mut sigma_mm,
                 // The estimate settles within two steps; later ones would only cost time.
-                opts.estimate_noise && it <= NOISE_ESTIMATES,
+                opts.estimate_noise && joint_steps <= NOISE_ESTIMATES,
                 &mut damping,
             );
             (pose, shape, expression) = (next.camera, next.shape, next.expression);
             settled = converged;
         } else {
             pose = estimate(&pose, &corr, &shape, &expression, false)?;
-            expression =
-                fit_expressions(model, &corr, &pose, &shape, &expression, closed_lips, opts)?;
+            expression = fit_expressions(problem, &corr, &pose, &shape, &expression, sigma_mm)?;
             if !hold_identity {
-                shape = fit_shape(model, &corr, &pose, &shape, &expression, closed_lips, opts)?;
+                shape = fit_shape(problem, &corr, &pose, &shape, &expression, sigma_mm)?;
             }
         }
         let (mean, _) = reprojection(model, mapped, &pose, &shape, &expression);
@@ -544,6 +635,7 @@ fn run_loop<C: Camera + Clone>(
         mean,
         max,
         iterations,
+        sigma_mm,
     })
 }
 
@@ -577,162 +669,84 @@ fn reprojection<C: Camera>(
 ) -> (f64, f64) {
     let mut sum = 0.0;
     let mut max = 0f64;
+    let k = Coefficients::new(model, shape, expr);
     for c in corr {
-        let d = (pose.project_up(&c.position(model, shape, expr)) - c.image_up).norm();
+        let d = (pose.project_up(&c.position(model, &k)) - c.image_up).norm();
         sum += d;
         max = max.max(d);
     }
     (sum / corr.len().max(1) as f64, max)
 }
 
-/// Which coefficients a design matrix differentiates.
-#[derive(Clone, Copy)]
-enum Block {
-    /// The first `n` identity coefficients.
-    Identity(usize),
-    Expressions,
-}
-
-/// Design matrix `s * P R M_v` (two rows per correspondence) for a block of coefficients, and
-/// the weighted normal equations `(w A^T A, w A^T t)` with `w = 1 / (s sigma)^2`, i.e. the
-/// residuals measured in model millimetres.
-fn normal_equations<C: Camera>(
-    model: &SurreyModel,
-    corr: &[Correspondence],
-    targets: &[Vector2<f64>],
-    jacobians: &[nalgebra::Matrix2x3<f64>],
-    pose: &C,
-    block: Block,
-    sigma_mm: f64,
-) -> (DMatrix<f64>, DVector<f64>) {
-    let n = match block {
-        Block::Identity(n) => n,
-        Block::Expressions => model.packed.expressions,
-    };
-    let mut a = DMatrix::<f64>::zeros(2 * corr.len(), n);
-    let mut t = DVector::<f64>::zeros(2 * corr.len());
-    for (i, ((c, target), j)) in corr.iter().zip(targets).zip(jacobians).enumerate() {
-        let (r0, r1) = (
-            [j[(0, 0)], j[(0, 1)], j[(0, 2)]],
-            [j[(1, 0)], j[(1, 1)], j[(1, 2)]],
-        );
-        let block_row = |vertex: usize, axis: usize| {
-            let (_, identity, expr) = model.packed.row(3 * vertex + axis);
-            match block {
-                Block::Identity(n) => &identity[..n],
-                Block::Expressions => expr,
-            }
-        };
-        let rows = [0, 1, 2].map(|axis| block_row(c.vertex, axis));
-        let second = c
-            .blend
-            .map(|(v2, t)| ([0, 1, 2].map(|axis| block_row(v2, axis)), t));
-        for k in 0..n {
-            let mut m = [rows[0][k] as f64, rows[1][k] as f64, rows[2][k] as f64];
-            if let Some((rows2, t)) = &second {
-                for axis in 0..3 {
-                    m[axis] = (1.0 - t) * m[axis] + t * rows2[axis][k] as f64;
-                }
-            }
-            let (u, v) = (
-                r0[0] * m[0] + r0[1] * m[1] + r0[2] * m[2],
-                r1[0] * m[0] + r1[1] * m[1] + r1[2] * m[2],
-            );
-            match c.normal {
-                // One equation along the normal; the second row stays zero.
-                Some(nrm) => a[(2 * i, k)] = nrm.x * u + nrm.y * v,
-                None => {
-                    a[(2 * i, k)] = u;
-                    a[(2 * i + 1, k)] = v;
-                }
-            }
-        }
-        if let Some(nrm) = c.normal {
-            t[2 * i] = nrm.dot(target);
-            continue;
-        }
-        t[2 * i] = target.x;
-        t[2 * i + 1] = target.y;
-    }
-    let w = 1.0 / (pose.scale() * sigma_mm).powi(2);
-    weighted_gram(&a, &t, w)
-}
-
-/// `(w A^T A, w A^T t)`.
-fn weighted_gram(a: &DMatrix<f64>, t: &DVector<f64>, w: f64) -> (DMatrix<f64>, DVector<f64>) {
-    let (rows, n) = a.shape();
-    let (mut g, mut rhs) = linalg::gram(a.as_slice(), rows, n, t.as_slice());
-    g.iter_mut().chain(rhs.iter_mut()).for_each(|v| *v *= w);
-    // Symmetric, so the row-major result reads the same column-major.
-    (DMatrix::from_vec(n, n, g), DVector::from_vec(rhs))
-}
-
-/// Linearised targets and Jacobians for a block of coefficients: with `X` the current vertex
-/// and `base` the vertex without the block's contribution, the block's coefficients `x` should
-/// satisfy `J (M x) ~ p - proj(X) + J (X - base)`. For an orthographic camera `proj` is affine
-/// and this is exactly `p - proj(base)`; for a perspective camera it is one Gauss-Newton step.
-fn linearised<C: Camera>(
-    model: &SurreyModel,
-    corr: &[Correspondence],
-    pose: &C,
-    current: (&[f32], &[f32]),
-    base: (&[f32], &[f32]),
-) -> (Vec<Vector2<f64>>, Vec<nalgebra::Matrix2x3<f64>>) {
-    corr.iter()
-        .map(|c| {
-            let x = c.position(model, current.0, current.1);
-            let b = c.position(model, base.0, base.1);
-            let j = pose.jacobian(&x);
-            (c.image_up - pose.project_up(&x) + j * (x - b), j)
-        })
-        .unzip()
-}
-
-/// Identity by regularised linear least squares, with the expressions held fixed.
-fn fit_shape<C: Camera>(
-    model: &SurreyModel,
+/// The first iteration's block solves: normal equations for identity alone or expressions
+/// alone at the current solution, as `(H, H x + g)`, i.e. for the block's coefficients `x`
+/// outright (see [`absolute_rhs`]).
+fn block_equations<C: Camera>(
+    problem: &Problem,
     corr: &[Correspondence],
     pose: &C,
     shape: &[f32],
     expression: &[f32],
-    closed_lips: &[(usize, usize)],
-    opts: &FitOptions,
+    params: Params,
+    sigma_mm: f64,
+) -> (Vec<f64>, Vec<f64>) {
+    let opts = problem.opts;
+    let at = At {
+        camera: pose,
+        shape,
+        expression,
+    };
+    let weights = Weights {
+        landmarks: 1.0 / (pose.scale() * sigma_mm).powi(2),
+        lips: 1.0 / opts.sigma_closed_mm.powi(2),
+    };
+    let (h, g) = normal_equations(
+        problem.model,
+        corr,
+        &problem.closed_lips,
+        &at,
+        params,
+        weights,
+        problem.fixed.as_ref(),
+    );
+    let current = if params.identity > 0 {
+        &shape[..params.identity]
+    } else {
+        &expression[..params.expressions]
+    };
+    let rhs = absolute_rhs(&h, &g, current);
+    (h, rhs)
+}
+
+/// Identity by regularised linear least squares, with the expressions held fixed.
+fn fit_shape<C: Camera>(
+    problem: &Problem,
+    corr: &[Correspondence],
+    pose: &C,
+    shape: &[f32],
+    expression: &[f32],
+    sigma_mm: f64,
 ) -> Result<Vec<f32>, FitError> {
-    let n = opts.shape_coefficients;
+    let n = problem.opts.shape_coefficients;
     if n == 0 {
         return Ok(Vec::new());
     }
-    let (targets, jacobians) =
-        linearised(model, corr, pose, (shape, expression), (&[], expression));
-    let (mut ata, mut atb) = normal_equations(
-        model,
-        corr,
-        &targets,
-        &jacobians,
-        pose,
-        Block::Identity(n),
-        opts.sigma_mm,
-    );
-    add_closed_lips(
-        model,
-        closed_lips,
-        Block::Identity(n),
-        &[],
-        expression,
-        opts.sigma_closed_mm,
-        &mut ata,
-        &mut atb,
-    );
+    let params = Params {
+        camera: false,
+        identity: n,
+        expressions: 0,
+    };
+    let (ata, atb) = block_equations(problem, corr, pose, shape, expression, params, sigma_mm);
     // Trust region on the prior: inconsistent landmarks (duplicates, outliers) can ask for an
     // implausible face; raise the prior weight until every coefficient is within the bound.
-    let mut lambda = opts.lambda_shape.max(1e-6);
+    let mut lambda = problem.opts.lambda_shape.max(1e-6);
     for _ in 0..40 {
         let mut a = ata.clone();
         for i in 0..n {
-            a[(i, i)] += lambda;
+            a[i * n + i] += lambda;
         }
-        let x = solve_spd(a, atb.clone())?;
-        if x.amax() <= MAX_SHAPE_SD {
+        let x = solve_spd(a, &atb)?;
+        if x.iter().all(|v| v.abs() <= MAX_SHAPE_SD) {
             return Ok(x.iter().map(|&v| v as f32).collect());
         }
         lambda *= 2.0;
@@ -742,40 +756,25 @@ fn fit_shape<C: Camera>(
 
 /// Expressions by non-negative least squares with a small ridge, identity held fixed.
 fn fit_expressions<C: Camera>(
-    model: &SurreyModel,
+    problem: &Problem,
     corr: &[Correspondence],
     pose: &C,
     shape: &[f32],
     expression: &[f32],
-    closed_lips: &[(usize, usize)],
-    opts: &FitOptions,
+    sigma_mm: f64,
 ) -> Result<Vec<f32>, FitError> {
-    let n = model.blendshapes.offsets.ncols();
+    let n = expression.len();
     if n == 0 {
         return Ok(Vec::new());
     }
-    let (targets, jacobians) = linearised(model, corr, pose, (shape, expression), (shape, &[]));
-    let (mut ata, mut atb) = normal_equations(
-        model,
-        corr,
-        &targets,
-        &jacobians,
-        pose,
-        Block::Expressions,
-        opts.sigma_mm,
-    );
-    add_closed_lips(
-        model,
-        closed_lips,
-        Block::Expressions,
-        shape,
-        &[],
-        opts.sigma_closed_mm,
-        &mut ata,
-        &mut atb,
-    );
+    let params = Params {
+        camera: false,
+        identity: 0,
+        expressions: n,
+    };
+    let (mut ata, atb) = block_equations(problem, corr, pose, shape, expression, params, sigma_mm);
     for i in 0..n {
-        ata[(i, i)] += opts.lambda_expression;
+        ata[i * n + i] += problem.opts.lambda_expression;
     }
     let x = nnls(&ata, &atb)?;
     Ok(x.iter().map(|&v| v as f32).collect())
@@ -797,16 +796,11 @@ struct Objective<'a> {
 
 impl Objective<'_> {
     /// Sum of squared landmark residuals (pixels^2) and how many scalar residuals it holds.
-    fn landmark_residuals<C: Camera>(
-        &self,
-        camera: &C,
-        shape: &[f32],
-        expression: &[f32],
-    ) -> (f64, usize) {
+    fn landmark_residuals<C: Camera>(&self, camera: &C, k: &Coefficients) -> (f64, usize) {
         let mut e = 0.0;
         let mut count = 0;
         for c in self.corr {
-            let r = c.image_up - camera.project_up(&c.position(self.model, shape, expression));
+            let r = c.image_up - camera.project_up(&c.position(self.model, k));
             (e, count) = match c.normal {
                 Some(n) => (e + n.dot(&r).powi(2), count + 1),
                 None => (e + r.norm_squared(), count + 2),
@@ -817,11 +811,11 @@ impl Objective<'_> {
 
     /// The objective, with the landmark residuals it was made of (see `landmark_residuals`).
     fn value<C: Camera>(&self, camera: &C, shape: &[f32], expression: &[f32]) -> (f64, f64, usize) {
-        let (rss, count) = self.landmark_residuals(camera, shape, expression);
+        let k = Coefficients::new(self.model, shape, expression);
+        let (rss, count) = self.landmark_residuals(camera, &k);
         let mut e = self.weight * rss;
         for &(u, l) in self.closed_lips {
-            let gap =
-                self.model.vertex(u, shape, expression) - self.model.vertex(l, shape, expression);
+            let gap = self.model.point(u, &k) - self.model.point(l, &k);
             e += self.weight_lips * gap.norm_squared();
         }
         let total = e
@@ -839,16 +833,20 @@ impl Objective<'_> {
 /// `damping` carries the Marquardt parameter from step to step.
 #[allow(clippy::too_many_arguments)]
 fn joint_step<C: Camera + Clone>(
-    model: &SurreyModel,
+    problem: &Problem,
     corr: &[Correspondence],
-    closed_lips: &[(usize, usize)],
     current: Solution<C>,
     hold_identity: bool,
-    opts: &FitOptions,
     sigma_mm: &mut f64,
     estimate_noise: bool,
     damping: &mut f64,
 ) -> (Solution<C>, bool) {
+    let Problem {
+        model,
+        opts,
+        ref closed_lips,
+        ..
+    } = *problem;
     let n_shape = if hold_identity {
         0
     } else {
@@ -865,77 +863,30 @@ fn joint_step<C: Camera + Clone>(
         lambda_expression: opts.lambda_expression,
         weight_lips: 1.0 / opts.sigma_closed_mm.powi(2),
     };
-    // Rows scaled by the square root of their weight, so the Gram matrix is the Hessian.
-    let rows = 2 * corr.len() + 3 * closed_lips.len();
-    let mut a = DMatrix::<f64>::zeros(rows, p);
-    let mut t = DVector::<f64>::zeros(rows);
-    let sw = objective.weight.sqrt();
     let (shape, expr) = (&current.shape[..], &current.expression[..]);
-    let mut d = vec![[0f64; 2]; p];
-    for (i, c) in corr.iter().enumerate() {
-        let x = c.position(model, shape, expr);
-        let r = c.image_up - current.camera.project_up(&x);
-        let jp = current.camera.parameter_jacobian(&x);
-        let jx = current.camera.jacobian(&x);
-        for k in 0..6 {
-            d[k] = [jp[(0, k)], jp[(1, k)]];
-        }
-        let rows_of = |v: usize| [0, 1, 2].map(|axis| model.packed.row(3 * v + axis));
-        let first = rows_of(c.vertex);
-        let second = c.blend.map(|(v2, t)| (rows_of(v2), t));
-        for k in 0..n_shape + n_expr {
-            let coef = |r: &(f32, &[f32], &[f32])| {
-                (if k < n_shape {
-                    r.1[k]
-                } else {
-                    r.2[k - n_shape]
-                }) as f64
-            };
-            let mut m = [coef(&first[0]), coef(&first[1]), coef(&first[2])];
-            if let Some((rows2, t)) = &second {
-                for axis in 0..3 {
-                    m[axis] = (1.0 - t) * m[axis] + t * coef(&rows2[axis]);
-                }
-            }
-            d[6 + k] = [
-                jx[(0, 0)] * m[0] + jx[(0, 1)] * m[1] + jx[(0, 2)] * m[2],
-                jx[(1, 0)] * m[0] + jx[(1, 1)] * m[1] + jx[(1, 2)] * m[2],
-            ];
-        }
-        match c.normal {
-            Some(n) => {
-                for (k, dk) in d.iter().enumerate() {
-                    a[(2 * i, k)] = sw * (n.x * dk[0] + n.y * dk[1]);
-                }
-                t[2 * i] = sw * n.dot(&r);
-            }
-            None => {
-                for (k, dk) in d.iter().enumerate() {
-                    a[(2 * i, k)] = sw * dk[0];
-                    a[(2 * i + 1, k)] = sw * dk[1];
-                }
-                t[2 * i] = sw * r.x;
-                t[2 * i + 1] = sw * r.y;
-            }
-        }
-    }
-    let swl = objective.weight_lips.sqrt();
-    for (j, &(upper, lower)) in closed_lips.iter().enumerate() {
-        let gap = model.vertex(upper, shape, expr) - model.vertex(lower, shape, expr);
-        for axis in 0..3 {
-            let row = 2 * corr.len() + 3 * j + axis;
-            let (_, iu, eu) = model.packed.row(3 * upper + axis);
-            let (_, il, el) = model.packed.row(3 * lower + axis);
-            for k in 0..n_shape {
-                a[(row, 6 + k)] = swl * (iu[k] - il[k]) as f64;
-            }
-            for k in 0..n_expr {
-                a[(row, 6 + n_shape + k)] = swl * (eu[k] - el[k]) as f64;
-            }
-            t[row] = -swl * gap[axis];
-        }
-    }
-    let (mut gram, mut grad) = weighted_gram(&a, &t, 1.0);
+    let params = Params {
+        camera: true,
+        identity: n_shape,
+        expressions: n_expr,
+    };
+    let at = At {
+        camera: &current.camera,
+        shape,
+        expression: expr,
+    };
+    let weights = Weights {
+        landmarks: objective.weight,
+        lips: objective.weight_lips,
+    };
+    let (mut gram, mut grad) = normal_equations(
+        model,
+        corr,
+        closed_lips,
+        &at,
+        params,
+        weights,
+        problem.fixed.as_ref(),
+    );
     // The priors' weights per parameter (none on the camera), their gradient at the current
     // coefficients and their curvature.
     let prior: Vec<f64> = (0..p)
@@ -952,7 +903,7 @@ fn joint_step<C: Camera + Clone>(
     };
     for (k, w) in prior.iter().enumerate() {
         grad[k] -= w * coefficient(k);
-        gram[(k, k)] += w;
+        gram[k * p + k] += w;
     }
     let before = objective.value(&current.camera, shape, expr).0;
     // Expressions at their bound (0) that the step would push below it are held there (active
@@ -964,10 +915,10 @@ fn joint_step<C: Camera + Clone>(
     let mut m = Vec::new();
     let mut solved = None;
     for _ in 0..=n_expr {
-        m = gram.as_slice().to_vec();
-        let mut g = grad.as_slice().to_vec();
+        m = gram.clone();
+        let mut g = grad.clone();
         for k in 0..p {
-            m[k * p + k] += *damping * gram[(k, k)].max(1e-9);
+            m[k * p + k] += *damping * gram[k * p + k].max(1e-9);
         }
         for (e, _) in active.iter().enumerate().filter(|(_, a)| **a) {
             let k = 6 + n_shape + e;
@@ -1020,14 +971,16 @@ fn joint_step<C: Camera + Clone>(
             }
         }
     }
-    // Predicted decrease (about twice the model's): when the step would gain less than the
-    // tolerance, the fit has converged and trying it only costs time.
+    // Predicted decrease, about twice the model's. When it is below CONVERGED_GAIN (or the
+    // relative tolerance), this step moves no parameter by more than about one standard error:
+    // it is taken, since it is factorised already, and the fit stops after it.
     let predicted: f64 = delta.iter().zip(grad.iter()).map(|(d, g)| d * g).sum();
     // Written so that a NaN prediction also stops.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    if !(predicted > opts.tolerance * before) {
+    if !(predicted > 0.0) {
         return (current, true);
     }
+    let last = predicted < CONVERGED_GAIN || predicted < opts.tolerance * before;
     // Backtracking on the one factorised step; the damping adapts for the next call.
     for halvings in 0..4 {
         let f = longest * 0.5f64.powi(halvings);
@@ -1064,11 +1017,11 @@ fn joint_step<C: Camera + Clone>(
                 shape: new_shape,
                 expression: new_expr,
             };
-            return (solution, false);
+            return (solution, last);
         }
     }
     *damping *= 10.0;
-    (current, false)
+    (current, last)
 }
 
 /// Landmark noise (model mm) from the residuals of a fit: `RSS / (m - p_eff)`, with `p_eff`
@@ -1099,76 +1052,40 @@ fn noise_estimate(
     sigma.is_finite().then(|| sigma.clamp(0.25, 10.0))
 }
 
-/// Adds soft 3D constraints `upper = lower` for closed lip pairs to normal equations over a
-/// block of coefficients; the other block's coefficients (`shape` or `expression`) are fixed.
-#[allow(clippy::too_many_arguments)]
-fn add_closed_lips(
-    model: &SurreyModel,
-    pairs: &[(usize, usize)],
-    block: Block,
-    shape: &[f32],
-    expression: &[f32],
-    sigma_mm: f64,
-    ata: &mut DMatrix<f64>,
-    atb: &mut DVector<f64>,
-) {
-    let w = 1.0 / sigma_mm.powi(2);
-    let n = atb.len();
-    for &(upper, lower) in pairs {
-        // Residual per axis: (base_u - base_l) + (M_u - M_l) x, with the block's coefficients x.
-        let gap = model.vertex(upper, shape, expression) - model.vertex(lower, shape, expression);
-        for axis in 0..3 {
-            let (_, iu, eu) = model.packed.row(3 * upper + axis);
-            let (_, il, el) = model.packed.row(3 * lower + axis);
-            let d: Vec<f64> = match block {
-                Block::Identity(k) => iu[..k]
-                    .iter()
-                    .zip(&il[..k])
-                    .map(|(a, b)| (a - b) as f64)
-                    .collect(),
-                Block::Expressions => eu.iter().zip(el).map(|(a, b)| (a - b) as f64).collect(),
-            };
-            for i in 0..n.min(d.len()) {
-                atb[i] -= w * d[i] * gap[axis];
-                for j in 0..n.min(d.len()) {
-                    ata[(i, j)] += w * d[i] * d[j];
-                }
-            }
-        }
-    }
-}
-
-/// Solves a symmetric positive (semi)definite system; falls back to a pseudo-inverse solve.
-fn solve_spd(a: DMatrix<f64>, b: DVector<f64>) -> Result<DVector<f64>, FitError> {
+/// Solves a symmetric positive (semi)definite system (row-major `a`); falls back to a
+/// pseudo-inverse solve.
+fn solve_spd(mut a: Vec<f64>, b: &[f64]) -> Result<Vec<f64>, FitError> {
     let n = b.len();
-    if let Some(x) = linalg::cholesky_solve(&mut a.as_slice().to_vec(), n, b.as_slice()) {
-        return Ok(DVector::from_vec(x));
+    let matrix = DMatrix::from_row_slice(n, n, &a);
+    if let Some(x) = linalg::cholesky_solve(&mut a, n, b) {
+        return Ok(x);
     }
-    let svd = a.svd(true, true);
+    let svd = matrix.svd(true, true);
     let x = svd
-        .solve(&b, 1e-12)
+        .solve(&DVector::from_column_slice(b), 1e-12)
         .map_err(|e| FitError::Degenerate(e.into()))?;
     if x.iter().all(|v| v.is_finite()) {
-        Ok(x)
+        Ok(x.as_slice().to_vec())
     } else {
         Err(FitError::NotFinite)
     }
 }
 
-/// Non-negative least squares on normal equations `Q x = q`, `x >= 0`, by cyclic coordinate
-/// descent. `Q` is positive definite (the ridge sees to it), so this converges to the unique
-/// optimum; with six unknowns a few hundred sweeps cost microseconds.
-fn nnls(q: &DMatrix<f64>, rhs: &DVector<f64>) -> Result<DVector<f64>, FitError> {
+/// Non-negative least squares on normal equations `Q x = q` (row-major `Q`), `x >= 0`, by
+/// cyclic coordinate descent. `Q` is positive definite (the ridge sees to it), so this
+/// converges to the unique optimum; with six unknowns a few hundred sweeps cost microseconds.
+fn nnls(q: &[f64], rhs: &[f64]) -> Result<Vec<f64>, FitError> {
     let n = rhs.len();
-    let mut x = DVector::<f64>::zeros(n);
+    let mut x = vec![0f64; n];
     for _ in 0..500 {
         let mut change = 0f64;
         for j in 0..n {
-            let d = q[(j, j)];
+            let d = q[j * n + j];
             if d <= 0.0 || !d.is_finite() {
                 continue;
             }
-            let g = (q.row(j) * &x)[0] - rhs[j];
+            let row = &q[j * n..(j + 1) * n];
+            let g = row.iter().zip(&x).map(|(a, b)| a * b).sum::<f64>() - rhs[j];
             let new = (x[j] - g / d).max(0.0);
             change = change.max((new - x[j]).abs());
             x[j] = new;
@@ -1265,13 +1182,14 @@ fn outline_correspondences<C: Camera>(
 /// How much each side of the face (right, left) turns towards the camera: the z of its
 /// outward direction in camera space, as a sine (positive = towards the camera).
 fn side_facing<C: Camera>(model: &SurreyModel, pose: &C, shape: &[f32], expr: &[f32]) -> [f64; 2] {
+    let k = Coefficients::new(model, shape, expr);
     [&model.contour.right, &model.contour.left].map(|verts| {
         if verts.is_empty() {
             return -1.0;
         }
         let mean_x = verts
             .iter()
-            .map(|&v| model.vertex(v as usize, shape, expr).x)
+            .map(|&v| model.point(v as usize, &k).x)
             .sum::<f64>()
             / verts.len() as f64;
         // The model's centre line is x = 0, so a side's outward direction is along its mean x.
@@ -1310,9 +1228,10 @@ fn occluding_correspondences<C: Camera>(
     }
     let boundary = cache.boundary(model, pose, shape, expr);
     let max_px = max_mm * pose.scale();
+    let k = Coefficients::new(model, shape, expr);
     let projected: Vec<(u32, Vector2<f64>)> = boundary
         .iter()
-        .map(|&v| (v, pose.project_up(&model.vertex(v as usize, shape, expr))))
+        .map(|&v| (v, pose.project_up(&model.point(v as usize, &k))))
         .collect();
     // One correspondence per landmark: its nearest visible boundary vertex. (eos ties every
     // boundary vertex to its nearest landmark instead, which lets one outline landmark pull
@@ -1382,14 +1301,13 @@ fn contour_correspondences<C: Camera>(
         (&model.mapping.contour_right, &model.contour.right),
         (&model.mapping.contour_left, &model.contour.left),
     ];
+    let k = Coefficients::new(model, shape, expr);
     for ((lms, verts), facing) in sides.into_iter().zip(facing) {
         if lms.is_empty() || verts.is_empty() || facing < -max_away {
             continue;
         }
-        let positions: Vec<Vector3<f64>> = verts
-            .iter()
-            .map(|&v| model.vertex(v as usize, shape, expr))
-            .collect();
+        let positions: Vec<Vector3<f64>> =
+            verts.iter().map(|&v| model.point(v as usize, &k)).collect();
         let projected: Vec<Vector2<f64>> = positions.iter().map(|p| pose.project_up(p)).collect();
         for &lm in lms {
             let Some(p) = landmarks.get(lm as usize - 1) else {

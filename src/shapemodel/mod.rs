@@ -13,6 +13,7 @@ mod cereal;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
@@ -142,16 +143,68 @@ pub struct SurreyModel {
     pub edges: EdgeTopology,
     /// Vertex-major copy of mean, rescaled identity basis and expression offsets.
     pub packed: PackedRows,
+    /// Built on first use by [`SurreyModel::landmark_products`].
+    products: OnceLock<BasisProducts>,
+}
+
+/// Axis pairs `(a, b)` of [`BasisProducts::sums`], in order.
+pub const AXIS_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+
+/// Products of basis rows summed over a set of vertices, for fitting with an affine camera.
+/// With `m_va` vertex `v`'s basis row for axis `a` (identity then expression coefficients) and
+/// `J` the camera's 2x3 Jacobian, the same for every point, the Gauss-Newton Hessian of those
+/// vertices' reprojection residuals is `sum_v M_v^T J^T J M_v = sum_ab (J^T J)_ab Q_ab` with
+/// `Q_ab = sum_v m_va^T m_vb`: six fixed matrices summed with six weights instead of a Gram
+/// product over two rows per vertex at every step.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BasisProducts {
+    /// Identity plus expression coefficients: each matrix is `columns x columns`, row-major.
+    pub columns: usize,
+    /// `Q_aa`, and `Q_ab + Q_ba` for `a != b`, in the order of [`AXIS_PAIRS`].
+    pub sums: [Vec<f64>; 6],
+}
+
+impl BasisProducts {
+    pub fn new(columns: usize) -> Self {
+        BasisProducts {
+            columns,
+            sums: std::array::from_fn(|_| vec![0.0; columns * columns]),
+        }
+    }
+
+    /// Adds (`sign` 1) or removes (`sign` -1) vertex `v`'s products.
+    pub fn add_vertex(&mut self, packed: &PackedRows, v: usize, sign: f64) {
+        let c = self.columns;
+        let rows: [Vec<f64>; 3] = std::array::from_fn(|axis| {
+            let (_, identity, expr) = packed.row(3 * v + axis);
+            identity.iter().chain(expr).map(|&x| x as f64).collect()
+        });
+        for (sum, &(a, b)) in self.sums.iter_mut().zip(&AXIS_PAIRS) {
+            let (ra, rb) = (&rows[a], &rows[b]);
+            for (i, row) in sum.chunks_exact_mut(c).enumerate() {
+                let (fa, fb) = (sign * ra[i], sign * rb[i]);
+                if a == b {
+                    row.iter_mut().zip(ra).for_each(|(d, x)| *d += fa * x);
+                } else {
+                    for ((d, x), y) in row.iter_mut().zip(rb).zip(ra) {
+                        *d += fa * x + fb * y;
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// The model's rows laid out vertex-major: coordinate row `r = 3 v + axis` holds
 /// `[mean, identity basis (K, eigenvalue-scaled), expression offsets (E)]` contiguously, so
 /// that evaluating or differentiating one vertex reads one short run of memory (the
-/// column-major PCA matrices put a vertex's values 10,344 floats apart).
+/// column-major PCA matrices put a vertex's values 10,344 floats apart). Rows are padded with
+/// zeros to a multiple of eight floats, so a coordinate is one dot product with no scalar tail.
 #[derive(Clone, Debug)]
 pub struct PackedRows {
     pub identity: usize,
     pub expressions: usize,
+    stride: usize,
     data: Vec<f32>,
 }
 
@@ -159,7 +212,7 @@ impl PackedRows {
     pub fn new(shape: &ShapeModel, blendshapes: &Blendshapes) -> Self {
         let (k, e) = (shape.rescaled_basis.ncols(), blendshapes.offsets.ncols());
         let rows = shape.mean.len();
-        let stride = 1 + k + e;
+        let stride = (1 + k + e).next_multiple_of(8);
         let mut data = vec![0f32; rows * stride];
         for (r, row) in data.chunks_exact_mut(stride).enumerate() {
             row[0] = shape.mean[r];
@@ -173,6 +226,7 @@ impl PackedRows {
         PackedRows {
             identity: k,
             expressions: e,
+            stride,
             data,
         }
     }
@@ -180,31 +234,56 @@ impl PackedRows {
     /// Coordinate row `r` (= 3 * vertex + axis): `(mean, identity row, expression row)`.
     #[inline]
     pub fn row(&self, r: usize) -> (f32, &[f32], &[f32]) {
-        let stride = 1 + self.identity + self.expressions;
-        let row = &self.data[r * stride..(r + 1) * stride];
+        let row = &self.data[r * self.stride..(r + 1) * self.stride];
+        let k = self.identity;
         (
             row[0],
-            &row[1..1 + self.identity],
-            &row[1 + self.identity..],
+            &row[1..1 + k],
+            &row[1 + k..1 + k + self.expressions],
         )
     }
 
     pub fn rows(&self) -> usize {
-        self.data.len() / (1 + self.identity + self.expressions)
+        self.data.len() / self.stride
+    }
+
+    /// Floats per row, padding included (the length of [`PackedRows::coefficients`]).
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// Writes into `out` (at least [`PackedRows::stride`] long) the coefficient vector laid
+    /// out like a row, `[1, identity, expressions, 0...]` (missing coefficients count as 0).
+    #[inline]
+    pub fn fill_coefficients(&self, identity: &[f32], expressions: &[f32], out: &mut [f32]) {
+        let (k, e) = (self.identity, self.expressions);
+        let (ki, ei) = (identity.len().min(k), expressions.len().min(e));
+        let out = &mut out[..self.stride];
+        out.fill(0.0);
+        out[0] = 1.0;
+        out[1..1 + ki].copy_from_slice(&identity[..ki]);
+        out[1 + k..1 + k + ei].copy_from_slice(&expressions[..ei]);
+    }
+
+    /// Position of vertex `v` for a coefficient vector from [`PackedRows::fill_coefficients`].
+    #[inline]
+    pub fn point(&self, v: usize, coefficients: &[f32]) -> [f32; 3] {
+        let rows = &self.data[3 * v * self.stride..3 * (v + 1) * self.stride];
+        let (x, rest) = rows.split_at(self.stride);
+        let (y, z) = rest.split_at(self.stride);
+        [
+            dot(x, coefficients),
+            dot(y, coefficients),
+            dot(z, coefficients),
+        ]
     }
 
     /// All coordinates for the given coefficients (missing ones count as 0), `[x0, y0, z0, ...]`.
     pub fn evaluate(&self, identity: &[f32], expressions: &[f32]) -> Vec<f32> {
-        let k = identity.len().min(self.identity);
-        let e = expressions.len().min(self.expressions);
-        // One coefficient vector laid out like a row, so each coordinate is one dot product.
-        let stride = 1 + self.identity + self.expressions;
-        let mut coeffs = vec![0f32; stride];
-        coeffs[0] = 1.0;
-        coeffs[1..1 + k].copy_from_slice(&identity[..k]);
-        coeffs[1 + self.identity..1 + self.identity + e].copy_from_slice(&expressions[..e]);
+        let mut coeffs = vec![0f32; self.stride];
+        self.fill_coefficients(identity, expressions, &mut coeffs);
         self.data
-            .chunks_exact(stride)
+            .chunks_exact(self.stride)
             .map(|row| dot(row, &coeffs))
             .collect()
     }
@@ -229,6 +308,18 @@ pub fn dot(a: &[f32], b: &[f32]) -> f32 {
 }
 
 impl SurreyModel {
+    /// [`BasisProducts`] summed over every landmark of the iBUG mapping (one term per
+    /// landmark), computed on first use (about a millisecond) and kept.
+    pub fn landmark_products(&self) -> &BasisProducts {
+        self.products.get_or_init(|| {
+            let mut products = BasisProducts::new(self.packed.identity + self.packed.expressions);
+            for &v in self.mapping.to_vertex.values() {
+                products.add_vertex(&self.packed, v as usize, 1.0);
+            }
+            products
+        })
+    }
+
     /// Reads the five files from `dir` and checks that they agree with each other.
     pub fn load_dir(dir: &Path) -> Result<Self, ModelError> {
         let read = |name: &str| -> Result<Vec<u8>, ModelError> {
@@ -261,6 +352,7 @@ impl SurreyModel {
             contour,
             edges,
             packed,
+            products: OnceLock::new(),
         };
         model.validate()?;
         Ok(model)
