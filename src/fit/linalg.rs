@@ -148,18 +148,25 @@ fn axpy4(d: &mut [f64], a: [&[f64]; 4], f: [f64; 4]) {
 /// matrix `m` becomes `U` with `M = U^T U` (the lower triangle is left as it was). `false` if
 /// `M` is not numerically positive definite.
 pub(crate) fn cholesky(m: &mut [f64], n: usize) -> bool {
+    cholesky_pivots(m, n, 0..n)
+}
+
+/// Pivots `range` of [`cholesky`]: after `0..k`, rows `..k` of `m` hold those rows of `U` and
+/// the trailing block the Schur complement, which `k..n` then factors. Callers can change the
+/// trailing block in between (fix a variable) without redoing the leading pivots.
+pub(crate) fn cholesky_pivots(m: &mut [f64], n: usize, range: std::ops::Range<usize>) -> bool {
     #[cfg(target_arch = "x86_64")]
     if has_avx2_fma() {
         // SAFETY: the CPU supports the features this function is compiled for (checked above).
-        return unsafe { cholesky_avx2(m, n) };
+        return unsafe { cholesky_avx2(m, n, range) };
     }
-    cholesky_generic(m, n)
+    cholesky_generic(m, n, range)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-fn cholesky_avx2(m: &mut [f64], n: usize) -> bool {
-    cholesky_generic(m, n)
+fn cholesky_avx2(m: &mut [f64], n: usize, range: std::ops::Range<usize>) -> bool {
+    cholesky_generic(m, n, range)
 }
 
 /// Scales row `k` of the trailing matrix into row `k` of `U`; `false` if its pivot is not
@@ -180,14 +187,15 @@ fn cholesky_pivot(m: &mut [f64], n: usize, k: usize) -> bool {
 }
 
 #[inline(always)]
-fn cholesky_generic(m: &mut [f64], n: usize) -> bool {
+fn cholesky_generic(m: &mut [f64], n: usize, range: std::ops::Range<usize>) -> bool {
     debug_assert_eq!(m.len(), n * n);
+    let end = range.end.min(n);
     // Right-looking in blocks of four pivots: inside a block, rank-one updates; then every
     // trailing row segment `M[i][i..]` takes the block's four rows of U at once, in contiguous
     // multiply-adds read and written once per block (no short dot products, no strided access).
-    let mut k = 0;
-    while k < n {
-        let b = 4.min(n - k);
+    let mut k = range.start;
+    while k < end {
+        let b = 4.min(end - k);
         for piv in k..k + b {
             if !cholesky_pivot(m, n, piv) {
                 return false;

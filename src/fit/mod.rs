@@ -912,24 +912,36 @@ fn joint_step<C: Camera + Clone>(
     let mut active: Vec<bool> = (0..n_expr)
         .map(|e| expr[e] <= 1e-6 && grad[6 + n_shape + e] <= 0.0)
         .collect();
+    // Camera and identity pivots once; fixing an expression only changes the trailing block.
+    let lead = p - n_expr;
+    let mut base = gram.clone();
+    for k in 0..p {
+        base[k * p + k] += *damping * gram[k * p + k].max(1e-9);
+    }
+    let factored = linalg::cholesky_pivots(&mut base, p, 0..lead);
     let mut m = Vec::new();
     let mut solved = None;
     for _ in 0..=n_expr {
-        m = gram.clone();
-        let mut g = grad.clone();
-        for k in 0..p {
-            m[k * p + k] += *damping * gram[k * p + k].max(1e-9);
+        if !factored {
+            break;
         }
+        m = base.clone();
+        let mut g = grad.clone();
         for (e, _) in active.iter().enumerate().filter(|(_, a)| **a) {
-            let k = 6 + n_shape + e;
-            for j in 0..p {
+            // As if the variable's row and column were zero with a unit diagonal: its column
+            // of U above the trailing block and its row and column in the Schur complement.
+            let k = lead + e;
+            for i in 0..lead {
+                m[i * p + k] = 0.0;
+            }
+            for j in lead..p {
                 m[k * p + j] = 0.0;
                 m[j * p + k] = 0.0;
             }
             m[k * p + k] = 1.0;
             g[k] = 0.0;
         }
-        let Some(delta) = linalg::cholesky(&mut m, p)
+        let Some(delta) = linalg::cholesky_pivots(&mut m, p, lead..p)
             .then(|| linalg::cholesky_substitute(&m, p, &g))
             .flatten()
         else {

@@ -174,6 +174,29 @@ fn coefficient_runs(params: Params, identity_columns: usize) -> [(usize, usize, 
     ]
 }
 
+/// Runs that continue each other in both parameters and product columns (all identity
+/// coefficients, then the expressions) as one.
+fn merge_runs(runs: &[(usize, usize, usize); 2]) -> Vec<(usize, usize, usize)> {
+    let [(p0, c0, l0), (p1, c1, l1)] = *runs;
+    if p0 + l0 == p1 && c0 + l0 == c1 {
+        vec![(p0, c0, l0 + l1)]
+    } else {
+        runs.iter().copied().filter(|r| r.2 > 0).collect()
+    }
+}
+
+/// `d += sum_t f[t] s[t]`: one pass over the output for the six basis-product matrices.
+#[inline(always)]
+fn combine6(d: &mut [f64], s: [&[f64]; 6], f: [f64; 6]) {
+    let n = s.iter().fold(d.len(), |n, s| n.min(s.len()));
+    let d = &mut d[..n];
+    let [s0, s1, s2, s3, s4, s5] = s.map(|s| &s[..n]);
+    for j in 0..n {
+        d[j] += ((f[0] * s0[j] + f[1] * s1[j]) + (f[2] * s2[j] + f[3] * s3[j]))
+            + (f[4] * s4[j] + f[5] * s5[j]);
+    }
+}
+
 /// The mapped landmarks' part through the basis products (see the module doc).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -200,16 +223,23 @@ fn add_fixed<C: Camera>(
     for &(row_param, row_col, rows) in &runs {
         for r in 0..rows {
             let dst = &mut h[(row_param + r) * p..(row_param + r + 1) * p];
-            for &(param, col, len) in &runs {
-                let out = &mut dst[param..param + len];
-                for (sum, &f) in products.sums.iter().zip(&pair_weights) {
-                    let src = &sum[(row_col + r) * cols + col..][..len];
-                    out.iter_mut().zip(src).for_each(|(d, s)| *d += f * s);
-                }
+            let at_col = |col: usize| (row_col + r) * cols + col;
+            for &(param, col, len) in &merge_runs(&runs) {
+                let s = &products.sums;
+                let src = [0, 1, 2, 3, 4, 5].map(|t| &s[t][at_col(col)..at_col(col) + len]);
+                combine6(&mut dst[param..param + len], src, pair_weights);
             }
         }
     }
     // Per landmark: the coefficients' gradient, and the camera's rows and cross terms.
+    let j = [
+        jx[(0, 0)],
+        jx[(1, 0)],
+        jx[(0, 1)],
+        jx[(1, 1)],
+        jx[(0, 2)],
+        jx[(1, 2)],
+    ];
     let n = params.coefficients();
     let (mut b0, mut b1) = (vec![0f64; n], vec![0f64; n]);
     for c in corr {
@@ -229,10 +259,11 @@ fn add_fixed<C: Camera>(
             };
             let (m0, m1, m2) = (pick(0), pick(1), pick(2));
             let (u, v) = (&mut b0[start..start + len], &mut b1[start..start + len]);
+            let [j00, j10, j01, j11, j02, j12] = j;
             for j in 0..len {
                 let m = [m0[j] as f64, m1[j] as f64, m2[j] as f64];
-                u[j] = jx[(0, 0)] * m[0] + jx[(0, 1)] * m[1] + jx[(0, 2)] * m[2];
-                v[j] = jx[(1, 0)] * m[0] + jx[(1, 1)] * m[1] + jx[(1, 2)] * m[2];
+                u[j] = j00 * m[0] + j01 * m[1] + j02 * m[2];
+                v[j] = j10 * m[0] + j11 * m[1] + j12 * m[2];
             }
         }
         for ((gk, u), v) in g[cams..].iter_mut().zip(&b0).zip(&b1) {
@@ -275,7 +306,8 @@ fn add_rows<C: Camera>(
     h: &mut [f64],
     g: &mut [f64],
 ) {
-    let rows = 2 * corr.len() + 3 * closed_lips.len();
+    add_lips(model, closed_lips, coefficients, params, weights.lips, h, g);
+    let rows = 2 * corr.len();
     if rows == 0 {
         return;
     }
@@ -341,24 +373,47 @@ fn add_rows<C: Camera>(
             }
         }
     }
-    let swl = weights.lips.sqrt();
-    for (j, &(upper, lower)) in closed_lips.iter().enumerate() {
-        let gap = model.point(upper, coefficients) - model.point(lower, coefficients);
-        let (up, low) = (basis_rows(upper), basis_rows(lower));
-        for axis in 0..3 {
-            let row = 2 * corr.len() + 3 * j + axis;
-            let (iu, eu) = up[axis];
-            let (il, el) = low[axis];
-            let diffs = iu.iter().zip(il).chain(eu.iter().zip(el));
-            for (k, (u, l)) in diffs.enumerate() {
-                a[(cams + k) * rows + row] = swl * (u - l) as f64;
-            }
-            t[row] = -swl * gap[axis];
-        }
-    }
     let (gram, rhs) = linalg::gram(&a, rows, p, &t);
     h.iter_mut().zip(&gram).for_each(|(d, s)| *d += s);
     g.iter_mut().zip(&rhs).for_each(|(d, s)| *d += s);
+}
+
+/// Closed lips: per axis, the residual `lower - upper` (mm) and its derivative, the difference
+/// of the two vertices' basis rows, added as rank-one updates of the coefficient block (they
+/// do not involve the camera, and a Gram product over nine rows costs more than the updates).
+#[inline(always)]
+fn add_lips(
+    model: &SurreyModel,
+    closed_lips: &[(usize, usize)],
+    coefficients: &Coefficients,
+    params: Params,
+    weight: f64,
+    h: &mut [f64],
+    g: &mut [f64],
+) {
+    let (p, cams, n) = (params.len(), params.cameras(), params.coefficients());
+    let mut d = vec![0f64; n];
+    for &(upper, lower) in closed_lips {
+        let gap = model.point(upper, coefficients) - model.point(lower, coefficients);
+        for axis in 0..3 {
+            let (_, iu, eu) = model.packed.row(3 * upper + axis);
+            let (_, il, el) = model.packed.row(3 * lower + axis);
+            let (ki, ke) = (params.identity, params.expressions);
+            let diffs = iu[..ki]
+                .iter()
+                .zip(&il[..ki])
+                .chain(eu[..ke].iter().zip(&el[..ke]));
+            for (dk, (u, l)) in d.iter_mut().zip(diffs) {
+                *dk = (u - l) as f64;
+            }
+            for (i, &di) in d.iter().enumerate() {
+                g[cams + i] -= weight * di * gap[axis];
+                let f = weight * di;
+                let row = &mut h[(cams + i) * p + cams..(cams + i + 1) * p];
+                row.iter_mut().zip(&d).for_each(|(hk, dk)| *hk += f * dk);
+            }
+        }
+    }
 }
 
 /// `H x` for a row-major `n x n` matrix.
