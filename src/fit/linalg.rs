@@ -232,6 +232,22 @@ fn cholesky_generic(m: &mut [f64], n: usize, range: std::ops::Range<usize>) -> b
 
 /// Solves `U^T U x = b` with the factor from [`cholesky`]. `None` if `x` is not finite.
 pub(crate) fn cholesky_substitute(u: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64>> {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2_fma() {
+        // SAFETY: the CPU supports the features this function is compiled for (checked above).
+        return unsafe { cholesky_substitute_avx2(u, n, b) };
+    }
+    cholesky_substitute_generic(u, n, b)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn cholesky_substitute_avx2(u: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64>> {
+    cholesky_substitute_generic(u, n, b)
+}
+
+#[inline(always)]
+fn cholesky_substitute_generic(u: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64>> {
     let mut x = b.to_vec();
     // U^T y = b, column by column of U^T (rows of U, contiguous).
     for k in 0..n {

@@ -31,7 +31,9 @@ pub use occluding::visible_occluding_vertices;
 pub use pose::{Pose, estimate_linear, nearest_rotation, refine};
 
 use crate::shapemodel::SurreyModel;
-use normal::{At, FixedProducts, Params, Weights, absolute_rhs, normal_equations};
+use normal::{
+    At, FixedProducts, Params, Weights, absolute_rhs, mirror_upper, normal_equations,
+};
 
 /// Largest identity coefficient a fit may return, in standard deviations (a face beyond 5 SD in
 /// any component has probability below 1e-6 under the model).
@@ -41,7 +43,7 @@ pub const MAX_SHAPE_SD: f64 = 5.0;
 pub const INNER_LIP_PAIRS: [(u32, u32); 3] = [(62, 68), (63, 67), (64, 66)];
 
 /// Joint steps after which the landmark noise estimate is left as it is.
-const NOISE_ESTIMATES: usize = 2;
+const NOISE_ESTIMATES: usize = 1;
 
 /// A joint step predicted to lower the objective (squared residuals in units of their noise,
 /// plus the priors) by less than this is the last: the optimum is within about one standard
@@ -501,7 +503,7 @@ impl<'a> Problem<'a> {
         affine: bool,
     ) -> Self {
         let (mapped, missing) = mapped_correspondences(model, landmarks);
-        let fixed = affine.then(|| FixedProducts::new(model, mapped.len(), &missing));
+        let fixed = affine.then(|| FixedProducts::new(model, &mapped, &missing));
         Problem {
             model,
             landmarks,
@@ -580,7 +582,8 @@ fn run_loop<C: Camera + Clone>(
         iterations += 1;
         let corr = correspondences(&pose, &shape, &expression, &mut cache);
         let mut settled = false;
-        if opts.joint && (it > 0 || !block_first) {
+        let joint = opts.joint && (it > 0 || !block_first);
+        if joint {
             joint_steps += 1;
             let (next, converged) = joint_step(
                 problem,
@@ -605,6 +608,14 @@ fn run_loop<C: Camera + Clone>(
                 shape = fit_shape(problem, &corr, &pose, &shape, &expression, sigma_mm)?;
             }
         }
+        if joint {
+            // A joint step never makes the objective worse and says itself when it has
+            // converged (`settled`); the reprojection test below is for block iterations.
+            if settled {
+                break;
+            }
+            continue;
+        }
         let (mean, _) = reprojection(model, mapped, &pose, &shape, &expression);
         if !mean.is_finite() {
             return Err(FitError::NotFinite);
@@ -612,7 +623,7 @@ fn run_loop<C: Camera + Clone>(
         let converged =
             last_error.is_finite() && (last_error - mean).abs() <= opts.tolerance * last_error;
         last_error = mean;
-        if converged || settled {
+        if converged {
             break;
         }
     }
@@ -700,7 +711,7 @@ fn block_equations<C: Camera>(
         landmarks: 1.0 / (pose.scale() * sigma_mm).powi(2),
         lips: 1.0 / opts.sigma_closed_mm.powi(2),
     };
-    let (h, g) = normal_equations(
+    let (mut h, g) = normal_equations(
         problem.model,
         corr,
         &problem.closed_lips,
@@ -709,6 +720,7 @@ fn block_equations<C: Camera>(
         weights,
         problem.fixed.as_ref(),
     );
+    mirror_upper(&mut h, params.len());
     let current = if params.identity > 0 {
         &shape[..params.identity]
     } else {
@@ -914,18 +926,28 @@ fn joint_step<C: Camera + Clone>(
         .collect();
     // Camera and identity pivots once; fixing an expression only changes the trailing block.
     let lead = p - n_expr;
-    let mut base = gram.clone();
+    let mut m = gram;
     for k in 0..p {
-        base[k * p + k] += *damping * gram[k * p + k].max(1e-9);
+        let d = m[k * p + k];
+        m[k * p + k] += *damping * d.max(1e-9);
     }
-    let factored = linalg::cholesky_pivots(&mut base, p, 0..lead);
-    let mut m = Vec::new();
+    let factored = linalg::cholesky_pivots(&mut m, p, 0..lead);
+    // All that the trailing pivots and the fixing below overwrite: columns `lead..` of every
+    // row (restored before each solve, instead of copying the whole matrix).
+    let saved: Vec<f64> = m
+        .chunks_exact(p)
+        .flat_map(|row| row[lead..].iter().copied())
+        .collect();
     let mut solved = None;
     for _ in 0..=n_expr {
         if !factored {
             break;
         }
-        m = base.clone();
+        if n_expr > 0 {
+            for (row, s) in m.chunks_exact_mut(p).zip(saved.chunks_exact(n_expr)) {
+                row[lead..].copy_from_slice(s);
+            }
+        }
         let mut g = grad.clone();
         for (e, _) in active.iter().enumerate().filter(|(_, a)| **a) {
             // As if the variable's row and column were zero with a unit diagonal: its column

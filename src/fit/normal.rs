@@ -13,7 +13,7 @@
 
 use std::borrow::Cow;
 
-use nalgebra::Matrix2x3;
+use nalgebra::{Matrix2x3, Vector3};
 
 use super::{Camera, Coefficients, Correspondence, linalg};
 use crate::shapemodel::{AXIS_PAIRS, BasisProducts, SurreyModel};
@@ -42,21 +42,60 @@ impl Params {
     }
 }
 
-/// Basis products over the first `count` correspondences of every list the loop builds (the
-/// mapped landmarks present), for an affine camera.
+/// Sums over the first `count` correspondences of every list the loop builds (the mapped
+/// landmarks present), for an affine camera: second moments of the basis rows (the model's,
+/// less the missing landmarks') and first moments that depend on the landmarks only.
 pub(super) struct FixedProducts<'a> {
     pub count: usize,
     pub products: Cow<'a, BasisProducts>,
+    /// `N_a = sum_v m_va` per axis `a` (all identity and expression columns).
+    basis: [Vec<f64>; 3],
+    /// `U_ra = sum_v u_vr m_va`, image coordinate `r` (y up) times basis row.
+    image: [[Vec<f64>; 3]; 2],
 }
 
 impl<'a> FixedProducts<'a> {
-    /// The model's products over all mapped landmarks, less those of the `missing` vertices.
-    pub fn new(model: &'a SurreyModel, count: usize, missing: &[usize]) -> Self {
+    /// The model's products over all mapped landmarks, less those of the `missing` vertices;
+    /// `mapped` are the landmarks present.
+    pub fn new(model: &'a SurreyModel, mapped: &[Correspondence], missing: &[usize]) -> Self {
         let mut products = Cow::Borrowed(model.landmark_products());
         for &v in missing {
             products.to_mut().add_vertex(&model.packed, v, -1.0);
         }
-        FixedProducts { count, products }
+        let cols = model.packed.identity + model.packed.expressions;
+        let mut basis: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; cols]);
+        let mut image: [[Vec<f64>; 3]; 2] =
+            std::array::from_fn(|_| std::array::from_fn(|_| vec![0.0; cols]));
+        for c in mapped {
+            for (axis, n) in basis.iter_mut().enumerate() {
+                let row = basis_row(model, c.vertex, axis);
+                add_scaled(n, row, 1.0);
+                add_scaled(&mut image[0][axis], row, c.image_up.x);
+                add_scaled(&mut image[1][axis], row, c.image_up.y);
+            }
+        }
+        FixedProducts {
+            count: mapped.len(),
+            products,
+            basis,
+            image,
+        }
+    }
+}
+
+/// Vertex `v`'s basis row for `axis`: identity then expression columns.
+#[inline(always)]
+fn basis_row(model: &SurreyModel, v: usize, axis: usize) -> &[f32] {
+    model.packed.basis(3 * v + axis)
+}
+
+/// `d += f x` for an f32 source.
+#[inline(always)]
+fn add_scaled(d: &mut [f64], x: &[f32], f: f64) {
+    let n = d.len().min(x.len());
+    let (d, x) = (&mut d[..n], &x[..n]);
+    for j in 0..n {
+        d[j] += f * x[j] as f64;
     }
 }
 
@@ -79,7 +118,8 @@ pub(super) struct At<'a, C> {
 /// `(H, g)` with `H = J^T W J` and `g = J^T W r`: `r` the residuals (image point minus
 /// projection, along the normal for sliding outline points; lower minus upper lip vertex in
 /// 3D for closed lips), `J` their derivative with respect to `params`. A Gauss-Newton step is
-/// `H delta = g`.
+/// `H delta = g`. Only the upper triangle of `H` is filled in (all that the Cholesky
+/// factorisation reads; [`mirror_upper`] completes it).
 pub(super) fn normal_equations<C: Camera>(
     model: &SurreyModel,
     corr: &[Correspondence],
@@ -141,7 +181,7 @@ fn normal_equations_generic<C: Camera>(
                 &k,
                 params,
                 weights.landmarks,
-                &fixed.products,
+                fixed,
                 &jx,
                 &mut h,
                 &mut g,
@@ -197,7 +237,11 @@ fn combine6(d: &mut [f64], s: [&[f64]; 6], f: [f64; 6]) {
     }
 }
 
-/// The mapped landmarks' part through the basis products (see the module doc).
+/// The mapped landmarks' part through moments of the basis rows (see the module doc): the
+/// coefficient block from the second moments `Q_ab`; gradient and camera cross terms from the
+/// first moments `S_ea = sum_v x_ve m_va` (accumulated here, nine short multiply-adds per
+/// landmark), `N_a` and `U_ra`, using that an affine camera's projection and parameter
+/// Jacobian are affine in the point.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn add_fixed<C: Camera>(
@@ -207,69 +251,49 @@ fn add_fixed<C: Camera>(
     coefficients: &Coefficients,
     params: Params,
     w: f64,
-    products: &BasisProducts,
+    fixed: &FixedProducts,
     jx: &Matrix2x3<f64>,
     h: &mut [f64],
     g: &mut [f64],
 ) {
     let p = params.len();
-    let cams = params.cameras();
-    let k = model.packed.identity;
-    let runs = coefficient_runs(params, k);
-    // Coefficient block: sum over axis pairs of (J^T J)_ab Q_ab.
-    let jj = jx.transpose() * jx * w;
-    let pair_weights = AXIS_PAIRS.map(|(a, b)| jj[(a, b)]);
+    let runs = coefficient_runs(params, model.packed.identity);
+    let products = &fixed.products;
     let cols = products.columns;
+    // Coefficient block: sum over axis pairs of (J^T J)_ab Q_ab.
+    let jj = jx.transpose() * jx;
+    let pair_weights = AXIS_PAIRS.map(|(a, b)| w * jj[(a, b)]);
+    // Upper triangle only, mirrored below (the six matrices are symmetric).
+    let merged = merge_runs(&runs);
     for &(row_param, row_col, rows) in &runs {
         for r in 0..rows {
-            let dst = &mut h[(row_param + r) * p..(row_param + r + 1) * p];
+            let i = row_param + r;
+            let dst = &mut h[i * p..(i + 1) * p];
             let at_col = |col: usize| (row_col + r) * cols + col;
-            for &(param, col, len) in &merge_runs(&runs) {
+            for &(param, col, len) in &merged {
+                // The part of this run on or right of the diagonal.
+                let skip = i.saturating_sub(param).min(len);
+                let (param, col, len) = (param + skip, col + skip, len - skip);
                 let s = &products.sums;
                 let src = [0, 1, 2, 3, 4, 5].map(|t| &s[t][at_col(col)..at_col(col) + len]);
                 combine6(&mut dst[param..param + len], src, pair_weights);
             }
         }
     }
-    // Per landmark: the coefficients' gradient, and the camera's rows and cross terms.
-    let j = [
-        jx[(0, 0)],
-        jx[(1, 0)],
-        jx[(0, 1)],
-        jx[(1, 1)],
-        jx[(0, 2)],
-        jx[(1, 2)],
-    ];
-    let n = params.coefficients();
-    let (mut b0, mut b1) = (vec![0f64; n], vec![0f64; n]);
+    // Per landmark: first moments, and the camera's own block and gradient.
+    let mut moments: [[Vec<f64>; 3]; 3] =
+        std::array::from_fn(|_| std::array::from_fn(|_| vec![0f64; cols]));
     for c in corr {
         debug_assert!(c.blend.is_none() && c.normal.is_none());
         let x = model.point(c.vertex, coefficients);
-        let r = (c.image_up - at.camera.project_up(&x)) * w;
-        // B = J M_v over the coefficient columns, identity and expressions in turn.
-        let rows = [0, 1, 2].map(|axis| model.packed.row(3 * c.vertex + axis));
-        let runs = [
-            (0, params.identity, 1usize),
-            (params.identity, params.expressions, 2usize),
-        ];
-        for (start, len, part) in runs {
-            let pick = |axis: usize| {
-                let (_, identity, expr) = rows[axis];
-                &(if part == 1 { identity } else { expr })[..len]
-            };
-            let (m0, m1, m2) = (pick(0), pick(1), pick(2));
-            let (u, v) = (&mut b0[start..start + len], &mut b1[start..start + len]);
-            let [j00, j10, j01, j11, j02, j12] = j;
-            for j in 0..len {
-                let m = [m0[j] as f64, m1[j] as f64, m2[j] as f64];
-                u[j] = j00 * m[0] + j01 * m[1] + j02 * m[2];
-                v[j] = j10 * m[0] + j11 * m[1] + j12 * m[2];
+        for axis in 0..3 {
+            let row = basis_row(model, c.vertex, axis);
+            for e in 0..3 {
+                add_scaled(&mut moments[e][axis], row, x[e]);
             }
         }
-        for ((gk, u), v) in g[cams..].iter_mut().zip(&b0).zip(&b1) {
-            *gk += u * r.x + v * r.y;
-        }
         if params.camera {
+            let r = (c.image_up - at.camera.project_up(&x)) * w;
             let jp = at.camera.parameter_jacobian(&x);
             for i in 0..6 {
                 let (u, v) = (w * jp[(0, i)], w * jp[(1, i)]);
@@ -277,17 +301,61 @@ fn add_fixed<C: Camera>(
                 for j in i..6 {
                     h[i * p + j] += u * jp[(0, j)] + v * jp[(1, j)];
                 }
-                for ((d, s0), s1) in h[i * p + 6..(i + 1) * p].iter_mut().zip(&b0).zip(&b1) {
-                    *d += u * s0 + v * s1;
+            }
+        }
+    }
+    // Coefficients' gradient: sum_a sum_r J_ra (U_ra - t_r N_a - sum_e J_re S_ea).
+    let origin = at.camera.project_up(&Vector3::zeros());
+    let mut grad = vec![0f64; cols];
+    for a in 0..3 {
+        for (r, t) in [origin.x, origin.y].into_iter().enumerate() {
+            add_scaled64(&mut grad, &fixed.image[r][a], jx[(r, a)]);
+            add_scaled64(&mut grad, &fixed.basis[a], -jx[(r, a)] * t);
+        }
+        for e in 0..3 {
+            add_scaled64(&mut grad, &moments[e][a], -jj[(a, e)]);
+        }
+    }
+    for &(param, col, len) in &runs {
+        for (gk, v) in g[param..param + len].iter_mut().zip(&grad[col..col + len]) {
+            *gk += w * v;
+        }
+    }
+    if params.camera {
+        // Cross terms: with jp(x) = A_0 + sum_e x_e A_e,
+        // C_k = sum_r sum_a J_ra (A_0[r][k] N_a + sum_e A_e[r][k] S_ea).
+        let a0 = at.camera.parameter_jacobian(&Vector3::zeros());
+        let ae = [0, 1, 2].map(|e| {
+            at.camera.parameter_jacobian(&Vector3::from_fn(|i, _| if i == e { 1.0 } else { 0.0 }))
+                - a0
+        });
+        let mut cross = vec![0f64; cols];
+        for k in 0..6 {
+            cross.fill(0.0);
+            for a in 0..3 {
+                let f0 = jx[(0, a)] * a0[(0, k)] + jx[(1, a)] * a0[(1, k)];
+                add_scaled64(&mut cross, &fixed.basis[a], f0);
+                for (e, ae) in ae.iter().enumerate() {
+                    let f = jx[(0, a)] * ae[(0, k)] + jx[(1, a)] * ae[(1, k)];
+                    add_scaled64(&mut cross, &moments[e][a], f);
+                }
+            }
+            for &(param, col, len) in &runs {
+                for (d, v) in h[k * p + param..k * p + param + len].iter_mut().zip(&cross[col..col + len]) {
+                    *d += w * v;
                 }
             }
         }
     }
-    // The camera rows were filled on and above the diagonal only.
-    for i in 0..cams {
-        for j in i + 1..p {
-            h[j * p + i] = h[i * p + j];
-        }
+}
+
+/// `d += f x`.
+#[inline(always)]
+fn add_scaled64(d: &mut [f64], x: &[f64], f: f64) {
+    let n = d.len().min(x.len());
+    let (d, x) = (&mut d[..n], &x[..n]);
+    for j in 0..n {
+        d[j] += f * x[j];
     }
 }
 
@@ -412,6 +480,15 @@ fn add_lips(
                 let row = &mut h[(cams + i) * p + cams..(cams + i + 1) * p];
                 row.iter_mut().zip(&d).for_each(|(hk, dk)| *hk += f * dk);
             }
+        }
+    }
+}
+
+/// Copies the upper triangle of a row-major `n x n` matrix below the diagonal.
+pub(super) fn mirror_upper(h: &mut [f64], n: usize) {
+    for i in 0..n {
+        for j in i + 1..n {
+            h[j * n + i] = h[i * n + j];
         }
     }
 }

@@ -243,6 +243,12 @@ impl PackedRows {
         )
     }
 
+    /// Coordinate row `r` without its mean: identity then expression columns.
+    #[inline]
+    pub fn basis(&self, r: usize) -> &[f32] {
+        &self.data[r * self.stride + 1..r * self.stride + 1 + self.identity + self.expressions]
+    }
+
     pub fn rows(&self) -> usize {
         self.data.len() / self.stride
     }
@@ -291,7 +297,7 @@ impl PackedRows {
 
 /// Dot product with eight independent partial sums, which the compiler can keep in SIMD
 /// registers (a single running sum fixes the order of additions and cannot be vectorised).
-#[inline]
+#[inline(always)]
 pub fn dot(a: &[f32], b: &[f32]) -> f32 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
