@@ -144,6 +144,41 @@ fn axpy4(d: &mut [f64], a: [&[f64]; 4], f: [f64; 4]) {
     }
 }
 
+/// `d -= sum_q f[q] a[q]` for eight rows at once.
+#[inline(always)]
+fn axpy8(d: &mut [f64], a: [&[f64]; 8], f: [f64; 8]) {
+    let n = a.iter().fold(d.len(), |n, a| n.min(a.len()));
+    let (d4, dr) = d[..n].as_chunks_mut::<4>();
+    let c = d4.len();
+    let (a0, r0) = a[0][..n].as_chunks::<4>();
+    let (a1, r1) = a[1][..n].as_chunks::<4>();
+    let (a2, r2) = a[2][..n].as_chunks::<4>();
+    let (a3, r3) = a[3][..n].as_chunks::<4>();
+    let (a4, r4) = a[4][..n].as_chunks::<4>();
+    let (a5, r5) = a[5][..n].as_chunks::<4>();
+    let (a6, r6) = a[6][..n].as_chunks::<4>();
+    let (a7, r7) = a[7][..n].as_chunks::<4>();
+    let (a0, a1, a2, a3) = (&a0[..c], &a1[..c], &a2[..c], &a3[..c]);
+    let (a4, a5, a6, a7) = (&a4[..c], &a5[..c], &a6[..c], &a7[..c]);
+    for j in 0..c {
+        let (x0, x1, x2, x3) = (a0[j], a1[j], a2[j], a3[j]);
+        let (x4, x5, x6, x7) = (a4[j], a5[j], a6[j], a7[j]);
+        let mut v = d4[j];
+        for q in 0..4 {
+            v[q] -= ((f[0] * x0[q] + f[1] * x1[q]) + (f[2] * x2[q] + f[3] * x3[q]))
+                + ((f[4] * x4[q] + f[5] * x5[q]) + (f[6] * x6[q] + f[7] * x7[q]));
+        }
+        d4[j] = v;
+    }
+    let r = dr.len();
+    let (r0, r1, r2, r3) = (&r0[..r], &r1[..r], &r2[..r], &r3[..r]);
+    let (r4, r5, r6, r7) = (&r4[..r], &r5[..r], &r6[..r], &r7[..r]);
+    for j in 0..r {
+        dr[j] -= ((f[0] * r0[j] + f[1] * r1[j]) + (f[2] * r2[j] + f[3] * r3[j]))
+            + ((f[4] * r4[j] + f[5] * r5[j]) + (f[6] * r6[j] + f[7] * r7[j]));
+    }
+}
+
 /// Cholesky factorisation in place: the upper triangle of the row-major symmetric `n x n`
 /// matrix `m` becomes `U` with `M = U^T U` (the lower triangle is left as it was). `false` if
 /// `M` is not numerically positive definite.
@@ -190,12 +225,46 @@ fn cholesky_pivot(m: &mut [f64], n: usize, k: usize) -> bool {
 fn cholesky_generic(m: &mut [f64], n: usize, range: std::ops::Range<usize>) -> bool {
     debug_assert_eq!(m.len(), n * n);
     let end = range.end.min(n);
-    // Right-looking in blocks of four pivots: inside a block, rank-one updates; then every
-    // trailing row segment `M[i][i..]` takes the block's four rows of U at once, in contiguous
-    // multiply-adds read and written once per block (no short dot products, no strided access).
+    // Right-looking in blocks of eight pivots (each factored as two blocks of four): every
+    // trailing row segment `M[i][i..]` then takes the block's eight rows of U at once, in
+    // contiguous multiply-adds read and written once per block (no short dot products, no
+    // strided access).
     let mut k = range.start;
     while k < end {
-        let b = 4.min(end - k);
+        let b = 8.min(end - k);
+        if !cholesky_block(m, n, k, k + b, k + b) {
+            return false;
+        }
+        let (head, tail) = m.split_at_mut((k + b) * n);
+        let block = &head[k * n..];
+        for (r, row) in tail.chunks_exact_mut(n).enumerate() {
+            let i = k + b + r;
+            if b == 8 {
+                let u = |q: usize| &block[q * n + i..(q + 1) * n];
+                let rows = [u(0), u(1), u(2), u(3), u(4), u(5), u(6), u(7)];
+                let f = [
+                    rows[0][0], rows[1][0], rows[2][0], rows[3][0], rows[4][0], rows[5][0],
+                    rows[6][0], rows[7][0],
+                ];
+                axpy8(&mut row[i..], rows, f);
+            } else {
+                for q in 0..b {
+                    let u = &block[q * n + i..(q + 1) * n];
+                    axpy(&mut row[i..], u, u[0]);
+                }
+            }
+        }
+        k += b;
+    }
+    true
+}
+
+/// Pivots `start..stop` in blocks of four, updating rows up to `rows` (exclusive) only.
+#[inline(always)]
+fn cholesky_block(m: &mut [f64], n: usize, start: usize, stop: usize, rows: usize) -> bool {
+    let mut k = start;
+    while k < stop {
+        let b = 4.min(stop - k);
         for piv in k..k + b {
             if !cholesky_pivot(m, n, piv) {
                 return false;
@@ -208,7 +277,7 @@ fn cholesky_generic(m: &mut [f64], n: usize, range: std::ops::Range<usize>) -> b
         }
         let (head, tail) = m.split_at_mut((k + b) * n);
         let block = &head[k * n..];
-        for (r, row) in tail.chunks_exact_mut(n).enumerate() {
+        for (r, row) in tail.chunks_exact_mut(n).take(rows - k - b).enumerate() {
             let i = k + b + r;
             if b == 4 {
                 let u = [

@@ -31,9 +31,7 @@ pub use occluding::visible_occluding_vertices;
 pub use pose::{Pose, estimate_linear, nearest_rotation, refine};
 
 use crate::shapemodel::SurreyModel;
-use normal::{
-    At, FixedProducts, Params, Weights, absolute_rhs, mirror_upper, normal_equations,
-};
+use normal::{At, FixedProducts, Params, Weights, absolute_rhs, mirror_upper, normal_equations};
 
 /// Largest identity coefficient a fit may return, in standard deviations (a face beyond 5 SD in
 /// any component has probability below 1e-6 under the model).
@@ -608,9 +606,10 @@ fn run_loop<C: Camera + Clone>(
                 shape = fit_shape(problem, &corr, &pose, &shape, &expression, sigma_mm)?;
             }
         }
-        if joint {
+        if opts.joint {
             // A joint step never makes the objective worse and says itself when it has
-            // converged (`settled`); the reprojection test below is for block iterations.
+            // converged (`settled`); the reprojection test below is for block iterations
+            // followed by more block iterations.
             if settled {
                 break;
             }
@@ -711,7 +710,7 @@ fn block_equations<C: Camera>(
         landmarks: 1.0 / (pose.scale() * sigma_mm).powi(2),
         lips: 1.0 / opts.sigma_closed_mm.powi(2),
     };
-    let (mut h, g) = normal_equations(
+    let normal::Linearised { mut h, g, .. } = normal_equations(
         problem.model,
         corr,
         &problem.closed_lips,
@@ -825,15 +824,20 @@ impl Objective<'_> {
     fn value<C: Camera>(&self, camera: &C, shape: &[f32], expression: &[f32]) -> (f64, f64, usize) {
         let k = Coefficients::new(self.model, shape, expression);
         let (rss, count) = self.landmark_residuals(camera, &k);
-        let mut e = self.weight * rss;
-        for &(u, l) in self.closed_lips {
-            let gap = self.model.point(u, &k) - self.model.point(l, &k);
-            e += self.weight_lips * gap.norm_squared();
-        }
-        let total = e
+        let lips: f64 = self
+            .closed_lips
+            .iter()
+            .map(|&(u, l)| (self.model.point(u, &k) - self.model.point(l, &k)).norm_squared())
+            .sum();
+        (self.total(rss, lips, shape, expression), rss, count)
+    }
+
+    /// The objective from the squared image residuals (pixels^2) and closed-lip gaps (mm^2).
+    fn total(&self, rss_px: f64, lips_mm2: f64, shape: &[f32], expression: &[f32]) -> f64 {
+        self.weight * rss_px
+            + self.weight_lips * lips_mm2
             + self.lambda_shape * shape.iter().map(|&a| (a as f64).powi(2)).sum::<f64>()
-            + self.lambda_expression * expression.iter().map(|&b| (b as f64).powi(2)).sum::<f64>();
-        (total, rss, count)
+            + self.lambda_expression * expression.iter().map(|&b| (b as f64).powi(2)).sum::<f64>()
     }
 }
 
@@ -890,7 +894,12 @@ fn joint_step<C: Camera + Clone>(
         landmarks: objective.weight,
         lips: objective.weight_lips,
     };
-    let (mut gram, mut grad) = normal_equations(
+    let normal::Linearised {
+        h: mut gram,
+        g: mut grad,
+        rss_px,
+        lips_mm2,
+    } = normal_equations(
         model,
         corr,
         closed_lips,
@@ -917,7 +926,7 @@ fn joint_step<C: Camera + Clone>(
         grad[k] -= w * coefficient(k);
         gram[k * p + k] += w;
     }
-    let before = objective.value(&current.camera, shape, expr).0;
+    let before = objective.total(rss_px, lips_mm2, shape, expr);
     // Expressions at their bound (0) that the step would push below it are held there (active
     // set) and the step is solved again: a step computed with them free and then clipped loses
     // the coupled identity change that went with it, and can be far worse than no step.

@@ -62,18 +62,7 @@ impl<'a> FixedProducts<'a> {
         for &v in missing {
             products.to_mut().add_vertex(&model.packed, v, -1.0);
         }
-        let cols = model.packed.identity + model.packed.expressions;
-        let mut basis: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; cols]);
-        let mut image: [[Vec<f64>; 3]; 2] =
-            std::array::from_fn(|_| std::array::from_fn(|_| vec![0.0; cols]));
-        for c in mapped {
-            for (axis, n) in basis.iter_mut().enumerate() {
-                let row = basis_row(model, c.vertex, axis);
-                add_scaled(n, row, 1.0);
-                add_scaled(&mut image[0][axis], row, c.image_up.x);
-                add_scaled(&mut image[1][axis], row, c.image_up.y);
-            }
-        }
+        let (basis, image) = first_moments(model, mapped);
         FixedProducts {
             count: mapped.len(),
             products,
@@ -81,6 +70,48 @@ impl<'a> FixedProducts<'a> {
             image,
         }
     }
+}
+
+/// `(N_a, U_ra)` of [`FixedProducts`].
+fn first_moments(
+    model: &SurreyModel,
+    mapped: &[Correspondence],
+) -> ([Vec<f64>; 3], [[Vec<f64>; 3]; 2]) {
+    #[cfg(target_arch = "x86_64")]
+    if linalg::has_avx2_fma() {
+        // SAFETY: the CPU supports the features this function is compiled for (checked above).
+        return unsafe { first_moments_avx2(model, mapped) };
+    }
+    first_moments_generic(model, mapped)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn first_moments_avx2(
+    model: &SurreyModel,
+    mapped: &[Correspondence],
+) -> ([Vec<f64>; 3], [[Vec<f64>; 3]; 2]) {
+    first_moments_generic(model, mapped)
+}
+
+#[inline(always)]
+fn first_moments_generic(
+    model: &SurreyModel,
+    mapped: &[Correspondence],
+) -> ([Vec<f64>; 3], [[Vec<f64>; 3]; 2]) {
+    let cols = model.packed.identity + model.packed.expressions;
+    let mut basis: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; cols]);
+    let mut image: [[Vec<f64>; 3]; 2] =
+        std::array::from_fn(|_| std::array::from_fn(|_| vec![0.0; cols]));
+    for c in mapped {
+        for (axis, n) in basis.iter_mut().enumerate() {
+            let row = basis_row(model, c.vertex, axis);
+            add_scaled(n, row, 1.0);
+            add_scaled(&mut image[0][axis], row, c.image_up.x);
+            add_scaled(&mut image[1][axis], row, c.image_up.y);
+        }
+    }
+    (basis, image)
 }
 
 /// Vertex `v`'s basis row for `axis`: identity then expression columns.
@@ -115,6 +146,16 @@ pub(super) struct At<'a, C> {
     pub expression: &'a [f32],
 }
 
+/// Normal equations at a point, with the residuals' sums of squares there.
+pub(super) struct Linearised {
+    pub h: Vec<f64>,
+    pub g: Vec<f64>,
+    /// Unweighted squared image residuals, pixels^2.
+    pub rss_px: f64,
+    /// Unweighted squared closed-lip gaps, mm^2.
+    pub lips_mm2: f64,
+}
+
 /// `(H, g)` with `H = J^T W J` and `g = J^T W r`: `r` the residuals (image point minus
 /// projection, along the normal for sliding outline points; lower minus upper lip vertex in
 /// 3D for closed lips), `J` their derivative with respect to `params`. A Gauss-Newton step is
@@ -128,7 +169,7 @@ pub(super) fn normal_equations<C: Camera>(
     params: Params,
     weights: Weights,
     fixed: Option<&FixedProducts>,
-) -> (Vec<f64>, Vec<f64>) {
+) -> Linearised {
     #[cfg(target_arch = "x86_64")]
     if linalg::has_avx2_fma() {
         // SAFETY: the CPU supports the features this function is compiled for (checked above).
@@ -151,7 +192,7 @@ fn normal_equations_avx2<C: Camera>(
     params: Params,
     weights: Weights,
     fixed: Option<&FixedProducts>,
-) -> (Vec<f64>, Vec<f64>) {
+) -> Linearised {
     normal_equations_generic(model, corr, closed_lips, at, params, weights, fixed)
 }
 
@@ -164,11 +205,12 @@ fn normal_equations_generic<C: Camera>(
     params: Params,
     weights: Weights,
     fixed: Option<&FixedProducts>,
-) -> (Vec<f64>, Vec<f64>) {
+) -> Linearised {
     let p = params.len();
     let mut h = vec![0f64; p * p];
     let mut g = vec![0f64; p];
     let k = Coefficients::new(model, at.shape, at.expression);
+    let mut sums = (0f64, 0f64);
     let affine = fixed
         .filter(|f| f.count <= corr.len())
         .zip(at.camera.affine_jacobian());
@@ -185,6 +227,7 @@ fn normal_equations_generic<C: Camera>(
                 &jx,
                 &mut h,
                 &mut g,
+                &mut sums.0,
             );
             fixed.count
         }
@@ -200,8 +243,14 @@ fn normal_equations_generic<C: Camera>(
         weights,
         &mut h,
         &mut g,
+        &mut sums,
     );
-    (h, g)
+    Linearised {
+        h,
+        g,
+        rss_px: sums.0,
+        lips_mm2: sums.1,
+    }
 }
 
 /// The coefficient columns of `params` as runs of basis-product columns:
@@ -255,6 +304,7 @@ fn add_fixed<C: Camera>(
     jx: &Matrix2x3<f64>,
     h: &mut [f64],
     g: &mut [f64],
+    rss: &mut f64,
 ) {
     let p = params.len();
     let runs = coefficient_runs(params, model.packed.identity);
@@ -281,19 +331,24 @@ fn add_fixed<C: Camera>(
         }
     }
     // Per landmark: first moments, and the camera's own block and gradient.
+    // Only over the product columns the parameters use (the block solves need six or 63).
+    let lo = runs.iter().filter(|r| r.2 > 0).map(|r| r.1).min().unwrap_or(0);
+    let hi = runs.iter().map(|r| r.1 + r.2).max().unwrap_or(0).max(lo);
     let mut moments: [[Vec<f64>; 3]; 3] =
         std::array::from_fn(|_| std::array::from_fn(|_| vec![0f64; cols]));
     for c in corr {
         debug_assert!(c.blend.is_none() && c.normal.is_none());
         let x = model.point(c.vertex, coefficients);
         for axis in 0..3 {
-            let row = basis_row(model, c.vertex, axis);
+            let row = &basis_row(model, c.vertex, axis)[lo..hi];
             for e in 0..3 {
-                add_scaled(&mut moments[e][axis], row, x[e]);
+                add_scaled(&mut moments[e][axis][lo..hi], row, x[e]);
             }
         }
+        let residual = c.image_up - at.camera.project_up(&x);
+        *rss += residual.norm_squared();
         if params.camera {
-            let r = (c.image_up - at.camera.project_up(&x)) * w;
+            let r = residual * w;
             let jp = at.camera.parameter_jacobian(&x);
             for i in 0..6 {
                 let (u, v) = (w * jp[(0, i)], w * jp[(1, i)]);
@@ -326,7 +381,8 @@ fn add_fixed<C: Camera>(
         // C_k = sum_r sum_a J_ra (A_0[r][k] N_a + sum_e A_e[r][k] S_ea).
         let a0 = at.camera.parameter_jacobian(&Vector3::zeros());
         let ae = [0, 1, 2].map(|e| {
-            at.camera.parameter_jacobian(&Vector3::from_fn(|i, _| if i == e { 1.0 } else { 0.0 }))
+            at.camera
+                .parameter_jacobian(&Vector3::from_fn(|i, _| if i == e { 1.0 } else { 0.0 }))
                 - a0
         });
         let mut cross = vec![0f64; cols];
@@ -341,7 +397,10 @@ fn add_fixed<C: Camera>(
                 }
             }
             for &(param, col, len) in &runs {
-                for (d, v) in h[k * p + param..k * p + param + len].iter_mut().zip(&cross[col..col + len]) {
+                for (d, v) in h[k * p + param..k * p + param + len]
+                    .iter_mut()
+                    .zip(&cross[col..col + len])
+                {
                     *d += w * v;
                 }
             }
@@ -373,8 +432,9 @@ fn add_rows<C: Camera>(
     weights: Weights,
     h: &mut [f64],
     g: &mut [f64],
+    sums: &mut (f64, f64),
 ) {
-    add_lips(model, closed_lips, coefficients, params, weights.lips, h, g);
+    sums.1 += add_lips(model, closed_lips, coefficients, params, weights.lips, h, g);
     let rows = 2 * corr.len();
     if rows == 0 {
         return;
@@ -424,6 +484,10 @@ fn add_rows<C: Camera>(
                 jx[(1, 0)] * m[0] + jx[(1, 1)] * m[1] + jx[(1, 2)] * m[2],
             ];
         }
+        sums.0 += match c.normal {
+            Some(n) => n.dot(&r).powi(2),
+            None => r.norm_squared(),
+        };
         match c.normal {
             Some(n) => {
                 for (k, dk) in d.iter().enumerate() {
@@ -458,11 +522,13 @@ fn add_lips(
     weight: f64,
     h: &mut [f64],
     g: &mut [f64],
-) {
+) -> f64 {
     let (p, cams, n) = (params.len(), params.cameras(), params.coefficients());
     let mut d = vec![0f64; n];
+    let mut sum = 0.0;
     for &(upper, lower) in closed_lips {
         let gap = model.point(upper, coefficients) - model.point(lower, coefficients);
+        sum += gap.norm_squared();
         for axis in 0..3 {
             let (_, iu, eu) = model.packed.row(3 * upper + axis);
             let (_, il, el) = model.packed.row(3 * lower + axis);
@@ -482,6 +548,7 @@ fn add_lips(
             }
         }
     }
+    sum
 }
 
 /// Copies the upper triangle of a row-major `n x n` matrix below the diagonal.
