@@ -79,25 +79,23 @@ fn block_products_generic(packed: &[f64], rows: usize, n: usize, g: &mut [f64]) 
     }
 }
 
-/// Dot product with four partial sums, so it vectorises.
+/// Dot product with eight partial sums (two vector registers with AVX2), so that it
+/// vectorises and its additions form two independent chains instead of one.
 #[inline(always)]
 fn dot(x: &[f64], y: &[f64]) -> f64 {
     let n = x.len().min(y.len());
-    let (x, y) = (&x[..n], &y[..n]);
-    let mut acc = [0f64; 4];
-    let (cx, cy) = (x.chunks_exact(4), y.chunks_exact(4));
-    let tail: f64 = cx
-        .remainder()
-        .iter()
-        .zip(cy.remainder())
-        .map(|(p, q)| p * q)
-        .sum();
-    for (p, q) in cx.zip(cy) {
-        for i in 0..4 {
+    let (x8, xr) = x[..n].as_chunks::<8>();
+    let (y8, yr) = y[..n].as_chunks::<8>();
+    let y8 = &y8[..x8.len()];
+    let mut acc = [0f64; 8];
+    for j in 0..x8.len() {
+        let (p, q) = (x8[j], y8[j]);
+        for i in 0..8 {
             acc[i] += p[i] * q[i];
         }
     }
-    acc[0] + acc[1] + acc[2] + acc[3] + tail
+    let tail: f64 = xr.iter().zip(yr).map(|(p, q)| p * q).sum();
+    ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7])) + tail
 }
 
 /// `d -= f a`, on whole lanes of four (`[f64; 4]`, one vector register with AVX2) so that
@@ -318,14 +316,16 @@ fn cholesky_substitute_avx2(u: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64>> 
 #[inline(always)]
 fn cholesky_substitute_generic(u: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64>> {
     let mut x = b.to_vec();
+    // Reciprocals first: a division's latency would otherwise sit in each step's chain.
+    let inv: Vec<f64> = (0..n).map(|k| 1.0 / u[k * n + k]).collect();
     // U^T y = b, column by column of U^T (rows of U, contiguous).
     for k in 0..n {
-        let y = x[k] / u[k * n + k];
+        let y = x[k] * inv[k];
         x[k] = y;
         axpy(&mut x[k + 1..], &u[k * n + k + 1..(k + 1) * n], y);
     }
     for i in (0..n).rev() {
-        x[i] = (x[i] - dot(&u[i * n + i + 1..(i + 1) * n], &x[i + 1..])) / u[i * n + i];
+        x[i] = (x[i] - dot(&u[i * n + i + 1..(i + 1) * n], &x[i + 1..])) * inv[i];
     }
     x.iter().all(|v| v.is_finite()).then_some(x)
 }

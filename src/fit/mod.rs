@@ -46,7 +46,7 @@ const NOISE_ESTIMATES: usize = 1;
 /// A joint step predicted to lower the objective (squared residuals in units of their noise,
 /// plus the priors) by less than this is the last: the optimum is within about one standard
 /// error in every direction.
-const CONVERGED_GAIN: f64 = 1.0;
+const CONVERGED_GAIN: f64 = 5.0;
 
 /// Number of iBUG landmarks the fitter expects.
 pub const IBUG_POINTS: usize = 68;
@@ -345,7 +345,7 @@ fn fit_impl(
             *dst = if src.is_finite() { *src } else { 0.0 };
         }
     }
-    let pose = estimate_orthographic(model, &problem.mapped, &shape, &expression, false)?;
+    let pose = estimate_orthographic(model, &problem.mapped, &shape, &expression, false, None)?;
     // A previous frame's noise estimate is a better start than the default.
     let sigma_mm = start
         .map(|(previous, _)| previous.noise_mm)
@@ -363,7 +363,12 @@ fn fit_impl(
             block_first: true,
             hold_identity,
         },
-        |_, corr, shape, expr, polish| estimate_orthographic(model, corr, shape, expr, polish),
+        |current, corr, shape, expr, polish| {
+            // The final polish starts from the loop's camera, which joint steps have already
+            // fitted; block iterations re-estimate it linearly, as eos does.
+            let from = (polish && opts.joint).then_some(current);
+            estimate_orthographic(model, corr, shape, expr, polish, from)
+        },
     )?;
     Ok(Fit {
         pose: state.solution.camera,
@@ -469,15 +474,19 @@ fn estimate_orthographic(
     shape: &[f32],
     expr: &[f32],
     polish: bool,
+    from: Option<&Pose>,
 ) -> Result<Pose, FitError> {
     let k = Coefficients::new(model, shape, expr);
     let x: Vec<Vector3<f64>> = corr.iter().map(|c| c.position(model, &k)).collect();
     let u: Vec<Vector2<f64>> = corr.iter().map(|c| c.image_up).collect();
-    let linear = estimate_linear(&x, &u)?;
+    let start = match from {
+        Some(pose) => *pose,
+        None => estimate_linear(&x, &u)?,
+    };
     Ok(if polish {
-        refine(linear, &x, &u, 10)
+        refine(start, &x, &u, 10)
     } else {
-        linear
+        start
     })
 }
 

@@ -332,18 +332,27 @@ fn add_fixed<C: Camera>(
     }
     // Per landmark: first moments, and the camera's own block and gradient.
     // Only over the product columns the parameters use (the block solves need six or 63).
-    let lo = runs.iter().filter(|r| r.2 > 0).map(|r| r.1).min().unwrap_or(0);
+    let lo = runs
+        .iter()
+        .filter(|r| r.2 > 0)
+        .map(|r| r.1)
+        .min()
+        .unwrap_or(0);
     let hi = runs.iter().map(|r| r.1 + r.2).max().unwrap_or(0).max(lo);
+    // moments[a][e] = S_ea.
     let mut moments: [[Vec<f64>; 3]; 3] =
         std::array::from_fn(|_| std::array::from_fn(|_| vec![0f64; cols]));
     for c in corr {
         debug_assert!(c.blend.is_none() && c.normal.is_none());
         let x = model.point(c.vertex, coefficients);
-        for axis in 0..3 {
+        for (axis, m) in moments.iter_mut().enumerate() {
             let row = &basis_row(model, c.vertex, axis)[lo..hi];
-            for e in 0..3 {
-                add_scaled(&mut moments[e][axis][lo..hi], row, x[e]);
-            }
+            let [m0, m1, m2] = m;
+            add_scaled3(
+                [&mut m0[lo..hi], &mut m1[lo..hi], &mut m2[lo..hi]],
+                row,
+                [x[0], x[1], x[2]],
+            );
         }
         let residual = c.image_up - at.camera.project_up(&x);
         *rss += residual.norm_squared();
@@ -368,7 +377,7 @@ fn add_fixed<C: Camera>(
             add_scaled64(&mut grad, &fixed.basis[a], -jx[(r, a)] * t);
         }
         for e in 0..3 {
-            add_scaled64(&mut grad, &moments[e][a], -jj[(a, e)]);
+            add_scaled64(&mut grad, &moments[a][e], -jj[(a, e)]);
         }
     }
     for &(param, col, len) in &runs {
@@ -393,7 +402,7 @@ fn add_fixed<C: Camera>(
                 add_scaled64(&mut cross, &fixed.basis[a], f0);
                 for (e, ae) in ae.iter().enumerate() {
                     let f = jx[(0, a)] * ae[(0, k)] + jx[(1, a)] * ae[(1, k)];
-                    add_scaled64(&mut cross, &moments[e][a], f);
+                    add_scaled64(&mut cross, &moments[a][e], f);
                 }
             }
             for &(param, col, len) in &runs {
@@ -405,6 +414,20 @@ fn add_fixed<C: Camera>(
                 }
             }
         }
+    }
+}
+
+/// `d[e] += f[e] x` for three outputs, reading (and widening) `x` once.
+#[inline(always)]
+fn add_scaled3(d: [&mut [f64]; 3], x: &[f32], f: [f64; 3]) {
+    let [d0, d1, d2] = d;
+    let n = x.len().min(d0.len()).min(d1.len()).min(d2.len());
+    let (d0, d1, d2, x) = (&mut d0[..n], &mut d1[..n], &mut d2[..n], &x[..n]);
+    for j in 0..n {
+        let v = x[j] as f64;
+        d0[j] += f[0] * v;
+        d1[j] += f[1] * v;
+        d2[j] += f[2] * v;
     }
 }
 
