@@ -58,10 +58,22 @@ impl<'a> FixedProducts<'a> {
     /// The model's products over all mapped landmarks, less those of the `missing` vertices;
     /// `mapped` are the landmarks present.
     pub fn new(model: &'a SurreyModel, mapped: &[Correspondence], missing: &[usize]) -> Self {
-        let mut products = Cow::Borrowed(model.landmark_products());
-        for &v in missing {
-            products.to_mut().add_vertex(&model.packed, v, -1.0);
-        }
+        // Whichever is fewer: take the missing landmarks' products out of the model's, or add
+        // up the present ones'.
+        let products = if missing.len() <= mapped.len() {
+            let mut products = Cow::Borrowed(model.landmark_products());
+            for &v in missing {
+                products.to_mut().add_vertex(&model.packed, v, -1.0);
+            }
+            products
+        } else {
+            let cols = model.packed.identity + model.packed.expressions;
+            let mut products = BasisProducts::new(cols);
+            for c in mapped {
+                products.add_vertex(&model.packed, c.vertex, 1.0);
+            }
+            Cow::Owned(products)
+        };
         let (basis, image) = first_moments(model, mapped);
         FixedProducts {
             count: mapped.len(),

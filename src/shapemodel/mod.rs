@@ -160,7 +160,8 @@ pub const AXIS_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0,
 pub struct BasisProducts {
     /// Identity plus expression coefficients: each matrix is `columns x columns`, row-major.
     pub columns: usize,
-    /// `Q_aa`, and `Q_ab + Q_ba` for `a != b`, in the order of [`AXIS_PAIRS`].
+    /// `Q_aa`, and `Q_ab + Q_ba` for `a != b`, in the order of [`AXIS_PAIRS`]: the upper
+    /// triangles (the matrices are symmetric; entries below the diagonal stay 0).
     pub sums: [Vec<f64>; 6],
 }
 
@@ -174,6 +175,22 @@ impl BasisProducts {
 
     /// Adds (`sign` 1) or removes (`sign` -1) vertex `v`'s products.
     pub fn add_vertex(&mut self, packed: &PackedRows, v: usize, sign: f64) {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports the feature this function is compiled for.
+            return unsafe { self.add_vertex_avx2(packed, v, sign) };
+        }
+        self.add_vertex_generic(packed, v, sign)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn add_vertex_avx2(&mut self, packed: &PackedRows, v: usize, sign: f64) {
+        self.add_vertex_generic(packed, v, sign)
+    }
+
+    #[inline(always)]
+    fn add_vertex_generic(&mut self, packed: &PackedRows, v: usize, sign: f64) {
         let c = self.columns;
         let rows: [Vec<f64>; 3] = std::array::from_fn(|axis| {
             let (_, identity, expr) = packed.row(3 * v + axis);
@@ -183,6 +200,7 @@ impl BasisProducts {
             let (ra, rb) = (&rows[a], &rows[b]);
             for (i, row) in sum.chunks_exact_mut(c).enumerate() {
                 let (fa, fb) = (sign * ra[i], sign * rb[i]);
+                let (row, ra, rb) = (&mut row[i..], &ra[i..], &rb[i..]);
                 if a == b {
                     row.iter_mut().zip(ra).for_each(|(d, x)| *d += fa * x);
                 } else {
