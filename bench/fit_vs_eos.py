@@ -702,7 +702,9 @@ def main(argv=None) -> int:
     ap.add_argument("--faces", type=int, default=200, help="synthetic faces (default 200)")
     ap.add_argument("--sigmas", type=float, nargs="+", default=[0.0, 1.0, 3.0], help="landmark noise, px")
     ap.add_argument("--seed", type=int, default=20240521)
-    ap.add_argument("--repeat", type=int, default=5, help="timed runs per case (glyptic; eos without contour)")
+    ap.add_argument("--repeat", type=int, default=21,
+                    help="timed runs per case (glyptic; eos without contour); a fit takes a fraction of a "
+                         "millisecond, so a median of few runs is mostly noise of the machine")
     ap.add_argument("--eos-full-repeat", type=int, default=3, help="timed runs per case of eos's full fit")
     ap.add_argument("--binary", default=os.path.join(ROOT, "target", "release", "glyptic"))
     ap.add_argument("--sfm", default=os.path.join(ROOT, "shapemodel", "sfm"))

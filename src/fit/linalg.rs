@@ -234,23 +234,8 @@ fn cholesky_generic(m: &mut [f64], n: usize, range: std::ops::Range<usize>) -> b
             return false;
         }
         let (head, tail) = m.split_at_mut((k + b) * n);
-        let block = &head[k * n..];
         for (r, row) in tail.chunks_exact_mut(n).enumerate() {
-            let i = k + b + r;
-            if b == 8 {
-                let u = |q: usize| &block[q * n + i..(q + 1) * n];
-                let rows = [u(0), u(1), u(2), u(3), u(4), u(5), u(6), u(7)];
-                let f = [
-                    rows[0][0], rows[1][0], rows[2][0], rows[3][0], rows[4][0], rows[5][0],
-                    rows[6][0], rows[7][0],
-                ];
-                axpy8(&mut row[i..], rows, f);
-            } else {
-                for q in 0..b {
-                    let u = &block[q * n + i..(q + 1) * n];
-                    axpy(&mut row[i..], u, u[0]);
-                }
-            }
+            update_row(row, &head[k * n..], n, b, k + b + r);
         }
         k += b;
     }
@@ -274,27 +259,42 @@ fn cholesky_block(m: &mut [f64], n: usize, start: usize, stop: usize, rows: usiz
             }
         }
         let (head, tail) = m.split_at_mut((k + b) * n);
-        let block = &head[k * n..];
         for (r, row) in tail.chunks_exact_mut(n).take(rows - k - b).enumerate() {
-            let i = k + b + r;
-            if b == 4 {
-                let u = [
-                    &block[i..n],
-                    &block[n + i..2 * n],
-                    &block[2 * n + i..3 * n],
-                    &block[3 * n + i..4 * n],
-                ];
-                axpy4(&mut row[i..], u, [u[0][0], u[1][0], u[2][0], u[3][0]]);
-            } else {
-                for q in 0..b {
-                    let u = &block[q * n + i..(q + 1) * n];
-                    axpy(&mut row[i..], u, u[0]);
-                }
-            }
+            update_row(row, &head[k * n..], n, b, k + b + r);
         }
         k += b;
     }
     true
+}
+
+/// Row `i` of the trailing matrix, `row[i..] -= sum_q U[q][i] U[q][i..]` over the `b` rows of
+/// U in `block` (row stride `n`): eight or four at once where the block is that tall.
+#[inline(always)]
+fn update_row(row: &mut [f64], block: &[f64], n: usize, b: usize, i: usize) {
+    let u = |q: usize| &block[q * n + i..(q + 1) * n];
+    match b {
+        8 => {
+            let rows = [u(0), u(1), u(2), u(3), u(4), u(5), u(6), u(7)];
+            let f = [
+                rows[0][0], rows[1][0], rows[2][0], rows[3][0], rows[4][0], rows[5][0], rows[6][0],
+                rows[7][0],
+            ];
+            axpy8(&mut row[i..], rows, f);
+        }
+        4 => {
+            let rows = [u(0), u(1), u(2), u(3)];
+            axpy4(
+                &mut row[i..],
+                rows,
+                [rows[0][0], rows[1][0], rows[2][0], rows[3][0]],
+            );
+        }
+        _ => {
+            for q in 0..b {
+                axpy(&mut row[i..], u(q), u(q)[0]);
+            }
+        }
+    }
 }
 
 /// Solves `U^T U x = b` with the factor from [`cholesky`]. `None` if `x` is not finite.
