@@ -290,7 +290,8 @@ fn merge_runs(runs: &[(usize, usize, usize); 2]) -> Vec<(usize, usize, usize)> {
 fn combine6(d: &mut [f64], s: [&[f64]; 6], f: [f64; 6]) {
     let n = s.iter().fold(d.len(), |n, s| n.min(s.len()));
     let d = &mut d[..n];
-    let [s0, s1, s2, s3, s4, s5] = s.map(|s| &s[..n]);
+    let [s0, s1, s2, s3, s4, s5] = s;
+    let (s0, s1, s2, s3, s4, s5) = (&s0[..n], &s1[..n], &s2[..n], &s3[..n], &s4[..n], &s5[..n]);
     for j in 0..n {
         d[j] += ((f[0] * s0[j] + f[1] * s1[j]) + (f[2] * s2[j] + f[3] * s3[j]))
             + (f[4] * s4[j] + f[5] * s5[j]);
@@ -336,7 +337,15 @@ fn add_fixed<C: Camera>(
                 let skip = i.saturating_sub(param).min(len);
                 let (param, col, len) = (param + skip, col + skip, len - skip);
                 let s = &products.sums;
-                let src = [0, 1, 2, 3, 4, 5].map(|t| &s[t][at_col(col)..at_col(col) + len]);
+                let (a, b) = (at_col(col), at_col(col) + len);
+                let src = [
+                    &s[0][a..b],
+                    &s[1][a..b],
+                    &s[2][a..b],
+                    &s[3][a..b],
+                    &s[4][a..b],
+                    &s[5][a..b],
+                ];
                 combine6(&mut dst[param..param + len], src, pair_weights);
             }
         }
