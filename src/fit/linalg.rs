@@ -330,6 +330,20 @@ fn cholesky_substitute_generic(u: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+/// Entries `from..n` of the diagonal of `M^-1` from the factor of [`cholesky`]. They depend
+/// on the trailing block of `U` only (`U^-1` is upper triangular and its trailing block is
+/// the inverse of `U`'s), so leading unknowns whose entries are not needed cost nothing.
+pub(crate) fn inverse_diagonal_from(u: &[f64], n: usize, from: usize) -> Vec<f64> {
+    let from = from.min(n);
+    let m = n - from;
+    let mut trailing = vec![0f64; m * m];
+    for (i, row) in trailing.chunks_exact_mut(m.max(1)).take(m).enumerate() {
+        let src = (from + i) * n + from;
+        row[i..].copy_from_slice(&u[src + i..src + m]);
+    }
+    inverse_diagonal(&trailing, m)
+}
+
 /// The diagonal of `M^-1` from the factor of [`cholesky`]: with `X = U^-T` (lower
 /// triangular), `(M^-1)_kk = sum_i X_ik^2`.
 pub(crate) fn inverse_diagonal(u: &[f64], n: usize) -> Vec<f64> {
@@ -449,6 +463,10 @@ mod tests {
         let inv = expect.clone().try_inverse().expect("invertible");
         for (k, d) in inverse_diagonal(&m, n).iter().enumerate() {
             assert!((d - inv[(k, k)]).abs() < 1e-9 * inv[(k, k)].abs().max(1.0));
+        }
+        for (k, d) in inverse_diagonal_from(&m, n, 4).iter().enumerate() {
+            let e = inv[(k + 4, k + 4)];
+            assert!((d - e).abs() < 1e-9 * e.abs().max(1.0));
         }
         let x_ref = expect.cholesky().expect("spd").solve(&expect_rhs);
         for i in 0..n {

@@ -502,6 +502,8 @@ struct Problem<'a> {
     closed_lips: Vec<(usize, usize)>,
     /// Basis products over `mapped`, for the orthographic camera.
     fixed: Option<FixedProducts<'a>>,
+    /// The last joint step's Hessian buffer, reused by the next.
+    scratch: std::cell::RefCell<Vec<f64>>,
 }
 
 impl<'a> Problem<'a> {
@@ -520,6 +522,7 @@ impl<'a> Problem<'a> {
             mapped,
             closed_lips: closed_lip_pairs(model, landmarks, opts),
             fixed,
+            scratch: Default::default(),
         }
     }
 }
@@ -612,7 +615,12 @@ fn run_loop<C: Camera + Clone>(
             (pose, shape, expression) = (next.camera, next.shape, next.expression);
             settled = converged;
         } else {
-            pose = estimate(&pose, &corr, &shape, &expression, false)?;
+            // The starting pose was estimated from the mapped landmarks with these same
+            // coefficients: on the first iteration without outline correspondences it would
+            // come out the same.
+            if it > 0 || corr.len() != mapped.len() {
+                pose = estimate(&pose, &corr, &shape, &expression, false)?;
+            }
             expression = fit_expressions(problem, &corr, &pose, &shape, &expression, sigma_mm)?;
             // With joint steps to follow, the first of them solves identity together with
             // the camera; a block solve here first cost 15 % of a no-contour fit and gained
@@ -733,6 +741,7 @@ fn block_equations<C: Camera>(
         params,
         weights,
         problem.fixed.as_ref(),
+        Vec::new(),
     );
     mirror_upper(&mut h, params.len());
     let current = if params.identity > 0 {
@@ -922,6 +931,7 @@ fn joint_step<C: Camera + Clone>(
         params,
         weights,
         problem.fixed.as_ref(),
+        problem.scratch.take(),
     );
     // The priors' weights per parameter (none on the camera), their gradient at the current
     // coefficients and their curvature.
@@ -1004,6 +1014,7 @@ fn joint_step<C: Camera + Clone>(
     }
     let Some((delta, grad)) = solved else {
         *damping *= 10.0;
+        problem.scratch.replace(m);
         return (current, false);
     };
     // The longest step along delta that keeps every coefficient within its bounds.
@@ -1036,6 +1047,7 @@ fn joint_step<C: Camera + Clone>(
     // Written so that a NaN prediction also stops.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if !(predicted > 0.0) {
+        problem.scratch.replace(m);
         return (current, true);
     }
     let last = predicted < CONVERGED_GAIN || predicted < opts.tolerance * before;
@@ -1075,10 +1087,12 @@ fn joint_step<C: Camera + Clone>(
                 shape: new_shape,
                 expression: new_expr,
             };
+            problem.scratch.replace(m);
             return (solution, last);
         }
     }
     *damping *= 10.0;
+    problem.scratch.replace(m);
     (current, last)
 }
 
@@ -1096,12 +1110,16 @@ fn noise_estimate(
     prior: &[f64],
 ) -> Option<f64> {
     let p = prior.len();
-    let inverse = linalg::inverse_diagonal(factor, p);
-    let p_eff: f64 = prior
-        .iter()
-        .zip(&inverse)
-        .map(|(l, h)| (1.0 - l * h).clamp(0.0, 1.0))
-        .sum();
+    // Unknowns without a prior (the camera, first) count fully; only the others need their
+    // entry of the inverse.
+    let from = prior.iter().take_while(|&&l| l == 0.0).count();
+    let inverse = linalg::inverse_diagonal_from(factor, p, from);
+    let p_eff: f64 = from as f64
+        + prior[from..]
+            .iter()
+            .zip(&inverse)
+            .map(|(l, h)| (1.0 - l * h).clamp(0.0, 1.0))
+            .sum::<f64>();
     let dof = count as f64 - p_eff;
     if dof < 2.0 {
         return None;

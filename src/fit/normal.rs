@@ -171,7 +171,9 @@ pub(super) struct Linearised {
 /// projection, along the normal for sliding outline points; lower minus upper lip vertex in
 /// 3D for closed lips), `J` their derivative with respect to `params`. A Gauss-Newton step is
 /// `H delta = g`. Only the upper triangle of `H` is filled in (all that the Cholesky
-/// factorisation reads; [`mirror_upper`] completes it).
+/// factorisation reads; [`mirror_upper`] completes it). `H` is built in `buffer`, whose
+/// contents do not matter (pass an old `H` to save an allocation).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn normal_equations<C: Camera>(
     model: &SurreyModel,
     corr: &[Correspondence],
@@ -180,21 +182,23 @@ pub(super) fn normal_equations<C: Camera>(
     params: Params,
     weights: Weights,
     fixed: Option<&FixedProducts>,
+    buffer: Vec<f64>,
 ) -> Linearised {
     #[cfg(target_arch = "x86_64")]
     if linalg::has_avx2_fma() {
         // SAFETY: the CPU supports the features this function is compiled for (checked above).
         return unsafe {
-            normal_equations_avx2(model, corr, closed_lips, at, params, weights, fixed)
+            normal_equations_avx2(model, corr, closed_lips, at, params, weights, fixed, buffer)
         };
     }
-    normal_equations_generic(model, corr, closed_lips, at, params, weights, fixed)
+    normal_equations_generic(model, corr, closed_lips, at, params, weights, fixed, buffer)
 }
 
 /// [`normal_equations`] compiled for AVX2 and FMA (4-wide arithmetic in the per-landmark loops
 /// and the basis-product sums).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
+#[allow(clippy::too_many_arguments)]
 fn normal_equations_avx2<C: Camera>(
     model: &SurreyModel,
     corr: &[Correspondence],
@@ -203,11 +207,13 @@ fn normal_equations_avx2<C: Camera>(
     params: Params,
     weights: Weights,
     fixed: Option<&FixedProducts>,
+    buffer: Vec<f64>,
 ) -> Linearised {
-    normal_equations_generic(model, corr, closed_lips, at, params, weights, fixed)
+    normal_equations_generic(model, corr, closed_lips, at, params, weights, fixed, buffer)
 }
 
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn normal_equations_generic<C: Camera>(
     model: &SurreyModel,
     corr: &[Correspondence],
@@ -216,9 +222,13 @@ fn normal_equations_generic<C: Camera>(
     params: Params,
     weights: Weights,
     fixed: Option<&FixedProducts>,
+    buffer: Vec<f64>,
 ) -> Linearised {
     let p = params.len();
-    let mut h = vec![0f64; p * p];
+    // A reused buffer (hot in cache, no allocation) when the caller has one.
+    let mut h = buffer;
+    h.clear();
+    h.resize(p * p, 0.0);
     let mut g = vec![0f64; p];
     let k = Coefficients::new(model, at.shape, at.expression);
     let mut sums = (0f64, 0f64);
