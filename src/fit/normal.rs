@@ -4,12 +4,14 @@
 //!
 //! Units: image residuals in pixels, weighted by `1 / (s sigma)^2` (i.e. measured in model
 //! millimetres); closed-lip residuals in mm. Matrices are row-major `p x p`, `p` =
-//! [`Params::len`].
+//! [`Params::len`]; only their upper triangle is filled in.
 //!
 //! With an affine camera (scaled orthographic) the Jacobian of a point's projection does not
-//! depend on the point, so the mapped landmarks' part of the Hessian comes from basis products
-//! summed once per model ([`BasisProducts`]); only the outline correspondences and closed lips
-//! need rows of their own. That cut a no-contour fit's Hessian cost by about 5x.
+//! depend on the point, so the mapped landmarks' part of the Hessian comes from second moments
+//! of the basis rows summed once per model ([`BasisProducts`]), and gradient and camera cross
+//! terms from first moments (nine short multiply-adds per landmark); only the outline
+//! correspondences and closed lips need rows of their own. Against a Gram product over two
+//! rows per landmark this cut a no-contour fit's Hessian cost by about 5x.
 
 use std::borrow::Cow;
 
