@@ -30,6 +30,24 @@ pub enum Command {
     Render(RenderArgs),
     /// Fits the face model to a landmark file (iBUG .pts, 1-based) and reports pose and error.
     Fit(FitArgs),
+    /// Finds the faces in an image and their 68 iBUG landmarks.
+    Landmarks(LandmarksArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct LandmarksArgs {
+    /// A photo (JPEG, PNG, PPM, ...).
+    pub image: PathBuf,
+    /// Print one JSON object: `{"faces": [{"box": [x, y, w, h], "score": s, "points": [[x, y],
+    /// ...68]}], "times_ms": {...}}`, image pixels, 0-based, largest face first.
+    #[arg(long)]
+    pub json: bool,
+    /// At most this many faces (the largest).
+    #[arg(long, value_name = "N")]
+    pub max_faces: Option<usize>,
+    /// Also write the largest face's landmarks as iBUG .pts (1-based, as menpo reads them).
+    #[arg(long, value_name = "FILE.pts")]
+    pub pts: Option<PathBuf>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -166,11 +184,84 @@ pub struct PhotoArgs {
     pub obj: Option<PathBuf>,
 }
 
+/// `glyptic landmarks`: detection and 68 landmarks per face, with per-stage times.
+fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
+    let path = &args.image;
+    let mut stages = Vec::new();
+    let img = timed(
+        &mut stages,
+        "decode",
+        || glyptic::capture::load_photo(path),
+        |i| format!("{}x{}", i.width(), i.height()),
+    )?;
+    let mut pipeline = glyptic::pipeline::LandmarkPipeline::load(
+        &glyptic::assets::models_dir().join("centerface.onnx"),
+        &glyptic::assets::onnxruntime_lib(),
+        &glyptic::landmarks::default_model_path(),
+        &mut stages,
+    )?;
+    let mut detections = pipeline
+        .detect(&img, &mut stages)
+        .with_context(|| path.display().to_string())?;
+    if let Some(n) = args.max_faces {
+        detections.truncate(n);
+    }
+    let faces = pipeline
+        .landmarks(&img, &detections, &mut stages)
+        .with_context(|| path.display().to_string())?;
+    if let (Some(pts), Some(face)) = (&args.pts, faces.first()) {
+        write_atomic(
+            pts,
+            glyptic::landmarks::pts::write_pts(&face.points).as_bytes(),
+        )?;
+    }
+    if args.json {
+        let times: serde_json::Map<String, serde_json::Value> = stages
+            .iter()
+            .map(|s| (s.name.to_string(), serde_json::json!(s.ms)))
+            .collect();
+        let faces: Vec<serde_json::Value> = faces
+            .iter()
+            .map(|f| {
+                serde_json::json!({
+                    "box": f.detection.bbox, "score": f.detection.score, "points": f.points,
+                })
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::json!({ "image": path.display().to_string(), "width": img.width(),
+                "height": img.height(), "faces": faces, "times_ms": times })
+        );
+    } else {
+        stages.iter().for_each(print_stage);
+        if faces.is_empty() {
+            println!("no face found in {}", path.display());
+        }
+        for (i, f) in faces.iter().enumerate() {
+            let [x, y, w, h] = f.detection.bbox;
+            println!(
+                "face {}: box {x:.0},{y:.0} {w:.0}x{h:.0}, score {:.2}, 68 landmarks",
+                i + 1,
+                f.detection.score
+            );
+        }
+    }
+    if args.pts.is_some() && faces.is_empty() {
+        bail!(
+            "{}: no face found, so no landmarks to write",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Photo(args) => photo(&args),
         Command::Render(args) => render_mean(&args),
         Command::Fit(args) => fit_landmarks(&args),
+        Command::Landmarks(args) => find_landmarks(&args),
     }
 }
 

@@ -52,7 +52,6 @@ pub fn timed<T, E>(
     });
     Ok(out)
 }
-
 /// What the pipeline found in a frame.
 #[derive(Clone, Debug)]
 pub struct FaceResult {
@@ -67,22 +66,28 @@ pub struct FaceResult {
     pub mesh: Vec<f32>,
 }
 
-/// The loaded models.
-pub struct FacePipeline {
+/// Detector and landmark predictor: faces and their 68 landmarks, without the face model
+/// (what `glyptic landmarks` needs).
+pub struct LandmarkPipeline {
     pub detector: FaceDetector,
     pub predictor: ShapePredictor,
-    pub model: SurreyModel,
     pub detect_options: DetectOptions,
-    pub fit_options: FitOptions,
 }
 
-impl FacePipeline {
-    /// Loads the three models, timing each.
+/// One face found in an image.
+#[derive(Clone, Debug)]
+pub struct FaceLandmarks {
+    pub detection: Detection,
+    /// iBUG 68 points, image pixels (0-based, x right, y down).
+    pub points: Vec<[f32; 2]>,
+}
+
+impl LandmarkPipeline {
+    /// Loads the detector and the landmark model, timing each.
     pub fn load(
         detector_model: &Path,
         ort_library: &Path,
         landmark_model: &Path,
-        sfm_dir: &Path,
         stages: &mut Vec<Stage>,
     ) -> Result<Self, PipelineError> {
         let detector = timed(
@@ -97,6 +102,89 @@ impl FacePipeline {
             || ShapePredictor::load(landmark_model),
             |p| format!("{} parts", p.num_parts()),
         )?;
+        Ok(LandmarkPipeline {
+            detector,
+            predictor,
+            detect_options: DetectOptions::default(),
+        })
+    }
+
+    /// Every face the detector finds, largest first.
+    pub fn detect(
+        &mut self,
+        img: &image::RgbImage,
+        stages: &mut Vec<Stage>,
+    ) -> Result<Vec<Detection>, PipelineError> {
+        let opts = self.detect_options.clone();
+        let mut faces = timed(
+            stages,
+            "detect",
+            || self.detector.detect(img, &opts),
+            |d| match d.len() {
+                0 => "no face".to_string(),
+                n => format!(
+                    "{n} face{} (largest scored {:.2})",
+                    if n == 1 { "" } else { "s" },
+                    crate::detect::largest(d).map_or(0.0, |f| f.score)
+                ),
+            },
+        )?;
+        faces.sort_by(|a, b| b.area().total_cmp(&a.area()));
+        Ok(faces)
+    }
+
+    /// The 68 landmarks of each detected face, in one timed stage.
+    pub fn landmarks(
+        &self,
+        img: &image::RgbImage,
+        faces: &[Detection],
+        stages: &mut Vec<Stage>,
+    ) -> Result<Vec<FaceLandmarks>, PipelineError> {
+        let gray = crate::landmarks::to_gray(img);
+        let predictor = &self.predictor;
+        timed(
+            stages,
+            "landmarks",
+            || {
+                faces
+                    .iter()
+                    .map(|detection| {
+                        let face_box = predictor.box_for_five_points(&detection.points)?;
+                        let points =
+                            predictor.predict_refined(&gray, &face_box, LANDMARK_REFINE_ROUNDS)?;
+                        Ok(FaceLandmarks {
+                            detection: detection.clone(),
+                            points,
+                        })
+                    })
+                    .collect::<Result<Vec<_>, LandmarkError>>()
+            },
+            |f: &Vec<FaceLandmarks>| match f.len() {
+                1 => "68 points".to_string(),
+                n => format!("{n} faces x 68 points"),
+            },
+        )
+        .map_err(PipelineError::from)
+    }
+}
+
+/// Loaded models for photo -> face -> fitted mesh.
+pub struct FacePipeline {
+    pub faces: LandmarkPipeline,
+    pub model: SurreyModel,
+    pub fit_options: FitOptions,
+}
+
+impl FacePipeline {
+    /// Loads the three models, timing each.
+    pub fn load(
+        detector_model: &Path,
+        ort_library: &Path,
+        landmark_model: &Path,
+        sfm_dir: &Path,
+        stages: &mut Vec<Stage>,
+    ) -> Result<Self, PipelineError> {
+        let faces = LandmarkPipeline::load(detector_model, ort_library, landmark_model, stages)?;
         let model = timed(
             stages,
             "load face model",
@@ -111,10 +199,8 @@ impl FacePipeline {
             },
         )?;
         Ok(FacePipeline {
-            detector,
-            predictor,
+            faces,
             model,
-            detect_options: DetectOptions::default(),
             fit_options: FitOptions::default(),
         })
     }
@@ -125,36 +211,16 @@ impl FacePipeline {
         img: &image::RgbImage,
         stages: &mut Vec<Stage>,
     ) -> Result<FaceResult, PipelineError> {
-        let opts = self.detect_options.clone();
-        let faces = timed(
-            stages,
-            "detect",
-            || self.detector.detect(img, &opts),
-            |d| match d.len() {
-                0 => "no face".to_string(),
-                n => format!(
-                    "{n} face{} (largest scored {:.2})",
-                    if n == 1 { "" } else { "s" },
-                    crate::detect::largest(d).map_or(0.0, |f| f.score)
-                ),
-            },
-        )?;
-        let detection = crate::detect::largest(&faces)
-            .cloned()
+        let faces = self.faces.detect(img, stages)?;
+        let largest = faces.first().cloned().ok_or(PipelineError::NoFace)?;
+        let found = self
+            .faces
+            .landmarks(img, std::slice::from_ref(&largest), stages)?
+            .pop()
             .ok_or(PipelineError::NoFace)?;
-        let gray = crate::landmarks::to_gray(img);
-        let predictor = &self.predictor;
-        let landmarks = timed(
-            stages,
-            "landmarks",
-            || {
-                let face_box = predictor.box_for_five_points(&detection.points)?;
-                predictor.predict_refined(&gray, &face_box, LANDMARK_REFINE_ROUNDS)
-            },
-            |p: &Vec<[f32; 2]>| format!("{} points", p.len()),
-        )?;
         let model = &self.model;
         let fit_opts = &self.fit_options;
+        let landmarks = found.points;
         let fit = timed(
             stages,
             "fit",
@@ -169,7 +235,7 @@ impl FacePipeline {
         )?;
         let mesh = model.instance(&fit.shape, &fit.expression);
         Ok(FaceResult {
-            detection,
+            detection: found.detection,
             faces_found: faces.len(),
             landmarks,
             fit,

