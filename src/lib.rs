@@ -16,3 +16,4 @@ pub mod landmarks;
 pub mod pipeline;
 pub mod render;
 pub mod shapemodel;
+pub mod smooth;
