@@ -327,11 +327,11 @@ fn fit_impl(
         });
     }
     validate_options(opts, model)?;
-    let usable = mapped_correspondences(model, landmarks).0.len();
+    let problem = Problem::new(model, landmarks, opts, true);
+    let usable = problem.mapped.len();
     if usable < 4 {
         return Err(FitError::TooFewLandmarks { usable, needed: 4 });
     }
-    let problem = Problem::new(model, landmarks, opts, true);
 
     let n_shape = opts.shape_coefficients;
     let n_expr = model.blendshapes.offsets.ncols();
