@@ -154,7 +154,10 @@ mod tests {
             raw.push(x);
         }
         let (r, s) = (rms_step(&raw[30..]), rms_step(&smooth[30..]));
-        println!("still: raw {r:.3}, smoothed {s:.3} deg per frame ({:.1}x)", r / s);
+        println!(
+            "still: raw {r:.3}, smoothed {s:.3} deg per frame ({:.1}x)",
+            r / s
+        );
         assert!(r > 5.0 * s, "raw {r:.3}, smoothed {s:.3} deg per frame");
     }
 

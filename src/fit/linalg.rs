@@ -9,6 +9,31 @@ pub(crate) fn has_avx2_fma() -> bool {
     std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
 }
 
+/// Defines `fn $name(args) -> R` that runs `$generic` compiled for AVX2 and FMA when the CPU has
+/// them (checked at run time; the build targets baseline x86-64), and as it is otherwise.
+/// `$generic` should be `#[inline(always)]` so that the AVX2 copy gets its own code.
+macro_rules! with_avx2 {
+    ($(#[$meta:meta])* $vis:vis fn $name:ident / $avx2:ident => $generic:ident
+        ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
+        $(#[$meta])*
+        $vis fn $name($($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            if $crate::fit::linalg::has_avx2_fma() {
+                // SAFETY: the CPU supports the features `$avx2` is compiled for (checked above).
+                return unsafe { $avx2($($arg),*) };
+            }
+            $generic($($arg),*)
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,fma")]
+        fn $avx2($($arg: $ty),*) -> $ret {
+            $generic($($arg),*)
+        }
+    };
+}
+pub(crate) use with_avx2;
+
 /// `(A^T A, A^T t)` for a column-major `rows x n` matrix `a`, as a full symmetric row-major
 /// `n x n` matrix and a vector. Blocks of 4x4 output entries share each row's loads, so the
 /// kernel does 16 multiply-adds per 8 loads instead of 1 per 2.
@@ -31,23 +56,12 @@ pub(crate) fn gram(a: &[f64], rows: usize, n: usize, t: &[f64]) -> (Vec<f64>, Ve
     (g, rhs)
 }
 
-/// The upper-triangle 4x4 blocks of `A^T A` from the packed columns, mirrored into `g`. With
-/// AVX2 and FMA (checked at run time; the build targets baseline x86-64) the same code compiles
-/// to 4-wide fused multiply-adds, about twice as fast here.
-fn block_products(packed: &[f64], rows: usize, n: usize, g: &mut [f64]) {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx2_fma() {
-        // SAFETY: the CPU supports the features this function is compiled for (checked above).
-        unsafe { block_products_avx2(packed, rows, n, g) };
-        return;
-    }
-    block_products_generic(packed, rows, n, g);
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn block_products_avx2(packed: &[f64], rows: usize, n: usize, g: &mut [f64]) {
-    block_products_generic(packed, rows, n, g);
+with_avx2! {
+    /// The upper-triangle 4x4 blocks of `A^T A` from the packed columns, mirrored into `g`. With
+    /// AVX2 and FMA (checked at run time; the build targets baseline x86-64) the same code compiles
+    /// to 4-wide fused multiply-adds, about twice as fast here.
+    fn block_products / block_products_avx2 => block_products_generic
+        (packed: &[f64], rows: usize, n: usize, g: &mut [f64]) -> ()
 }
 
 #[inline(always)]
@@ -184,22 +198,12 @@ pub(crate) fn cholesky(m: &mut [f64], n: usize) -> bool {
     cholesky_pivots(m, n, 0..n)
 }
 
-/// Pivots `range` of [`cholesky`]: after `0..k`, rows `..k` of `m` hold those rows of `U` and
-/// the trailing block the Schur complement, which `k..n` then factors. Callers can change the
-/// trailing block in between (fix a variable) without redoing the leading pivots.
-pub(crate) fn cholesky_pivots(m: &mut [f64], n: usize, range: std::ops::Range<usize>) -> bool {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx2_fma() {
-        // SAFETY: the CPU supports the features this function is compiled for (checked above).
-        return unsafe { cholesky_avx2(m, n, range) };
-    }
-    cholesky_generic(m, n, range)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn cholesky_avx2(m: &mut [f64], n: usize, range: std::ops::Range<usize>) -> bool {
-    cholesky_generic(m, n, range)
+with_avx2! {
+    /// Pivots `range` of [`cholesky`]: after `0..k`, rows `..k` of `m` hold those rows of `U` and
+    /// the trailing block the Schur complement, which `k..n` then factors. Callers can change the
+    /// trailing block in between (fix a variable) without redoing the leading pivots.
+    pub(crate) fn cholesky_pivots / cholesky_avx2 => cholesky_generic
+        (m: &mut [f64], n: usize, range: std::ops::Range<usize>) -> bool
 }
 
 /// Scales row `k` of the trailing matrix into row `k` of `U`; `false` if its pivot is not
@@ -297,20 +301,10 @@ fn update_row(row: &mut [f64], block: &[f64], n: usize, b: usize, i: usize) {
     }
 }
 
-/// Solves `U^T U x = b` with the factor from [`cholesky`]. `None` if `x` is not finite.
-pub(crate) fn cholesky_substitute(u: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64>> {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx2_fma() {
-        // SAFETY: the CPU supports the features this function is compiled for (checked above).
-        return unsafe { cholesky_substitute_avx2(u, n, b) };
-    }
-    cholesky_substitute_generic(u, n, b)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn cholesky_substitute_avx2(u: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64>> {
-    cholesky_substitute_generic(u, n, b)
+with_avx2! {
+    /// Solves `U^T U x = b` with the factor from [`cholesky`]. `None` if `x` is not finite.
+    pub(crate) fn cholesky_substitute / cholesky_substitute_avx2 => cholesky_substitute_generic
+        (u: &[f64], n: usize, b: &[f64]) -> Option<Vec<f64>>
 }
 
 #[inline(always)]
@@ -344,21 +338,11 @@ pub(crate) fn inverse_diagonal_from(u: &[f64], n: usize, from: usize) -> Vec<f64
     inverse_diagonal(&trailing, m)
 }
 
-/// The diagonal of `M^-1` from the factor of [`cholesky`]: with `X = U^-T` (lower
-/// triangular), `(M^-1)_kk = sum_i X_ik^2`.
-pub(crate) fn inverse_diagonal(u: &[f64], n: usize) -> Vec<f64> {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx2_fma() {
-        // SAFETY: the CPU supports the features this function is compiled for (checked above).
-        return unsafe { inverse_diagonal_avx2(u, n) };
-    }
-    inverse_diagonal_generic(u, n)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn inverse_diagonal_avx2(u: &[f64], n: usize) -> Vec<f64> {
-    inverse_diagonal_generic(u, n)
+with_avx2! {
+    /// The diagonal of `M^-1` from the factor of [`cholesky`]: with `X = U^-T` (lower
+    /// triangular), `(M^-1)_kk = sum_i X_ik^2`.
+    pub(crate) fn inverse_diagonal / inverse_diagonal_avx2 => inverse_diagonal_generic
+        (u: &[f64], n: usize) -> Vec<f64>
 }
 
 #[inline(always)]

@@ -85,26 +85,10 @@ impl<'a> FixedProducts<'a> {
     }
 }
 
-/// `(N_a, U_ra)` of [`FixedProducts`].
-fn first_moments(
-    model: &SurreyModel,
-    mapped: &[Correspondence],
-) -> ([Vec<f64>; 3], [[Vec<f64>; 3]; 2]) {
-    #[cfg(target_arch = "x86_64")]
-    if linalg::has_avx2_fma() {
-        // SAFETY: the CPU supports the features this function is compiled for (checked above).
-        return unsafe { first_moments_avx2(model, mapped) };
-    }
-    first_moments_generic(model, mapped)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn first_moments_avx2(
-    model: &SurreyModel,
-    mapped: &[Correspondence],
-) -> ([Vec<f64>; 3], [[Vec<f64>; 3]; 2]) {
-    first_moments_generic(model, mapped)
+linalg::with_avx2! {
+    /// `(N_a, U_ra)` of [`FixedProducts`].
+    fn first_moments / first_moments_avx2 => first_moments_generic
+        (model: &SurreyModel, mapped: &[Correspondence]) -> ([Vec<f64>; 3], [[Vec<f64>; 3]; 2])
 }
 
 #[inline(always)]
