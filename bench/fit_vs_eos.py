@@ -555,16 +555,20 @@ def plot(rows, yaw_data, path: str) -> None:
     label = {"full": "full (contour + edges)", "nocontour": "no contour"}
     syn = [r for r in paired(rows) if r["family"] == "synthetic"]
     men = [r for r in paired(rows) if r["family"] == "menpo"]
+    def error_vs_time(ax, rows_, field, unit):
+        """One point per method and setting: median time against mean `field`."""
+        for m in METHODS:
+            for st in SETTINGS:
+                rs = [r for r in rows_ if r["method"] == m and r["setting"] == st]
+                if not rs:
+                    continue
+                x, y = median([r["time_ms"] for r in rs]), mean([r[field] for r in rs])
+                ax.scatter([x], [y], c=colors[m], marker=markers[st], s=80, label=f"{m}, {label[st]}")
+                ax.annotate(f"{y:.2f} {unit}", (x, y), textcoords="offset points",
+                            xytext=(6, 6) if m == "eos" else (6, -12), fontsize=8)
+
     ax = axes[0]
-    for m in METHODS:
-        for st in SETTINGS:
-            rs = [r for r in syn if r["method"] == m and r["setting"] == st]
-            if not rs:
-                continue
-            x, y = median([r["time_ms"] for r in rs]), mean([r["rms3d_mm"] for r in rs])
-            ax.scatter([x], [y], c=colors[m], marker=markers[st], s=80, label=f"{m}, {label[st]}")
-            ax.annotate(f"{y:.2f} mm", (x, y), textcoords="offset points",
-                        xytext=(6, 6) if m == "eos" else (6, -12), fontsize=8)
+    error_vs_time(ax, syn, "rms3d_mm", "mm")
     mf = mean([r["rms3d_mean_mm"] for r in syn if r["method"] == "glyptic" and r["setting"] == "full"])
     if np.isfinite(mf):
         ax.axhline(mf, color="gray", ls="--", lw=1, label="mean face (no fit)")
@@ -576,15 +580,7 @@ def plot(rows, yaw_data, path: str) -> None:
     ax.legend(fontsize=8)
 
     ax = axes[1]
-    for m in METHODS:
-        for st in SETTINGS:
-            rs = [r for r in men if r["method"] == m and r["setting"] == st]
-            if not rs:
-                continue
-            x, y = median([r["time_ms"] for r in rs]), mean([r["reproj_px"] for r in rs])
-            ax.scatter([x], [y], c=colors[m], marker=markers[st], s=80, label=f"{m}, {label[st]}")
-            ax.annotate(f"{y:.2f} px", (x, y), textcoords="offset points",
-                        xytext=(6, 6) if m == "eos" else (6, -12), fontsize=8)
+    error_vs_time(ax, men, "reproj_px", "px")
     ax.set_xscale("log")
     ax.set_xlabel("median fitting time per image, ms (log)")
     ax.set_ylabel("mean reprojection error, px (50 mapped landmarks)")
