@@ -1,9 +1,23 @@
-//! Frame sources. For now: still photos, decoded with checks so that a hostile or broken
-//! file gives a clear error instead of a panic or a huge allocation.
+//! Frames in: photos decoded with checks (a hostile or broken file gives a clear error instead
+//! of a panic or a huge allocation), frame sources behind one interface ([`source`]: photo,
+//! folder, memory; [`video`] files with the `video` feature; [`camera`] with `webcam`), and the
+//! capture thread ([`live`]) that hands the newest frame on through a [`latest`] channel.
 //!
 //! Units: pixels. Frames are 8-bit RGB, top-left origin.
 
+#[cfg(feature = "webcam")]
+pub mod camera;
+pub mod latest;
+pub mod live;
+pub mod source;
+#[cfg(feature = "video")]
+pub mod video;
+
 use std::path::{Path, PathBuf};
+
+pub use latest::{Closed, LatestReceiver, LatestSender, latest};
+pub use live::{Backoff, Capture, CaptureEvent, CaptureOptions, CaptureSummary, Frame};
+pub use source::{FolderSource, FrameSource, ImageFileSource, MemorySource, RawFrame, SourceError};
 
 /// Largest accepted side, pixels (a 16k photo is already beyond any camera we serve).
 pub const MAX_SIDE: u32 = 16_384;

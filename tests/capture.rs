@@ -1,0 +1,180 @@
+//! Capture sources on real files and devices: video files written and read back through
+//! OpenCV (whole, truncated, looping, not a video), and the webcam source on a machine without
+//! a camera.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use glyptic::capture::{
+    Backoff, Capture, CaptureEvent, CaptureOptions, FrameSource, RawFrame, SourceError,
+};
+use image::RgbImage;
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("glyptic-capture-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Frame `i` of a test clip: grey level `8 * i` with a white square moving right.
+fn clip_frame(i: usize) -> RgbImage {
+    let level = (8 * i).min(255) as u8;
+    RgbImage::from_fn(96, 64, |x, y| {
+        let in_square = (x as usize).abs_diff(10 + 2 * i) < 6 && (28..36).contains(&y);
+        if in_square {
+            image::Rgb([255, 255, 255])
+        } else {
+            image::Rgb([level, level, level])
+        }
+    })
+}
+
+#[cfg(feature = "video")]
+mod video {
+    use super::*;
+    use glyptic::capture::video::{VideoSource, write_mjpeg_avi};
+
+    fn write_clip(dir: &std::path::Path, n: usize) -> PathBuf {
+        let path = dir.join("clip.avi");
+        let frames: Vec<RgbImage> = (0..n).map(clip_frame).collect();
+        write_mjpeg_avi(&path, &frames, 25.0).unwrap();
+        path
+    }
+
+    fn read_all(src: &mut dyn FrameSource) -> Vec<RawFrame> {
+        std::iter::from_fn(|| src.next_frame().expect("no error mid-video")).collect()
+    }
+
+    #[test]
+    fn video_reads_back_every_frame_with_its_time() {
+        let dir = scratch("whole");
+        let path = write_clip(&dir, 30);
+        let mut src = VideoSource::new(&path, false);
+        let frames = read_all(&mut src);
+        assert_eq!(frames.len(), 30);
+        assert_eq!(src.frame_rate(), Some(25.0));
+        assert!(src.end_note().is_none(), "{:?}", src.end_note());
+        for (i, f) in frames.iter().enumerate() {
+            assert_eq!(f.image.dimensions(), (96, 64));
+            let t = f.time_s.unwrap();
+            assert!((t - i as f64 / 25.0).abs() < 1e-3, "frame {i} at {t} s");
+            // JPEG-compressed grey level.
+            let v = f.image.get_pixel(80, 5)[0] as i32;
+            assert!((v - (8 * i) as i32).abs() <= 4, "frame {i}: grey {v}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn truncated_video_plays_what_it_has_and_ends_cleanly() {
+        let dir = scratch("truncated");
+        let whole = write_clip(&dir, 30);
+        let bytes = std::fs::read(&whole).unwrap();
+        let cut = dir.join("cut.avi");
+        std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
+
+        let mut src = VideoSource::new(&cut, false);
+        let frames = read_all(&mut src);
+        assert!(
+            (10..30).contains(&frames.len()),
+            "{} frames from 60 % of the file",
+            frames.len()
+        );
+        let note = src.end_note().expect("says it ended early");
+        assert!(
+            note.contains(&format!("after {} of 30", frames.len())),
+            "{note}"
+        );
+
+        // Through the capture thread: frames, then an end event with the note.
+        let capture = Capture::spawn(
+            move || Box::new(VideoSource::new(cut, false)),
+            CaptureOptions {
+                pace: false,
+                ..CaptureOptions::default()
+            },
+        );
+        while capture.frames().recv().is_ok() {}
+        let events: Vec<CaptureEvent> = capture.events().try_iter().collect();
+        assert!(
+            matches!(events.last(), Some(CaptureEvent::Ended { note: Some(n) }) if n.contains("truncated")),
+            "{events:?}"
+        );
+        let summary = capture.stop();
+        assert_eq!(summary.frames, frames.len() as u64);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn looping_video_restarts_with_times_that_keep_rising() {
+        let dir = scratch("loop");
+        let path = write_clip(&dir, 10);
+        let mut src = VideoSource::new(&path, true);
+        let times: Vec<f64> = (0..25)
+            .map(|_| src.next_frame().unwrap().unwrap().time_s.unwrap())
+            .collect();
+        assert!(times.windows(2).all(|w| w[1] > w[0]), "{times:?}");
+        assert!(
+            (times[10] - 0.4).abs() < 1e-3,
+            "second pass starts at 0.4 s: {times:?}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_file_that_is_not_a_video_is_a_named_fatal_error() {
+        let dir = scratch("notvideo");
+        let path = dir.join("notes.avi");
+        std::fs::write(&path, b"this is not a video file").unwrap();
+        for p in [path.clone(), dir.join("missing.avi")] {
+            let e = VideoSource::new(&p, false).next_frame().unwrap_err();
+            assert!(matches!(e, SourceError::Fatal { .. }), "{e}");
+            assert!(e.to_string().contains(&*p.to_string_lossy()), "{e}");
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+/// No camera exists on the test machines: the real webcam source must say so, and the capture
+/// thread must keep retrying with back-off instead of giving up or panicking.
+#[cfg(feature = "webcam")]
+#[test]
+fn missing_webcam_is_unavailable_and_retried() {
+    use glyptic::capture::camera::CameraSource;
+    if std::path::Path::new("/dev/video7").exists() {
+        eprintln!("skipped: /dev/video7 exists on this machine");
+        return;
+    }
+    let e = CameraSource::new(7).next_frame().unwrap_err();
+    assert!(
+        matches!(&e, SourceError::Unavailable { .. }) && e.to_string().contains("camera 7"),
+        "{e}"
+    );
+    let capture = Capture::spawn(
+        || Box::new(CameraSource::new(7)),
+        CaptureOptions {
+            backoff: Backoff {
+                initial: Duration::from_millis(5),
+                max: Duration::from_millis(20),
+                factor: 2.0,
+            },
+            ..CaptureOptions::default()
+        },
+    );
+    std::thread::sleep(Duration::from_millis(200));
+    assert!(!capture.finished(), "keeps retrying");
+    let attempts: Vec<u32> = capture
+        .events()
+        .try_iter()
+        .filter_map(|e| match e {
+            CaptureEvent::Unavailable { attempt, .. } => Some(attempt),
+            _ => None,
+        })
+        .collect();
+    assert!(attempts.len() >= 3, "{attempts:?}");
+    assert!(attempts.windows(2).all(|w| w[1] == w[0] + 1));
+    let summary = capture.stop();
+    assert_eq!(summary.frames, 0);
+    assert!(summary.unavailable >= 3);
+}
