@@ -194,12 +194,7 @@ fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
         || glyptic::capture::load_photo(path),
         |i| format!("{}x{}", i.width(), i.height()),
     )?;
-    let mut pipeline = glyptic::pipeline::LandmarkPipeline::load(
-        &glyptic::assets::models_dir().join("centerface.onnx"),
-        &glyptic::assets::onnxruntime_lib(),
-        &glyptic::landmarks::default_model_path(),
-        &mut stages,
-    )?;
+    let mut pipeline = glyptic::pipeline::LandmarkPipeline::load_default(&mut stages)?;
     let mut detections = pipeline
         .detect(&img, &mut stages)
         .with_context(|| path.display().to_string())?;
@@ -540,13 +535,7 @@ fn photo(args: &PhotoArgs) -> Result<()> {
         |i| format!("{}x{}", i.width(), i.height()),
     )?;
     print_stage(&stages[0]);
-    let mut pipeline = FacePipeline::load(
-        &glyptic::assets::models_dir().join("centerface.onnx"),
-        &glyptic::assets::onnxruntime_lib(),
-        &glyptic::landmarks::default_model_path(),
-        &glyptic::assets::sfm_dir(),
-        &mut stages,
-    )?;
+    let mut pipeline = FacePipeline::load_default(&mut stages)?;
     let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
     let mesh = build_gem(&mut stages, &face.mesh, &pipeline.model.shape.triangles)?;
     for s in &stages[1..] {

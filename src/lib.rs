@@ -17,3 +17,5 @@ pub mod pipeline;
 pub mod render;
 pub mod shapemodel;
 pub mod smooth;
+#[cfg(feature = "face")]
+pub mod track;

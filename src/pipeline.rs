@@ -109,6 +109,16 @@ impl LandmarkPipeline {
         })
     }
 
+    /// Loads the models from where set-up puts them ([`crate::assets`]).
+    pub fn load_default(stages: &mut Vec<Stage>) -> Result<Self, PipelineError> {
+        Self::load(
+            &crate::assets::models_dir().join("centerface.onnx"),
+            &crate::assets::onnxruntime_lib(),
+            &crate::landmarks::default_model_path(),
+            stages,
+        )
+    }
+
     /// Every face the detector finds, largest first.
     pub fn detect(
         &mut self,
@@ -203,6 +213,17 @@ impl FacePipeline {
             model,
             fit_options: FitOptions::default(),
         })
+    }
+
+    /// Loads the models from where set-up puts them ([`crate::assets`]).
+    pub fn load_default(stages: &mut Vec<Stage>) -> Result<Self, PipelineError> {
+        Self::load(
+            &crate::assets::models_dir().join("centerface.onnx"),
+            &crate::assets::onnxruntime_lib(),
+            &crate::landmarks::default_model_path(),
+            &crate::assets::sfm_dir(),
+            stages,
+        )
     }
 
     /// Detects the largest face, finds its landmarks and fits the model.

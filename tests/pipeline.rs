@@ -9,14 +9,7 @@ use glyptic::render::{Material, RenderParams, Renderer};
 
 fn pipeline() -> FacePipeline {
     let mut stages = Vec::new();
-    FacePipeline::load(
-        &glyptic::assets::models_dir().join("centerface.onnx"),
-        &glyptic::assets::onnxruntime_lib(),
-        &glyptic::landmarks::default_model_path(),
-        &glyptic::assets::sfm_dir(),
-        &mut stages,
-    )
-    .expect("run scripts/setup.sh first")
+    FacePipeline::load_default(&mut stages).expect("run scripts/setup.sh first")
 }
 
 /// Share of pixels in a rectangle (given in fractions of the frame) whose mean channel

