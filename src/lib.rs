@@ -18,4 +18,6 @@ pub mod render;
 pub mod shapemodel;
 pub mod smooth;
 #[cfg(feature = "face")]
+pub mod stream;
+#[cfg(feature = "face")]
 pub mod track;

@@ -4,6 +4,7 @@
 //! the fitted mesh. Each stage's time is recorded so callers can report speed per stage.
 
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
 use crate::detect::{DetectError, DetectOptions, Detection, FaceDetector};
@@ -70,7 +71,8 @@ pub struct FaceResult {
 /// (what `glyptic landmarks` needs).
 pub struct LandmarkPipeline {
     pub detector: FaceDetector,
-    pub predictor: ShapePredictor,
+    /// Shared read-only between pipelines (a batch's workers load the 100 MB model once).
+    pub predictor: Arc<ShapePredictor>,
     pub detect_options: DetectOptions,
 }
 
@@ -104,7 +106,7 @@ impl LandmarkPipeline {
         )?;
         Ok(LandmarkPipeline {
             detector,
-            predictor,
+            predictor: Arc::new(predictor),
             detect_options: DetectOptions::default(),
         })
     }
@@ -181,7 +183,7 @@ impl LandmarkPipeline {
 /// Loaded models for photo -> face -> fitted mesh.
 pub struct FacePipeline {
     pub faces: LandmarkPipeline,
-    pub model: SurreyModel,
+    pub model: Arc<SurreyModel>,
     pub fit_options: FitOptions,
 }
 
@@ -210,7 +212,7 @@ impl FacePipeline {
         )?;
         Ok(FacePipeline {
             faces,
-            model,
+            model: Arc::new(model),
             fit_options: FitOptions::default(),
         })
     }
@@ -224,6 +226,20 @@ impl FacePipeline {
             &crate::assets::sfm_dir(),
             stages,
         )
+    }
+
+    /// Another pipeline sharing this one's landmark and face models, with a detector of its
+    /// own (ONNX Runtime sessions are not shared between threads here).
+    pub fn fork(&self, detector_model: &Path, ort_library: &Path) -> Result<Self, PipelineError> {
+        Ok(FacePipeline {
+            faces: LandmarkPipeline {
+                detector: FaceDetector::load(detector_model, ort_library)?,
+                predictor: self.faces.predictor.clone(),
+                detect_options: self.faces.detect_options.clone(),
+            },
+            model: self.model.clone(),
+            fit_options: self.fit_options.clone(),
+        })
     }
 
     /// Detects the largest face, finds its landmarks and fits the model.

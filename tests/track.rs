@@ -83,7 +83,10 @@ fn smoothing_cuts_jitter_on_a_still_noisy_face_at_least_fivefold() {
     let mut raw = tracker(unsmoothed());
     let mut smooth = tracker(TrackOptions::default());
     let (mut raw_meshes, mut smooth_meshes) = (Vec::new(), Vec::new());
-    for (i, frame) in through_video(noisy.collect(), "jitter").into_iter().enumerate() {
+    for (i, frame) in through_video(noisy.collect(), "jitter")
+        .into_iter()
+        .enumerate()
+    {
         let t = i as f64 / FPS;
         let r = raw.process(&frame, t).unwrap();
         let s = smooth.process(&frame, t).unwrap();

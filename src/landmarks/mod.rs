@@ -220,6 +220,31 @@ pub fn to_gray(img: &image::RgbImage) -> image::GrayImage {
     image::GrayImage::from_raw(w, h, grey).unwrap_or_else(|| image::GrayImage::new(w, h))
 }
 
+/// [`to_gray`] of the `width` x `height` region at (`x0`, `y0`) (clipped to the image): a
+/// tracker needs only the pixels around the face.
+pub fn to_gray_region(
+    img: &image::RgbImage,
+    x0: u32,
+    y0: u32,
+    width: u32,
+    height: u32,
+) -> image::GrayImage {
+    let (w, h) = img.dimensions();
+    let (x0, y0) = (x0.min(w), y0.min(h));
+    let (rw, rh) = (width.min(w - x0), height.min(h - y0));
+    let mut grey = Vec::with_capacity(rw as usize * rh as usize);
+    let raw = img.as_raw();
+    for y in y0..y0 + rh {
+        let start = (y as usize * w as usize + x0 as usize) * 3;
+        let row = &raw[start..start + rw as usize * 3];
+        grey.extend(
+            row.chunks_exact(3)
+                .map(|p| ((u16::from(p[0]) + u16::from(p[1]) + u16::from(p[2])) / 3) as u8),
+        );
+    }
+    image::GrayImage::from_raw(rw, rh, grey).unwrap_or_else(|| image::GrayImage::new(rw, rh))
+}
+
 /// Any decoded image as dlib's grey: 8-bit grey images as they are (dlib reads their
 /// intensity directly), everything else through RGB 8-bit and [`to_gray`] (dlib's
 /// `rgb_alpha_pixel` intensity ignores alpha the same way).

@@ -1,5 +1,8 @@
 //! Sub-commands. Each stage prints one line with its time.
 
+mod batch;
+mod track;
+
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -32,6 +35,10 @@ pub enum Command {
     Fit(FitArgs),
     /// Finds the faces in an image and their 68 iBUG landmarks.
     Landmarks(LandmarksArgs),
+    /// Follows the face through a video, folder, photo or webcam; reports speed per stage.
+    Track(track::TrackArgs),
+    /// Makes a gem from every photo in a folder (all cores), with a CSV of status and times.
+    Batch(batch::BatchArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -257,6 +264,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render(args) => render_mean(&args),
         Command::Fit(args) => fit_landmarks(&args),
         Command::Landmarks(args) => find_landmarks(&args),
+        Command::Track(args) => track::track(&args),
+        Command::Batch(args) => batch::batch(&args),
     }
 }
 

@@ -1,0 +1,324 @@
+//! `glyptic batch DIR -o OUTDIR`: every image of a folder to a gem PNG.
+//!
+//! Face workers (one per core by default, each with its own detector session, sharing the
+//! landmark and face models) feed one render thread (the software rasteriser spreads each frame
+//! over the cores itself). A bad image is recorded and skipped; the CSV lists every image with
+//! its status and per-stage times, in input order.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use anyhow::{Context, Result, anyhow, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use glyptic::gem::{self, CameoParams};
+use glyptic::pipeline::{FacePipeline, Stage};
+use glyptic::render::Renderer;
+
+use super::ViewArgs;
+
+#[derive(clap::Args, Debug)]
+pub struct BatchArgs {
+    /// Folder of photos (JPEG, PNG, PPM, BMP, TIFF, WebP; not recursive).
+    pub dir: PathBuf,
+    /// Folder for the gems (`NAME-gem.png` for each `NAME.ext`); made if missing.
+    #[arg(short, long, value_name = "OUTDIR")]
+    pub output: PathBuf,
+    /// Face workers (default: one per core).
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
+    /// Per-image status and times (default: OUTDIR/batch.csv).
+    #[arg(long, value_name = "FILE.csv")]
+    pub csv: Option<PathBuf>,
+    /// No progress bar (logs and CI).
+    #[arg(long)]
+    pub quiet: bool,
+    #[command(flatten)]
+    pub view: ViewArgs,
+}
+
+/// One image's outcome.
+#[derive(Clone, Debug, Default)]
+struct Row {
+    input: PathBuf,
+    output: Option<PathBuf>,
+    status: &'static str,
+    faces: usize,
+    stages: Vec<(&'static str, f64)>,
+    error: String,
+}
+
+const CSV_STAGES: [&str; 7] = [
+    "decode",
+    "detect",
+    "landmarks",
+    "fit",
+    "gem",
+    "render",
+    "write",
+];
+
+/// Output names: `NAME-gem.png`, or `NAME.ext-gem.png` for names shared by several inputs.
+fn output_names(files: &[PathBuf], out_dir: &Path) -> Vec<PathBuf> {
+    let stem = |p: &Path| p.file_stem().map(|s| s.to_string_lossy().into_owned());
+    files
+        .iter()
+        .map(|f| {
+            let s = stem(f).unwrap_or_default();
+            let shared = files
+                .iter()
+                .filter(|g| stem(g).as_deref() == Some(&s))
+                .count()
+                > 1;
+            let name = if shared {
+                f.file_name()
+                    .map_or(s.clone(), |n| n.to_string_lossy().into_owned())
+            } else {
+                s
+            };
+            out_dir.join(format!("{name}-gem.png"))
+        })
+        .collect()
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
+    let mut text = String::from("input,output,status,faces");
+    for s in CSV_STAGES {
+        text.push_str(&format!(",{s}_ms"));
+    }
+    text.push_str(",total_ms,error\n");
+    for r in rows {
+        let out = r
+            .output
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_default();
+        text.push_str(&format!(
+            "{},{},{},{}",
+            csv_field(&r.input.display().to_string()),
+            csv_field(&out),
+            r.status,
+            r.faces
+        ));
+        for s in CSV_STAGES {
+            match r.stages.iter().find(|(n, _)| *n == s) {
+                Some((_, ms)) => text.push_str(&format!(",{ms:.2}")),
+                None => text.push(','),
+            }
+        }
+        let total = r.stages.iter().map(|(_, ms)| ms).fold(0.0, |a, b| a + b);
+        text.push_str(&format!(",{total:.2},{}\n", csv_field(&r.error)));
+    }
+    super::write_atomic(path, text.as_bytes())
+}
+
+/// Decode, detect, landmarks, fit and relief for one image.
+fn face_job(
+    pipeline: &mut FacePipeline,
+    input: &Path,
+    row: &mut Row,
+) -> Result<glyptic::render::Mesh> {
+    let mut stages: Vec<Stage> = Vec::new();
+    let result = (|| -> Result<glyptic::render::Mesh> {
+        let img = glyptic::pipeline::timed(
+            &mut stages,
+            "decode",
+            || glyptic::capture::load_photo(input),
+            |_| String::new(),
+        )?;
+        let face = pipeline.process(&img, &mut stages)?;
+        row.faces = face.faces_found;
+        let mesh = glyptic::pipeline::timed(
+            &mut stages,
+            "gem",
+            || {
+                gem::build_cameo(
+                    &face.mesh,
+                    &pipeline.model.shape.triangles,
+                    &CameoParams::default(),
+                )
+            },
+            |_| String::new(),
+        )?;
+        Ok(mesh)
+    })();
+    row.stages.extend(stages.iter().map(|s| (s.name, s.ms)));
+    result
+}
+
+pub fn batch(args: &BatchArgs) -> Result<()> {
+    let start = Instant::now();
+    let files = glyptic::capture::source::list_images(&args.dir)?;
+    if files.is_empty() {
+        bail!(
+            "{}: no images (looked for {})",
+            args.dir.display(),
+            glyptic::capture::source::IMAGE_EXTENSIONS.join(", ")
+        );
+    }
+    std::fs::create_dir_all(&args.output)
+        .with_context(|| format!("{}: cannot make the output folder", args.output.display()))?;
+    let outputs = output_names(&files, &args.output);
+    let csv = args
+        .csv
+        .clone()
+        .unwrap_or_else(|| args.output.join("batch.csv"));
+    let jobs = args
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .clamp(1, files.len());
+
+    // The GPU comes up while the models load.
+    let renderer_thread = super::spawn_renderer();
+    let mut load = Vec::new();
+    let first = FacePipeline::load_default(&mut load)?;
+    let mut pipelines = vec![first];
+    for _ in 1..jobs {
+        let p = pipelines[0].fork(
+            &glyptic::assets::models_dir().join("centerface.onnx"),
+            &glyptic::assets::onnxruntime_lib(),
+        )?;
+        pipelines.push(p);
+    }
+    let mut renderer: Renderer = renderer_thread
+        .join()
+        .map_err(|_| anyhow!("the renderer thread panicked"))?
+        .context("starting the renderer")?
+        .0;
+    let loaded_ms = start.elapsed().as_secs_f64() * 1e3;
+
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(files.len() as u64)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} [{elapsed_precise}, {eta} left] {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+
+    let files = Arc::new(files);
+    let next = Arc::new(AtomicUsize::new(0));
+    // Bounded: workers wait while the renderer is behind rather than piling up meshes.
+    let (tx, rx) = crossbeam_channel::bounded::<(usize, Row, Option<glyptic::render::Mesh>)>(jobs);
+    let mut rows: Vec<Row> = files
+        .iter()
+        .map(|f| Row {
+            input: f.clone(),
+            ..Row::default()
+        })
+        .collect();
+    let view = &args.view;
+    std::thread::scope(|scope| -> Result<()> {
+        for mut pipeline in pipelines {
+            let (files, next, tx) = (files.clone(), next.clone(), tx.clone());
+            scope.spawn(move || {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(input) = files.get(i) else { break };
+                    let mut row = Row {
+                        input: input.clone(),
+                        ..Row::default()
+                    };
+                    // A panic in one image must not take the batch down.
+                    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        face_job(&mut pipeline, input, &mut row)
+                    }));
+                    let mesh = match outcome {
+                        Ok(Ok(mesh)) => Some(mesh),
+                        Ok(Err(e)) => {
+                            let no_face = matches!(
+                                e.downcast_ref::<glyptic::pipeline::PipelineError>(),
+                                Some(glyptic::pipeline::PipelineError::NoFace)
+                            );
+                            row.status = if no_face { "no face" } else { "error" };
+                            row.error = format!("{e:#}");
+                            None
+                        }
+                        Err(_) => {
+                            row.status = "error";
+                            row.error = "internal error (panic) on this image".into();
+                            None
+                        }
+                    };
+                    if tx.send((i, row, mesh)).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(tx);
+        for (i, mut row, mesh) in rx.iter() {
+            let name = row
+                .input
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            if let Some(mesh) = mesh {
+                let t = Instant::now();
+                let rendered = renderer.render(&mesh, &view.params());
+                row.stages.push(("render", t.elapsed().as_secs_f64() * 1e3));
+                let t = Instant::now();
+                let written = rendered.map_err(anyhow::Error::from).and_then(|rgba| {
+                    let mut png = Vec::new();
+                    image::DynamicImage::ImageRgba8(rgba)
+                        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+                    super::write_atomic(&outputs[i], &png)
+                });
+                row.stages.push(("write", t.elapsed().as_secs_f64() * 1e3));
+                match written {
+                    Ok(()) => {
+                        row.status = "ok";
+                        row.output = Some(outputs[i].clone());
+                    }
+                    Err(e) => {
+                        row.status = "error";
+                        row.error = format!("{e:#}");
+                    }
+                }
+            }
+            if row.status != "ok" {
+                let line = format!("skipped {name}: {}", row.error);
+                if bar.is_hidden() {
+                    eprintln!("{line}");
+                } else {
+                    bar.println(line);
+                }
+            }
+            bar.set_message(name);
+            bar.inc(1);
+            rows[i] = row;
+        }
+        Ok(())
+    })?;
+    bar.finish_and_clear();
+    write_csv(&csv, &rows)?;
+    let ok = rows.iter().filter(|r| r.status == "ok").count();
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "{ok} of {} images made into gems in {secs:.1} s ({:.2} s per image after {:.1} s start-up, {jobs} face workers); per-image status and times in {}",
+        rows.len(),
+        (secs - loaded_ms / 1e3) / rows.len() as f64,
+        loaded_ms / 1e3,
+        csv.display()
+    );
+    if ok < rows.len() {
+        bail!(
+            "{} of {} images failed (see {})",
+            rows.len() - ok,
+            rows.len(),
+            csv.display()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,280 @@
+//! `glyptic track`: follows the face through a video, a folder, a photo or a webcam and reports
+//! speed per stage, latency and what happened to the source.
+
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+
+use glyptic::capture::{Capture, CaptureEvent, CaptureOptions, FrameSource};
+use glyptic::pipeline::FacePipeline;
+use glyptic::stream::{FaceStream, FaceUpdate, StreamEvent};
+use glyptic::track::{TrackOptions, Tracker};
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct TrackArgs {
+    /// A video file, a folder of images or a photo (or use --camera).
+    #[arg(required_unless_present = "camera")]
+    pub source: Option<PathBuf>,
+    /// Read webcam N (/dev/videoN) instead.
+    #[arg(long, value_name = "N", conflicts_with = "source")]
+    pub camera: Option<u32>,
+    /// Play a video again from the start when it ends.
+    #[arg(long = "loop")]
+    pub looping: bool,
+    /// Process every frame in order on one thread (offline analysis and benchmarks), instead
+    /// of live: a capture thread playing videos in real time with the newest frame winning.
+    #[arg(long)]
+    pub all_frames: bool,
+    /// Stop after this many processed frames.
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u64>,
+    /// Write one JSON object per processed frame (pose, stages, latency) to this file.
+    #[arg(long, value_name = "FILE.jsonl")]
+    pub jsonl: Option<PathBuf>,
+    /// Turn smoothing off (each frame's own fit).
+    #[arg(long)]
+    pub no_smoothing: bool,
+}
+
+fn open_source(args: &TrackArgs) -> Result<Box<dyn FrameSource>> {
+    if let Some(index) = args.camera {
+        #[cfg(feature = "webcam")]
+        return Ok(Box::new(glyptic::capture::camera::CameraSource::new(index)));
+        #[cfg(not(feature = "webcam"))]
+        bail!("camera {index}: this build has no webcam support (cargo feature `webcam`)");
+    }
+    let Some(path) = args.source.clone() else {
+        bail!("no source given");
+    };
+    if path.is_dir() {
+        return Ok(Box::new(glyptic::capture::FolderSource::new(path)));
+    }
+    if !path.exists() {
+        bail!("{}: file not found", path.display());
+    }
+    if glyptic::capture::source::is_image_path(&path) {
+        return Ok(Box::new(glyptic::capture::ImageFileSource::new(path)));
+    }
+    #[cfg(feature = "video")]
+    return Ok(Box::new(glyptic::capture::video::VideoSource::new(
+        path,
+        args.looping,
+    )));
+    #[cfg(not(feature = "video"))]
+    bail!(
+        "{}: this build reads no video files (cargo feature `video`)",
+        path.display()
+    );
+}
+
+/// Per-stage times collected over a run.
+#[derive(Default)]
+struct StageTimes {
+    by_name: Vec<(&'static str, Vec<f64>)>,
+}
+
+impl StageTimes {
+    fn add(&mut self, name: &'static str, ms: f64) {
+        match self.by_name.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, v)) => v.push(ms),
+            None => self.by_name.push((name, vec![ms])),
+        }
+    }
+
+    fn print(&self) {
+        for (name, v) in &self.by_name {
+            let (med, p95, n) = quantiles(v);
+            println!("  {name:<18} median {med:>7.2} ms   p95 {p95:>7.2} ms   ({n} frames)");
+        }
+    }
+}
+
+fn quantiles(v: &[f64]) -> (f64, f64, usize) {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let at = |q: f64| s[((s.len() - 1) as f64 * q).round() as usize];
+    if s.is_empty() {
+        return (f64::NAN, f64::NAN, 0);
+    }
+    (at(0.5), at(0.95), s.len())
+}
+
+fn json_line(update: &FaceUpdate) -> serde_json::Value {
+    let stages: serde_json::Map<String, serde_json::Value> = update
+        .stages
+        .iter()
+        .map(|s| (s.name.to_string(), serde_json::json!(s.ms)))
+        .collect();
+    let face = update.face.as_ref().map(|f| {
+        serde_json::json!({
+            "detected": f.detected,
+            "yaw_pitch_roll_deg": f.pose.yaw_pitch_roll_deg(),
+            "raw_yaw_pitch_roll_deg": f.raw.pose.yaw_pitch_roll_deg(),
+            "reprojection_px": f.raw.reprojection_px,
+            "identity_frames": f.identity_frames,
+            "expression": f.expression,
+            "landmarks": f.landmarks,
+        })
+    });
+    serde_json::json!({
+        "frame": update.frame_index, "time_s": update.time_s, "latency_ms": update.latency_ms,
+        "face": face, "note": update.note, "times_ms": stages,
+    })
+}
+
+pub fn track(args: &TrackArgs) -> Result<()> {
+    let mut load = Vec::new();
+    let pipeline = FacePipeline::load_default(&mut load)?;
+    for s in &load {
+        super::print_stage(s);
+    }
+    let options = TrackOptions {
+        smoothing: !args.no_smoothing,
+        ..TrackOptions::default()
+    };
+    let mut tracker = Tracker::new(pipeline, options);
+    let mut jsonl = match &args.jsonl {
+        Some(p) => Some(std::io::BufWriter::new(
+            std::fs::File::create(p).with_context(|| format!("{}: cannot create", p.display()))?,
+        )),
+        None => None,
+    };
+    let limit = args.frames.unwrap_or(u64::MAX);
+    let mut times = StageTimes::default();
+    let (mut processed, mut with_face, mut errors) = (0u64, 0u64, 0u64);
+    let mut record = |u: &FaceUpdate, times: &mut StageTimes| -> Result<()> {
+        for s in &u.stages {
+            times.add(s.name, s.ms);
+        }
+        times.add("latency", u.latency_ms);
+        if let Some(w) = jsonl.as_mut() {
+            writeln!(w, "{}", json_line(u)).context("writing the JSON lines")?;
+        }
+        Ok(())
+    };
+    let start = Instant::now();
+    let mut last_status = Instant::now();
+    let mut detections = 0;
+    let mut end_note = None;
+    if args.all_frames {
+        let mut source = open_source(args)?;
+        let clock = Instant::now();
+        let mut index = 0u64;
+        while processed < limit {
+            let raw = match source.next_frame() {
+                Ok(Some(raw)) => raw,
+                Ok(None) => {
+                    end_note = source.end_note();
+                    break;
+                }
+                Err(e @ glyptic::capture::SourceError::BadFrame { .. }) => {
+                    eprintln!("skipped: {e}");
+                    errors += 1;
+                    continue;
+                }
+                Err(e) => return Err(e.into()),
+            };
+            let frame = glyptic::capture::Frame {
+                time_s: raw.time_s.unwrap_or_else(|| clock.elapsed().as_secs_f64()),
+                image: std::sync::Arc::new(raw.image),
+                index,
+                captured: Instant::now(),
+                path: raw.path,
+            };
+            index += 1;
+            processed += 1;
+            match tracker.process(&frame.image, frame.time_s) {
+                Ok(step) => {
+                    let u = FaceUpdate::new(&frame, step);
+                    with_face += u64::from(u.face.is_some());
+                    record(&u, &mut times)?;
+                }
+                Err(e) => {
+                    errors += 1;
+                    eprintln!("frame {}: {e}", frame.index);
+                }
+            }
+        }
+        detections = tracker.detections();
+    } else {
+        let make_args = args.clone();
+        // Check the source opens before starting threads, for a clear error.
+        open_source(&make_args)?;
+        let capture = Capture::spawn(
+            move || open_source(&make_args).unwrap_or_else(|e| Box::new(Failed(e.to_string()))),
+            CaptureOptions::default(),
+        );
+        let stream = FaceStream::spawn(capture, tracker);
+        while processed < limit {
+            for e in stream.events().try_iter() {
+                match e {
+                    StreamEvent::Capture(CaptureEvent::Ended { note }) => end_note = note,
+                    StreamEvent::Capture(e) => eprintln!("capture: {e:?}"),
+                    StreamEvent::Error { frame_index, error } => {
+                        eprintln!("frame {frame_index}: {error}")
+                    }
+                }
+            }
+            match stream.updates().recv_timeout(Duration::from_millis(200)) {
+                Ok(Some(u)) => {
+                    processed += 1;
+                    with_face += u64::from(u.face.is_some());
+                    record(&u, &mut times)?;
+                }
+                Ok(None) => {}
+                Err(_) => break,
+            }
+            if last_status.elapsed() > Duration::from_secs(5) {
+                last_status = Instant::now();
+                eprintln!(
+                    "{processed} frames, {:.1} frames/s",
+                    processed as f64 / start.elapsed().as_secs_f64()
+                );
+            }
+        }
+        if let Some((summary, _)) = stream.stop() {
+            errors += summary.errors;
+            detections = summary.detections;
+            println!(
+                "capture: {} frames read, {} replaced by newer ones before processing, {} bad, {} unavailable attempts",
+                summary.capture.frames,
+                summary.capture.replaced,
+                summary.capture.bad_frames,
+                summary.capture.unavailable
+            );
+        }
+    }
+    if let Some(mut w) = jsonl {
+        w.flush().context("writing the JSON lines")?;
+    }
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "{processed} frames processed in {secs:.2} s ({:.1} frames/s): {with_face} with a face, \
+         {detections} full-frame detections, {errors} errors",
+        processed as f64 / secs
+    );
+    if let Some(note) = end_note {
+        println!("source: {note}");
+    }
+    times.print();
+    Ok(())
+}
+
+/// A source that failed to open on the capture thread: reports the error as fatal.
+struct Failed(String);
+
+impl FrameSource for Failed {
+    fn name(&self) -> String {
+        "source".into()
+    }
+    fn next_frame(
+        &mut self,
+    ) -> Result<Option<glyptic::capture::RawFrame>, glyptic::capture::SourceError> {
+        Err(glyptic::capture::SourceError::Fatal {
+            source_name: "source".into(),
+            reason: self.0.clone(),
+        })
+    }
+}
