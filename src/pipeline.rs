@@ -242,26 +242,27 @@ impl FacePipeline {
         })
     }
 
-    /// Detects the largest face, finds its landmarks and fits the model.
-    pub fn process(
+    /// Detects the largest face, finds its landmarks and fits the model; `None` when there is
+    /// no face. Also returns how many faces the detector found.
+    pub fn fit_largest(
         &mut self,
         img: &image::RgbImage,
         stages: &mut Vec<Stage>,
-    ) -> Result<FaceResult, PipelineError> {
+    ) -> Result<Option<(FaceLandmarks, Fit, usize)>, PipelineError> {
         let faces = self.faces.detect(img, stages)?;
-        let largest = faces.first().cloned().ok_or(PipelineError::NoFace)?;
+        let Some(largest) = faces.first() else {
+            return Ok(None);
+        };
         let found = self
             .faces
-            .landmarks(img, std::slice::from_ref(&largest), stages)?
+            .landmarks(img, std::slice::from_ref(largest), stages)?
             .pop()
             .ok_or(PipelineError::NoFace)?;
-        let model = &self.model;
-        let fit_opts = &self.fit_options;
-        let landmarks = found.points;
+        let (model, fit_opts) = (&self.model, &self.fit_options);
         let fit = timed(
             stages,
             "fit",
-            || crate::fit::fit(model, &landmarks, fit_opts),
+            || crate::fit::fit(model, &found.points, fit_opts),
             |f| {
                 let [yaw, pitch, roll] = f.pose.yaw_pitch_roll_deg();
                 format!(
@@ -270,11 +271,23 @@ impl FacePipeline {
                 )
             },
         )?;
-        let mesh = model.instance(&fit.shape, &fit.expression);
+        Ok(Some((found, fit, faces.len())))
+    }
+
+    /// [`FacePipeline::fit_largest`] with the fitted mesh; no face is an error.
+    pub fn process(
+        &mut self,
+        img: &image::RgbImage,
+        stages: &mut Vec<Stage>,
+    ) -> Result<FaceResult, PipelineError> {
+        let (found, fit, faces_found) = self
+            .fit_largest(img, stages)?
+            .ok_or(PipelineError::NoFace)?;
+        let mesh = self.model.instance(&fit.shape, &fit.expression);
         Ok(FaceResult {
             detection: found.detection,
-            faces_found: faces.len(),
-            landmarks,
+            faces_found,
+            landmarks: found.points,
             fit,
             mesh,
         })

@@ -22,7 +22,7 @@ use crate::pipeline::{FacePipeline, PipelineError, Stage, timed};
 use crate::smooth::{OneEuro, OneEuroParams};
 
 /// Settings of a [`Tracker`].
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 pub struct TrackOptions {
     /// Smooth pose and expression (off: each frame's own fit is passed through).
     pub smoothing: bool,
@@ -165,27 +165,13 @@ impl Tracker {
             }
         }
         self.detections += 1;
-        let faces = self.pipeline.faces.detect(img, &mut stages)?;
-        let Some(largest) = faces.first() else {
+        let Some((found, fit, _)) = self.pipeline.fit_largest(img, &mut stages)? else {
             return Ok(TrackStep {
                 face: None,
                 lost,
                 stages,
             });
         };
-        let found = self
-            .pipeline
-            .faces
-            .landmarks(img, std::slice::from_ref(largest), &mut stages)?
-            .pop()
-            .ok_or(PipelineError::NoFace)?;
-        let (model, opts) = (&self.pipeline.model, &self.pipeline.fit_options);
-        let fit = timed(
-            &mut stages,
-            "fit",
-            || crate::fit::fit(model, &found.points, opts),
-            |f| format!("reprojection {:.2} px", f.reprojection_px),
-        )?;
         let o = &self.options;
         let state = TrackState {
             landmarks: Vec::new(),
@@ -213,7 +199,7 @@ impl Tracker {
         state: &TrackState,
         stages: &mut Vec<Stage>,
     ) -> Result<(Vec<[f32; 2]>, Fit, bool), String> {
-        let o = self.options.clone();
+        let o = self.options;
         let predictor = &self.pipeline.faces.predictor;
         let face_box = predictor
             .box_for_all_parts(&state.landmarks)
@@ -229,14 +215,7 @@ impl Tracker {
             stages,
             "landmarks",
             || {
-                // Grey only around the face: the box and one box size on every side, which
-                // holds every pixel the regression trees compare.
-                let side = face_box.width.max(face_box.height);
-                let x0 = (face_box.left - side).max(0.0) as u32;
-                let y0 = (face_box.top - side).max(0.0) as u32;
-                let n = (3.0 * side).ceil() as u32 + 2;
-                let gray = crate::landmarks::to_gray_region(img, x0, y0, n, n);
-                let (dx, dy) = (x0 as f32, y0 as f32);
+                let (gray, [dx, dy]) = crate::landmarks::gray_around(img, &face_box);
                 let local = FaceBox {
                     left: face_box.left - dx,
                     top: face_box.top - dy,

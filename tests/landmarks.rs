@@ -1065,13 +1065,8 @@ fn grey_region_gives_the_whole_image_points() {
         let gray = landmarks::to_gray(&img);
         let f = face(name);
         let rect = f.five_point_box(sp);
-        let side = rect.width.max(rect.height);
-        let (x0, y0) = (
-            (rect.left - side).max(0.0) as u32,
-            (rect.top - side).max(0.0) as u32,
-        );
-        let n = (3.0 * side).ceil() as u32 + 2;
-        let region = landmarks::to_gray_region(&img, x0, y0, n, n);
+        let (region, [x0, y0]) = landmarks::gray_around(&img, &rect);
+        let (x0, y0) = (x0 as u32, y0 as u32);
         assert_eq!(
             region,
             image::imageops::crop_imm(&gray, x0, y0, region.width(), region.height()).to_image()

@@ -236,17 +236,9 @@ fn run(
         let raw = match source.next_frame() {
             Ok(Some(raw)) => raw,
             Ok(None) => {
-                summary.end = Some(
-                    source
-                        .end_note()
-                        .unwrap_or_else(|| "end of source".to_string()),
-                );
-                emit(
-                    &mut summary,
-                    CaptureEvent::Ended {
-                        note: source.end_note(),
-                    },
-                );
+                let note = source.end_note();
+                summary.end = Some(note.clone().unwrap_or_else(|| "end of source".into()));
+                emit(&mut summary, CaptureEvent::Ended { note });
                 break;
             }
             Err(SourceError::Unavailable { reason, .. }) => {

@@ -13,7 +13,6 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use glyptic::gem::{self, CameoParams};
 use glyptic::pipeline::{FacePipeline, Stage};
 use glyptic::render::Renderer;
 
@@ -62,17 +61,19 @@ const CSV_STAGES: [&str; 7] = [
 
 /// Output names: `NAME-gem.png`, or `NAME.ext-gem.png` for names shared by several inputs.
 fn output_names(files: &[PathBuf], out_dir: &Path) -> Vec<PathBuf> {
-    let stem = |p: &Path| p.file_stem().map(|s| s.to_string_lossy().into_owned());
+    let stem = |p: &Path| {
+        p.file_stem()
+            .map_or(String::new(), |s| s.to_string_lossy().into_owned())
+    };
+    let mut count = std::collections::HashMap::new();
+    for f in files {
+        *count.entry(stem(f)).or_insert(0usize) += 1;
+    }
     files
         .iter()
         .map(|f| {
-            let s = stem(f).unwrap_or_default();
-            let shared = files
-                .iter()
-                .filter(|g| stem(g).as_deref() == Some(&s))
-                .count()
-                > 1;
-            let name = if shared {
+            let s = stem(f);
+            let name = if count[&s] > 1 {
                 f.file_name()
                     .map_or(s.clone(), |n| n.to_string_lossy().into_owned())
             } else {
@@ -138,18 +139,7 @@ fn face_job(
         )?;
         let face = pipeline.process(&img, &mut stages)?;
         row.faces = face.faces_found;
-        let mesh = glyptic::pipeline::timed(
-            &mut stages,
-            "gem",
-            || {
-                gem::build_cameo(
-                    &face.mesh,
-                    &pipeline.model.shape.triangles,
-                    &CameoParams::default(),
-                )
-            },
-            |_| String::new(),
-        )?;
+        let mesh = super::build_gem(&mut stages, &face.mesh, &pipeline.model.shape.triangles)?;
         Ok(mesh)
     })();
     row.stages.extend(stages.iter().map(|s| (s.name, s.ms)));
@@ -269,12 +259,10 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                 let rendered = renderer.render(&mesh, &view.params());
                 row.stages.push(("render", t.elapsed().as_secs_f64() * 1e3));
                 let t = Instant::now();
-                let written = rendered.map_err(anyhow::Error::from).and_then(|rgba| {
-                    let mut png = Vec::new();
-                    image::DynamicImage::ImageRgba8(rgba)
-                        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
-                    super::write_atomic(&outputs[i], &png)
-                });
+                let written = rendered
+                    .map_err(anyhow::Error::from)
+                    .and_then(|rgba| super::encode_png(rgba, &outputs[i]))
+                    .and_then(|png| super::write_atomic(&outputs[i], &png));
                 row.stages.push(("write", t.elapsed().as_secs_f64() * 1e3));
                 match written {
                     Ok(()) => {

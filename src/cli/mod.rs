@@ -450,6 +450,11 @@ fn render_and_write(
         },
     )?;
     print_stage(&stages[0]);
+    encode_png(rgba, output)
+}
+
+/// A rendered image as PNG bytes (`output` names it in errors).
+fn encode_png(rgba: image::RgbaImage, output: &Path) -> Result<Vec<u8>> {
     let mut png = Vec::new();
     image::DynamicImage::ImageRgba8(rgba)
         .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)

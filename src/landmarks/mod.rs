@@ -211,13 +211,26 @@ impl ShapePredictor {
 /// weights `image` uses: the trees threshold intensity differences learned on dlib's grey.
 pub fn to_gray(img: &image::RgbImage) -> image::GrayImage {
     let (w, h) = img.dimensions();
-    let grey: Vec<u8> = img
-        .as_raw()
-        .chunks_exact(3)
-        .map(|p| ((u16::from(p[0]) + u16::from(p[1]) + u16::from(p[2])) / 3) as u8)
-        .collect();
+    let grey: Vec<u8> = img.as_raw().chunks_exact(3).map(grey_of).collect();
     // The buffer has exactly w * h bytes; the fallback only guards an impossible mismatch.
     image::GrayImage::from_raw(w, h, grey).unwrap_or_else(|| image::GrayImage::new(w, h))
+}
+
+/// dlib's grey of one RGB pixel.
+fn grey_of(p: &[u8]) -> u8 {
+    ((u16::from(p[0]) + u16::from(p[1]) + u16::from(p[2])) / 3) as u8
+}
+
+/// [`to_gray`] of the square around `face_box` that reaches one box size beyond it on every
+/// side (clipped to the image), and the region's top-left corner in the image. That margin
+/// holds every pixel the regression trees compare, so predicting on the region (with the box
+/// moved by the corner) gives the points of the whole image, for a fraction of the conversion.
+pub fn gray_around(img: &image::RgbImage, face_box: &FaceBox) -> (image::GrayImage, [f32; 2]) {
+    let side = face_box.width.max(face_box.height);
+    let x0 = (face_box.left - side).max(0.0) as u32;
+    let y0 = (face_box.top - side).max(0.0) as u32;
+    let n = (3.0 * side).ceil() as u32 + 2;
+    (to_gray_region(img, x0, y0, n, n), [x0 as f32, y0 as f32])
 }
 
 /// [`to_gray`] of the `width` x `height` region at (`x0`, `y0`) (clipped to the image): a
@@ -237,10 +250,7 @@ pub fn to_gray_region(
     for y in y0..y0 + rh {
         let start = (y as usize * w as usize + x0 as usize) * 3;
         let row = &raw[start..start + rw as usize * 3];
-        grey.extend(
-            row.chunks_exact(3)
-                .map(|p| ((u16::from(p[0]) + u16::from(p[1]) + u16::from(p[2])) / 3) as u8),
-        );
+        grey.extend(row.chunks_exact(3).map(grey_of));
     }
     image::GrayImage::from_raw(rw, rh, grey).unwrap_or_else(|| image::GrayImage::new(rw, rh))
 }
