@@ -312,7 +312,7 @@ fn main() -> Res<()> {
     );
     if let Some((ms, n)) = tracked("landmarks") {
         println!(
-            "| tracking: landmarks | {ms:.2} | - | box from the previous landmarks, grey conversion + contrast check, one cascade ({n} frames) |"
+            "| tracking: landmarks | {ms:.2} | - | box from the previous landmarks, contrast check and one cascade straight on the RGB frame ({n} frames) |"
         );
     }
     if let Some((ms, n)) = tracked("fit") {

@@ -56,7 +56,7 @@ pub fn timed<T, E>(
 /// What the pipeline found in a frame.
 #[derive(Clone, Debug)]
 pub struct FaceResult {
-    /// The face that was fitted (the largest).
+    /// The face that was fitted (the subject: see [`LandmarkPipeline::detect`]).
     pub detection: Detection,
     /// How many faces the detector found.
     pub faces_found: usize,
@@ -121,7 +121,8 @@ impl LandmarkPipeline {
         )
     }
 
-    /// Every face the detector finds, largest first.
+    /// Every face the detector finds, subject first (largest or most central, as
+    /// `detect_options.prefer` says).
     pub fn detect(
         &mut self,
         img: &image::RgbImage,
@@ -141,7 +142,7 @@ impl LandmarkPipeline {
                 ),
             },
         )?;
-        faces.sort_by(|a, b| b.area().total_cmp(&a.area()));
+        crate::detect::rank_faces(&mut faces, opts.prefer, img.width(), img.height());
         Ok(faces)
     }
 
@@ -242,20 +243,20 @@ impl FacePipeline {
         })
     }
 
-    /// Detects the largest face, finds its landmarks and fits the model; `None` when there is
-    /// no face. Also returns how many faces the detector found.
-    pub fn fit_largest(
+    /// Detects the subject's face (see [`LandmarkPipeline::detect`]), finds its landmarks and
+    /// fits the model; `None` when there is no face. Also returns how many faces were found.
+    pub fn fit_subject(
         &mut self,
         img: &image::RgbImage,
         stages: &mut Vec<Stage>,
     ) -> Result<Option<(FaceLandmarks, Fit, usize)>, PipelineError> {
         let faces = self.faces.detect(img, stages)?;
-        let Some(largest) = faces.first() else {
+        let Some(subject) = faces.first() else {
             return Ok(None);
         };
         let found = self
             .faces
-            .landmarks(img, std::slice::from_ref(largest), stages)?
+            .landmarks(img, std::slice::from_ref(subject), stages)?
             .pop()
             .ok_or(PipelineError::NoFace)?;
         let (model, fit_opts) = (&self.model, &self.fit_options);
@@ -274,14 +275,14 @@ impl FacePipeline {
         Ok(Some((found, fit, faces.len())))
     }
 
-    /// [`FacePipeline::fit_largest`] with the fitted mesh; no face is an error.
+    /// [`FacePipeline::fit_subject`] with the fitted mesh; no face is an error.
     pub fn process(
         &mut self,
         img: &image::RgbImage,
         stages: &mut Vec<Stage>,
     ) -> Result<FaceResult, PipelineError> {
         let (found, fit, faces_found) = self
-            .fit_largest(img, stages)?
+            .fit_subject(img, stages)?
             .ok_or(PipelineError::NoFace)?;
         let mesh = self.model.instance(&fit.shape, &fit.expression);
         Ok(FaceResult {

@@ -17,7 +17,7 @@
 use image::RgbImage;
 
 use crate::fit::{Fit, Pose};
-use crate::landmarks::FaceBox;
+use crate::landmarks::{FaceBox, GreyPixels};
 use crate::pipeline::{FacePipeline, PipelineError, Stage, timed};
 use crate::smooth::{OneEuro, OneEuroParams};
 
@@ -118,7 +118,7 @@ struct TrackState {
     unverified: u32,
 }
 
-/// Follows the largest face through a sequence of frames.
+/// Follows one face (the subject: largest or most central) through a sequence of frames.
 pub struct Tracker {
     pub pipeline: FacePipeline,
     pub options: TrackOptions,
@@ -165,7 +165,7 @@ impl Tracker {
             }
         }
         self.detections += 1;
-        let Some((found, fit, _)) = self.pipeline.fit_largest(img, &mut stages)? else {
+        let Some((found, fit, _)) = self.pipeline.fit_subject(img, &mut stages)? else {
             return Ok(TrackStep {
                 face: None,
                 lost,
@@ -215,15 +215,10 @@ impl Tracker {
             stages,
             "landmarks",
             || {
-                let (gray, [dx, dy]) = crate::landmarks::gray_around(img, &face_box);
-                let local = FaceBox {
-                    left: face_box.left - dx,
-                    top: face_box.top - dy,
-                    ..face_box
-                };
-                let contrast = grey_deviation(&gray, &local);
-                let points = predictor.predict(&gray, &local)?;
-                let points: Vec<[f32; 2]> = points.iter().map(|p| [p[0] + dx, p[1] + dy]).collect();
+                // Straight on the RGB frame: the trees read a few thousand pixels, converting
+                // the frame (or the region around the face) to grey first costs more.
+                let contrast = grey_deviation(img, &face_box);
+                let points = predictor.predict(img, &face_box)?;
                 Ok::<_, crate::landmarks::LandmarkError>((points, contrast))
             },
             |_| "68 points (tracked)".to_string(),
@@ -380,15 +375,17 @@ fn mean_identity(state: &TrackState) -> Vec<f32> {
 }
 
 /// Standard deviation of the grey levels inside the box (sampled on a grid of at most 32 x 32).
-fn grey_deviation(gray: &image::GrayImage, b: &FaceBox) -> f32 {
-    let (w, h) = gray.dimensions();
+fn grey_deviation(img: &impl GreyPixels, b: &FaceBox) -> f32 {
     let (mut sum, mut sq, mut n) = (0.0f64, 0.0f64, 0u32);
     for j in 0..32 {
         for i in 0..32 {
             let x = b.left + b.width * (i as f32 + 0.5) / 32.0;
             let y = b.top + b.height * (j as f32 + 0.5) / 32.0;
-            if x >= 0.0 && y >= 0.0 && (x as u32) < w && (y as u32) < h {
-                let v = f64::from(gray.get_pixel(x as u32, y as u32)[0]);
+            if x < 0.0 || y < 0.0 {
+                continue;
+            }
+            if let Some(v) = img.grey(x as u32, y as u32) {
+                let v = f64::from(v);
                 sum += v;
                 sq += v * v;
                 n += 1;

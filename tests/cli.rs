@@ -302,6 +302,33 @@ fn landmarks_json_gives_each_face_its_68_points() {
     assert!(!stderr.contains("panicked"));
 }
 
+/// `--prefer central` makes the face in the middle the subject (first in the JSON, the one
+/// written as .pts); the default is the largest.
+#[test]
+fn landmarks_prefer_picks_the_subject() {
+    let d = scratch("prefer");
+    let frame = d.join("two.png");
+    common::two_faces().save(&frame).unwrap();
+    for (prefer, lo, hi) in [("largest", 10.0, 430.0), ("central", 510.0, 690.0)] {
+        let run = glyptic()
+            .args(["landmarks", "--json", "--prefer", prefer])
+            .arg(&frame)
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+        let faces = json["faces"].as_array().unwrap();
+        assert_eq!(faces.len(), 2);
+        let b = &faces[0]["box"];
+        let x = b[0].as_f64().unwrap() + b[2].as_f64().unwrap() / 2.0;
+        assert!(x > lo && x < hi, "{prefer}: first face centred at x {x}");
+    }
+}
+
 /// A folder with two faces, a truncated JPEG and a picture without a face: the faces become
 /// gems, the others are reported and skipped, the CSV lists all four in order, and the exit
 /// status says that some failed.

@@ -5,13 +5,16 @@
 //! Coordinates are image pixels with pixel centres at `i + 0.5`, as in `glyptic::detect`.
 #![cfg(feature = "face")]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::time::Instant;
 
 use glyptic::assets;
 use glyptic::detect::{
-    DetectError, DetectOptions, Detection, FaceDetector, SessionConfig, iou, largest,
+    DetectError, DetectOptions, Detection, FaceChoice, FaceDetector, SessionConfig, iou, largest,
+    rank_faces,
 };
 use image::RgbImage;
 
@@ -592,4 +595,67 @@ fn median_detection_time_at_640() {
         // Generous: catches a debug build of the pre-processing or a pathological session.
         assert!(one_thread < 2000.0, "{name}: {one_thread} ms");
     }
+}
+
+fn boxed(x: f32, y: f32, side: f32) -> Detection {
+    Detection {
+        bbox: [x, y, side, side],
+        score: 0.9,
+        points: [[x + side / 2.0, y + side / 2.0]; 5],
+    }
+}
+
+/// The subject among several faces: the largest by default, the most central on request,
+/// with the larger box first when two are equally central.
+#[test]
+fn subject_is_largest_or_most_central() {
+    let (w, h) = (1000, 600);
+    let faces = vec![
+        boxed(450.0, 250.0, 100.0), // centred, small
+        boxed(0.0, 0.0, 300.0),     // corner, large
+        boxed(425.0, 225.0, 150.0), // centred, larger
+        boxed(800.0, 400.0, 120.0),
+    ];
+    let order = |prefer| {
+        let mut f = faces.clone();
+        rank_faces(&mut f, prefer, w, h);
+        f.iter().map(|d| d.bbox[2]).collect::<Vec<_>>()
+    };
+    assert_eq!(order(FaceChoice::Largest), [300.0, 150.0, 120.0, 100.0]);
+    // Centres 380 px (corner) and 394 px (lower right) from the middle.
+    assert_eq!(order(FaceChoice::Central), [150.0, 100.0, 300.0, 120.0]);
+    assert_eq!(DetectOptions::default().prefer, FaceChoice::Largest);
+    // NaN boxes sort without a panic.
+    let mut odd = vec![boxed(f32::NAN, 0.0, 10.0), boxed(0.0, 0.0, 20.0)];
+    rank_faces(&mut odd, FaceChoice::Central, w, h);
+    rank_faces(&mut odd, FaceChoice::Largest, w, h);
+}
+
+/// Two real faces in one frame: a large one at the left, a smaller one in the middle. The
+/// detector finds both; `prefer` picks which comes first.
+#[test]
+fn two_real_faces_ranked_by_preference() {
+    let frame = common::two_faces();
+    let mut det = detector();
+    let faces = det
+        .detect(&frame, &DetectOptions::default())
+        .expect("detect");
+    assert_eq!(
+        faces.len(),
+        2,
+        "{:?}",
+        faces.iter().map(show).collect::<Vec<_>>()
+    );
+    let first = |prefer| {
+        let mut f = faces.clone();
+        rank_faces(&mut f, prefer, frame.width(), frame.height());
+        f[0].centre()[0]
+    };
+    let x = first(FaceChoice::Largest);
+    assert!(x < 430.0, "largest: lenna (x 10..430), got centre x {x}");
+    let x = first(FaceChoice::Central);
+    assert!(
+        x > 510.0 && x < 690.0,
+        "central: takeo (x 510..690), got {x}"
+    );
 }

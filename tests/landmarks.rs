@@ -1055,47 +1055,40 @@ fn ljson_reading() {
     }
 }
 
-/// A tracker converts only the region around the face to grey: with a margin of one box size
-/// the points equal those on the whole image.
+/// A tracker predicts straight on the RGB frame: the per-pixel grey gives the points of the
+/// converted image exactly, for boxes inside, across and beyond the image's edges.
 #[test]
-fn grey_region_gives_the_whole_image_points() {
+fn predicting_on_rgb_equals_predicting_on_grey() {
+    use landmarks::GreyPixels;
     let sp = model();
     for name in FACES {
         let img = image::open(common_path(name)).unwrap().to_rgb8();
         let gray = landmarks::to_gray(&img);
         let f = face(name);
         let rect = f.five_point_box(sp);
-        let (region, [x0, y0]) = landmarks::gray_around(&img, &rect);
-        let (x0, y0) = (x0 as u32, y0 as u32);
-        assert_eq!(
-            region,
-            image::imageops::crop_imm(&gray, x0, y0, region.width(), region.height()).to_image()
-        );
-        let local = FaceBox {
-            left: rect.left - x0 as f32,
-            top: rect.top - y0 as f32,
+        let (w, h) = img.dimensions();
+        let shifted = |dx: f32, dy: f32| FaceBox {
+            left: rect.left + dx,
+            top: rect.top + dy,
             ..rect
         };
-        let whole = sp.predict(&gray, &rect).unwrap();
-        let part = sp.predict(&region, &local).unwrap();
-        for (a, b) in whole.iter().zip(&part) {
-            assert!(
-                (a[0] - (b[0] + x0 as f32)).abs() < 1e-3
-                    && (a[1] - (b[1] + y0 as f32)).abs() < 1e-3,
-                "{name}: {a:?} vs {b:?} + ({x0}, {y0})"
+        for b in [
+            rect,
+            shifted(-rect.left - rect.width / 2.0, 0.0),
+            shifted(w as f32 - rect.left - rect.width / 3.0, h as f32 / 2.0),
+        ] {
+            assert_eq!(
+                sp.predict(&img, &b).unwrap(),
+                sp.predict(&gray, &b).unwrap(),
+                "{name} {b:?}"
             );
         }
+        for (x, y) in [(0, 0), (w - 1, h - 1), (w / 2, h / 3)] {
+            assert_eq!(img.grey(x, y), gray.grey(x, y));
+        }
+        assert_eq!(img.grey(w, 0), None);
+        assert_eq!(gray.grey(0, h), None);
     }
-    // Regions past the image are clipped.
-    let img = image::RgbImage::new(10, 8);
-    assert_eq!(
-        landmarks::to_gray_region(&img, 6, 5, 100, 100).dimensions(),
-        (4, 3)
-    );
-    assert_eq!(
-        landmarks::to_gray_region(&img, 20, 20, 5, 5).dimensions(),
-        (0, 0)
-    );
 }
 
 fn common_path(name: &str) -> std::path::PathBuf {

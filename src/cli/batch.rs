@@ -36,6 +36,8 @@ pub struct BatchArgs {
     pub quiet: bool,
     #[command(flatten)]
     pub view: ViewArgs,
+    #[command(flatten)]
+    pub choice: super::ChoiceArgs,
 }
 
 /// One image's outcome.
@@ -171,7 +173,8 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     // The GPU comes up while the models load.
     let renderer_thread = super::spawn_renderer();
     let mut load = Vec::new();
-    let first = FacePipeline::load_default(&mut load)?;
+    let mut first = FacePipeline::load_default(&mut load)?;
+    args.choice.apply(&mut first.faces.detect_options);
     let mut pipelines = vec![first];
     for _ in 1..jobs {
         let p = pipelines[0].fork(

@@ -46,13 +46,15 @@ pub struct LandmarksArgs {
     /// A photo (JPEG, PNG, PPM, ...).
     pub image: PathBuf,
     /// Print one JSON object: `{"faces": [{"box": [x, y, w, h], "score": s, "points": [[x, y],
-    /// ...68]}], "times_ms": {...}}`, image pixels, 0-based, largest face first.
+    /// ...68]}], "times_ms": {...}}`, image pixels, 0-based, subject first (see --prefer).
     #[arg(long)]
     pub json: bool,
-    /// At most this many faces (the largest).
+    /// At most this many faces (the first in --prefer's order).
     #[arg(long, value_name = "N")]
     pub max_faces: Option<usize>,
-    /// Also write the largest face's landmarks as iBUG .pts (1-based, as menpo reads them).
+    #[command(flatten)]
+    pub choice: ChoiceArgs,
+    /// Also write the subject's landmarks as iBUG .pts (1-based, as menpo reads them).
     #[arg(long, value_name = "FILE.pts")]
     pub pts: Option<PathBuf>,
 }
@@ -126,6 +128,30 @@ impl ViewArgs {
     }
 }
 
+/// Which face is the subject when a photo or frame holds several.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct ChoiceArgs {
+    /// The subject among several faces: the largest, or the one nearest the image's centre
+    /// (a kiosk with people passing behind the visitor).
+    #[arg(long, value_enum, default_value_t = PreferArg::Largest)]
+    pub prefer: PreferArg,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PreferArg {
+    Largest,
+    Central,
+}
+
+impl ChoiceArgs {
+    pub fn apply(&self, options: &mut glyptic::detect::DetectOptions) {
+        options.prefer = match self.prefer {
+            PreferArg::Largest => glyptic::detect::FaceChoice::Largest,
+            PreferArg::Central => glyptic::detect::FaceChoice::Central,
+        };
+    }
+}
+
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum MaterialArg {
     Marble,
@@ -183,6 +209,8 @@ pub struct PhotoArgs {
     pub output: PathBuf,
     #[command(flatten)]
     pub view: ViewArgs,
+    #[command(flatten)]
+    pub choice: ChoiceArgs,
     /// Also write the 68 landmarks as an iBUG .pts file (1-based, like menpo's).
     #[arg(long, value_name = "FILE.pts")]
     pub landmarks_out: Option<PathBuf>,
@@ -202,6 +230,7 @@ fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
         |i| format!("{}x{}", i.width(), i.height()),
     )?;
     let mut pipeline = glyptic::pipeline::LandmarkPipeline::load_default(&mut stages)?;
+    args.choice.apply(&mut pipeline.detect_options);
     let mut detections = pipeline
         .detect(&img, &mut stages)
         .with_context(|| path.display().to_string())?;
@@ -550,6 +579,7 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     )?;
     print_stage(&stages[0]);
     let mut pipeline = FacePipeline::load_default(&mut stages)?;
+    args.choice.apply(&mut pipeline.faces.detect_options);
     let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
     let mesh = build_gem(&mut stages, &face.mesh, &pipeline.model.shape.triangles)?;
     for s in &stages[1..] {

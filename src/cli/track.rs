@@ -36,6 +36,9 @@ pub struct TrackArgs {
     /// Turn smoothing off (each frame's own fit).
     #[arg(long)]
     pub no_smoothing: bool,
+    /// Which face to pick up when the track starts or is lost (a tracked face is kept).
+    #[command(flatten)]
+    pub choice: super::ChoiceArgs,
 }
 
 fn open_source(args: &TrackArgs) -> Result<Box<dyn FrameSource>> {
@@ -126,7 +129,8 @@ fn json_line(update: &FaceUpdate) -> serde_json::Value {
 
 pub fn track(args: &TrackArgs) -> Result<()> {
     let mut load = Vec::new();
-    let pipeline = FacePipeline::load_default(&mut load)?;
+    let mut pipeline = FacePipeline::load_default(&mut load)?;
+    args.choice.apply(&mut pipeline.faces.detect_options);
     for s in &load {
         super::print_stage(s);
     }

