@@ -17,6 +17,7 @@ pub mod pipeline;
 pub mod render;
 pub mod shapemodel;
 pub mod smooth;
+pub mod sss;
 #[cfg(feature = "face")]
 pub mod stream;
 #[cfg(feature = "face")]

@@ -302,6 +302,53 @@ fn landmarks_json_gives_each_face_its_68_points() {
     assert!(!stderr.contains("panicked"));
 }
 
+/// `glyptic kernel N` prints N taps whose weights sum to 1 per channel; bad sizes are named.
+#[test]
+fn kernel_prints_a_normalised_kernel() {
+    for (taps, profile) in [(21, "gaussians"), (7, "burley"), (65, "gaussians")] {
+        let run = glyptic()
+            .args(["kernel", &taps.to_string(), "--profile", profile])
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let text = String::from_utf8(run.stdout).unwrap();
+        let rows: Vec<Vec<f64>> = text
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), taps, "{text}");
+        assert_eq!(rows[0][0], 0.0, "centre first");
+        for c in 1..=3 {
+            let sum: f64 = rows.iter().map(|r| r[c]).sum();
+            assert!(
+                (sum - 1.0).abs() < 1e-4,
+                "{taps} {profile}: channel {c} sums to {sum}"
+            );
+        }
+    }
+    for bad in [["kernel", "4"], ["kernel", "67"]] {
+        let run = glyptic().args(bad).output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{stderr}");
+        assert!(
+            stderr.contains("taps") && stderr.contains("odd"),
+            "{stderr}"
+        );
+    }
+    let run = glyptic()
+        .args(["render", "-o", "/tmp/never.png", "--sss-strength", "1.5"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("strength (red)"), "{stderr}");
+}
+
 /// `--prefer central` makes the face in the middle the subject (first in the JSON, the one
 /// written as .pts); the default is the largest.
 #[test]

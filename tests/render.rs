@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use glyptic::render::{Material, Mesh, Region, RenderError, RenderParams, Renderer, Vertex};
+use glyptic::sss::SssParams;
 
 /// Semi-axes of the ground field (mm); the bezel adds `BEZEL_WIDTH` all round: 44 x 56 overall.
 const FIELD: (f32, f32) = (19.6, 25.6);
@@ -369,6 +370,133 @@ fn renderer_end_to_end() {
         d_veins > 0.5,
         format!("vein parameters have an effect ({d_veins:.2})"),
     );
+
+    // --- Subsurface scattering.
+    let mut off = params(w, h, Material::Marble);
+    off.sss = None;
+    let marble_off = renderer.render(&mesh, &off).expect("sss off");
+    save(&marble_off, "marble_sss_off.png");
+    // Strength 0 makes the kernel "centre 1, others 0": the two blur passes then return the
+    // scene's diffuse exactly, so the image equals SSS off bit for bit.
+    let mut zero = params(w, h, Material::Marble);
+    zero.sss = Some(SssParams {
+        strength: [0.0; 3],
+        ..SssParams::default()
+    });
+    let marble_zero = renderer.render(&mesh, &zero).expect("sss strength 0");
+    assert!(
+        marble_zero.as_raw() == marble_off.as_raw(),
+        "SSS with strength 0 equals SSS off"
+    );
+    // On, it changes the stone but never the backdrop (no coverage: copied) nor where the
+    // backdrop shows next to the gem; gold is never blurred (mask 0: copied).
+    let mut strong = params(w, h, Material::Marble);
+    strong.sss = Some(SssParams {
+        strength: [1.0; 3],
+        width_mm: 2.0,
+        ..SssParams::default()
+    });
+    let marble_strong = renderer.render(&mesh, &strong).expect("sss strong");
+    save(&marble_strong, "marble_sss_strong.png");
+    let outside_same = marble_strong
+        .pixels()
+        .zip(marble_off.pixels())
+        .zip(&mask)
+        .filter(|(_, m)| !**m)
+        .all(|((a, b), _)| a == b);
+    assert!(outside_same, "SSS changes no pixel off the gem");
+    let gold_px: Vec<usize> = marble_off
+        .pixels()
+        .enumerate()
+        .filter(|(_, p)| is_gold([p[0], p[1], p[2]]))
+        .map(|(i, _)| i)
+        .collect();
+    let gold_same = gold_px
+        .iter()
+        .filter(|&&i| {
+            let (x, y) = ((i as u32) % w, (i as u32) / w);
+            marble_strong.get_pixel(x, y) == marble_off.get_pixel(x, y)
+        })
+        .count() as f64
+        / gold_px.len().max(1) as f64;
+    println!("SSS: {:.1} % of gold pixels untouched", 100.0 * gold_same);
+    check(
+        gold_same > 0.9,
+        format!("gold pixels untouched by SSS ({:.1} %)", 100.0 * gold_same),
+    );
+    // Stone: the veins' local contrast drops (mean |Laplacian| of grey over stone pixels).
+    let laplacian = |img: &image::RgbaImage| {
+        let g = |x: u32, y: u32| {
+            let p = img.get_pixel(x, y);
+            (p[0] as f64 + p[1] as f64 + p[2] as f64) / 3.0
+        };
+        let (mut sum, mut n) = (0.0, 0usize);
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                let p = marble_off.get_pixel(x, y);
+                if !mask[(y * w + x) as usize] || is_gold([p[0], p[1], p[2]]) {
+                    continue;
+                }
+                sum +=
+                    (4.0 * g(x, y) - g(x - 1, y) - g(x + 1, y) - g(x, y - 1) - g(x, y + 1)).abs();
+                n += 1;
+            }
+        }
+        sum / n.max(1) as f64
+    };
+    let (l_off, l_on) = (laplacian(&marble_off), laplacian(&marble_strong));
+    println!("SSS: stone mean |laplacian| {l_off:.2} off, {l_on:.2} on");
+    check(
+        l_on < 0.9 * l_off,
+        format!("SSS softens the stone ({l_off:.2} -> {l_on:.2})"),
+    );
+    // A flat, plain stone (no veins) stays within 1 % where it is flat: the kernel sums to 1.
+    let mut plain_off = params(w, h, Material::Marble);
+    plain_off.marble.vein_lightness = 1.0;
+    plain_off.sss = None;
+    let mut plain_on = plain_off.clone();
+    plain_on.sss = strong.sss;
+    let (a, b) = (
+        renderer.render(&mesh, &plain_off).expect("plain off"),
+        renderer.render(&mesh, &plain_on).expect("plain on"),
+    );
+    let r = 8i64;
+    let (mut flat, mut worst) = (0usize, 0.0f64);
+    for y in r..h as i64 - r {
+        for x in r..w as i64 - r {
+            let c = a.get_pixel(x as u32, y as u32);
+            let near_flat = (-r..=r).all(|dy| {
+                (-r..=r)
+                    .all(|dx| channel_diff(a.get_pixel((x + dx) as u32, (y + dy) as u32), c) <= 2)
+            });
+            if !near_flat || !mask[(y * w as i64 + x) as usize] {
+                continue;
+            }
+            flat += 1;
+            let d = b.get_pixel(x as u32, y as u32);
+            for k in 0..3 {
+                // Relative to the stone's display value (dither adds +-1 level).
+                let rel = (f64::from(d[k]) - f64::from(c[k])).abs() / f64::from(c[k]).max(1.0);
+                worst = worst.max(rel);
+            }
+        }
+    }
+    println!(
+        "SSS on a flat plain stone: {flat} pixels, worst change {:.2} %",
+        100.0 * worst
+    );
+    assert!(flat > 500, "flat stone pixels found: {flat}");
+    assert!(worst <= 0.01, "flat colour kept within 1 % ({worst})");
+    // Bad kernel parameters are errors naming the problem.
+    let mut bad = params(w, h, Material::Marble);
+    bad.sss = Some(SssParams {
+        taps: 4,
+        ..SssParams::default()
+    });
+    match renderer.render(&mesh, &bad) {
+        Err(RenderError::InvalidParams(m)) => assert!(m.contains("taps"), "{m}"),
+        other => panic!("even taps accepted: {other:?}"),
+    }
 
     // --- Determinism: the same frame twice is bit-identical.
     let again = renderer

@@ -149,6 +149,7 @@ fn face_job(
 }
 
 pub fn batch(args: &BatchArgs) -> Result<()> {
+    let view = args.view.params()?;
     let start = Instant::now();
     let files = glyptic::capture::source::list_images(&args.dir)?;
     if files.is_empty() {
@@ -211,7 +212,6 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
             ..Row::default()
         })
         .collect();
-    let view = &args.view;
     std::thread::scope(|scope| -> Result<()> {
         for mut pipeline in pipelines {
             let (files, next, tx) = (files.clone(), next.clone(), tx.clone());
@@ -259,7 +259,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                 .unwrap_or_default();
             if let Some(mesh) = mesh {
                 let t = Instant::now();
-                let rendered = renderer.render(&mesh, &view.params());
+                let rendered = renderer.render(&mesh, &view);
                 row.stages.push(("render", t.elapsed().as_secs_f64() * 1e3));
                 let t = Instant::now();
                 let written = rendered

@@ -39,6 +39,20 @@ pub enum Command {
     Track(track::TrackArgs),
     /// Makes a gem from every photo in a folder (all cores), with a CSV of status and times.
     Batch(batch::BatchArgs),
+    /// Prints the subsurface-scattering kernel: one line per tap, `offset  r g b`, centre first.
+    Kernel(KernelArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct KernelArgs {
+    /// Taps (odd, 3..=65).
+    pub taps: usize,
+    /// How much light scatters, 0..=1.
+    #[arg(long, default_value_t = 0.48, value_name = "S")]
+    pub strength: f32,
+    /// Diffusion profile.
+    #[arg(long, value_enum, default_value_t = ProfileArg::Gaussians)]
+    pub profile: ProfileArg,
 }
 
 #[derive(clap::Args, Debug)]
@@ -113,18 +127,76 @@ pub struct ViewArgs {
     /// Tilt the view, degrees.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub pitch: f32,
+    #[command(flatten)]
+    pub sss: SssArgs,
+}
+
+/// Subsurface scattering options (`render`, `photo`, `batch`).
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct SssArgs {
+    /// Subsurface scattering: light diffusing through the stone.
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub sss: OnOff,
+    /// Blur taps per direction (odd, 3..=65).
+    #[arg(long, default_value_t = 21, value_name = "N")]
+    pub sss_taps: usize,
+    /// How much light scatters, 0..=1 (red's share; green and blue follow the reference balance).
+    #[arg(long, default_value_t = 0.48, value_name = "S")]
+    pub sss_strength: f32,
+    /// How far light travels under the surface, mm.
+    #[arg(long, default_value_t = 1.2, value_name = "MM")]
+    pub sss_width: f32,
+    /// Diffusion profile.
+    #[arg(long, value_enum, default_value_t = ProfileArg::Gaussians)]
+    pub sss_profile: ProfileArg,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OnOff {
+    On,
+    Off,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ProfileArg {
+    /// Jimenez's sum of Gaussians.
+    Gaussians,
+    /// Christensen-Burley normalised diffusion.
+    Burley,
+}
+
+impl SssArgs {
+    /// The kernel parameters (even with `--sss off`, for `glyptic kernel`), validated.
+    fn params(&self) -> Result<glyptic::sss::SssParams> {
+        let p = glyptic::sss::SssParams {
+            taps: self.sss_taps,
+            strength: glyptic::sss::SssParams::strength_rgb(self.sss_strength),
+            width_mm: self.sss_width,
+            profile: match self.sss_profile {
+                ProfileArg::Gaussians => glyptic::sss::Profile::Gaussians,
+                ProfileArg::Burley => glyptic::sss::Profile::Burley,
+            },
+            ..glyptic::sss::SssParams::default()
+        };
+        p.validate().context("subsurface scattering")?;
+        Ok(p)
+    }
 }
 
 impl ViewArgs {
-    fn params(&self) -> RenderParams {
-        RenderParams {
+    fn params(&self) -> Result<RenderParams> {
+        Ok(RenderParams {
             width: self.size.width,
             height: self.size.height,
             material: self.material.into(),
             yaw_deg: self.yaw,
             pitch_deg: self.pitch,
+            sss: match self.sss.sss {
+                OnOff::On => Some(self.sss.params()?),
+                OnOff::Off => None,
+            },
             ..RenderParams::default()
-        }
+        })
     }
 }
 
@@ -295,6 +367,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Landmarks(args) => find_landmarks(&args),
         Command::Track(args) => track::track(&args),
         Command::Batch(args) => batch::batch(&args),
+        Command::Kernel(args) => print_kernel(&args),
     }
 }
 
@@ -463,18 +536,23 @@ fn join_renderer(
 fn render_and_write(
     renderer: &mut Renderer,
     mesh: &glyptic::render::Mesh,
-    view: &ViewArgs,
+    params: &RenderParams,
     output: &Path,
 ) -> Result<Vec<u8>> {
     let mut stages = Vec::new();
     let rgba = timed(
         &mut stages,
         "render",
-        || renderer.render(mesh, &view.params()),
+        || renderer.render(mesh, params),
         |_| {
             format!(
-                "{}x{} {:?}",
-                view.size.width, view.size.height, view.material
+                "{}x{} {:?}, SSS {}",
+                params.width,
+                params.height,
+                params.material,
+                params
+                    .sss
+                    .map_or("off".to_string(), |s| format!("{} taps", s.taps))
             )
         },
     )?;
@@ -493,6 +571,7 @@ fn encode_png(rgba: image::RgbaImage, output: &Path) -> Result<Vec<u8>> {
 
 fn render_mean(args: &RenderArgs) -> Result<()> {
     let start = Instant::now();
+    let params = args.view.params()?;
     check_output_dirs([&args.output])?;
     let renderer_thread = spawn_renderer();
     let mut stages = Vec::new();
@@ -507,13 +586,34 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
     let mesh = build_gem(&mut stages, &mean, &model.shape.triangles)?;
     stages.iter().for_each(print_stage);
     let mut renderer = join_renderer(renderer_thread)?;
-    let png = render_and_write(&mut renderer, &mesh, &args.view, &args.output)?;
+    let png = render_and_write(&mut renderer, &mesh, &params, &args.output)?;
     write_atomic(&args.output, &png)?;
     print_stage(&Stage {
         name: "total",
         ms: start.elapsed().as_secs_f64() * 1e3,
         detail: args.output.display().to_string(),
     });
+    Ok(())
+}
+
+/// `glyptic kernel N`.
+fn print_kernel(args: &KernelArgs) -> Result<()> {
+    let p = SssArgs {
+        sss: OnOff::On,
+        sss_taps: args.taps,
+        sss_strength: args.strength,
+        sss_width: glyptic::sss::SssParams::default().width_mm,
+        sss_profile: args.profile,
+    }
+    .params()?;
+    let k = glyptic::sss::kernel(&p)?;
+    let [r, g, b] = k.sums();
+    println!(
+        "# {} taps, {:?} profile, strength {:.3} {:.3} {:.3}, range {} (= the blur radius)",
+        p.taps, p.profile, p.strength[0], p.strength[1], p.strength[2], k.range
+    );
+    println!("# offset  weight r g b (sums {r:.6} {g:.6} {b:.6})");
+    print!("{}", k.to_text());
     Ok(())
 }
 
@@ -550,6 +650,7 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 
 fn photo(args: &PhotoArgs) -> Result<()> {
     let start = Instant::now();
+    let params = args.view.params()?;
     for out in [
         Some(&args.output),
         args.landmarks_out.as_ref(),
@@ -587,7 +688,7 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     }
 
     let mut renderer = join_renderer(renderer_thread)?;
-    let png = render_and_write(&mut renderer, &mesh, &args.view, &args.output)?;
+    let png = render_and_write(&mut renderer, &mesh, &params, &args.output)?;
     let t = Instant::now();
     // Everything succeeded: now write, so a failure above leaves no output behind.
     if let Some(pts) = &args.landmarks_out {

@@ -12,7 +12,11 @@
 //! * a Depth32Float z-buffer (never sampled: the linear depth above serves later passes, and
 //!   works on GL, which cannot sample depth textures in these shaders).
 //!
-//! The composite pass reads the resolved `diffuse` and `specular` and writes the Rgba8Unorm
+//! The subsurface-scattering pass (two full-screen draws with one pipeline) blurs the resolved
+//! `diffuse` horizontally into `sss_temp` and that vertically into `sss_out` (both Rgba16Float,
+//! coverage kept in alpha), reading `depth_mask` for depth and mask.
+//!
+//! The composite pass reads the resolved (or blurred) `diffuse` and `specular` and writes the Rgba8Unorm
 //! `output` (sRGB-encoded by the shader), which is copied into a mappable buffer with rows padded
 //! to 256 bytes.
 
@@ -26,6 +30,7 @@ pub(crate) const DIFFUSE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba
 pub(crate) const SPECULAR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub(crate) const DEPTH_MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg16Float;
 pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub(crate) const SSS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub(crate) const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 const OUTPUT_BYTES_PER_PIXEL: u32 = 4;
 
@@ -50,6 +55,29 @@ pub(crate) struct FrameUniform {
 pub(crate) struct CompositeUniform {
     pub background: [f32; 4],
     pub params: [f32; 4],
+}
+
+/// Uniforms of one SSS direction; mirrors `Sss` in `sss.wgsl`: params, dir, then
+/// [`crate::sss::MAX_TAPS`] taps (rgb weight, offset), as floats.
+pub(crate) const SSS_UNIFORM_FLOATS: usize = 4 * (2 + crate::sss::MAX_TAPS);
+
+/// The `Sss` uniform's contents for one direction.
+pub(crate) fn sss_uniform(
+    kernel: &crate::sss::Kernel,
+    radius_mm: f32,
+    px_per_mm_at_1mm: f32,
+    near: f32,
+    range: f32,
+    dir: [f32; 2],
+) -> Vec<f32> {
+    let mut u = vec![0.0f32; SSS_UNIFORM_FLOATS];
+    u[..4].copy_from_slice(&[radius_mm, px_per_mm_at_1mm, near, range]);
+    let taps = kernel.taps.len().min(crate::sss::MAX_TAPS);
+    u[4..8].copy_from_slice(&[dir[0], dir[1], taps as f32, kernel.range]);
+    for (slot, t) in u[8..].chunks_exact_mut(4).zip(&kernel.taps) {
+        slot.copy_from_slice(&[t.weight[0], t.weight[1], t.weight[2], t.offset]);
+    }
+    u
 }
 
 /// Chooses 4x MSAA if every scene target format supports it with resolve on this adapter, else 1.
@@ -95,6 +123,11 @@ pub(crate) struct Pipelines {
     pub composite: wgpu::RenderPipeline,
     pub composite_layout: wgpu::BindGroupLayout,
     pub composite_uniform: wgpu::Buffer,
+    pub sss: wgpu::RenderPipeline,
+    pub sss_layout: wgpu::BindGroupLayout,
+    /// Horizontal and vertical pass uniforms.
+    pub sss_uniforms: [wgpu::Buffer; 2],
+    pub linear_clamp: wgpu::Sampler,
 }
 
 fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
@@ -123,6 +156,55 @@ fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
         },
         count: None,
     }
+}
+
+fn filterable_texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A full-screen-triangle pipeline (no vertex buffers, no depth) writing one target.
+fn fullscreen_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::BindGroupLayout,
+    format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(&pipeline_layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[color_target(format)],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }
 
 fn color_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
@@ -231,32 +313,58 @@ impl Pipelines {
                 texture_entry(2),
             ],
         });
-        let composite_pipeline_layout =
-            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glyptic composite pipeline layout"),
-                bind_group_layouts: &[Some(&composite_layout)],
-                immediate_size: 0,
-            });
-        let composite = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("glyptic composite pipeline"),
-            layout: Some(&composite_pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &composite_module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &composite_module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[color_target(OUTPUT_FORMAT)],
-            }),
-            multiview_mask: None,
-            cache: None,
+        let composite = fullscreen_pipeline(
+            device,
+            "glyptic composite pipeline",
+            &composite_module,
+            &composite_layout,
+            OUTPUT_FORMAT,
+        );
+
+        let sss_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("glyptic sss"),
+            source: wgpu::ShaderSource::Wgsl(shaders::SSS.into()),
+        });
+        let sss_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic sss layout"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+                filterable_texture_entry(1),
+                texture_entry(2),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let sss = fullscreen_pipeline(
+            device,
+            "glyptic sss pipeline",
+            &sss_module,
+            &sss_layout,
+            SSS_FORMAT,
+        );
+        let sss_uniform = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: (SSS_UNIFORM_FLOATS * 4) as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let sss_uniforms = [
+            sss_uniform("glyptic sss horizontal"),
+            sss_uniform("glyptic sss vertical"),
+        ];
+        let linear_clamp = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("glyptic linear clamp"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
         });
 
         Self {
@@ -267,6 +375,10 @@ impl Pipelines {
             composite,
             composite_layout,
             composite_uniform,
+            sss,
+            sss_layout,
+            sss_uniforms,
+            linear_clamp,
         }
     }
 }
@@ -346,7 +458,14 @@ pub(crate) struct Targets {
     /// Mappable copy of `output`, rows padded to `padded_row` bytes.
     pub readback: wgpu::Buffer,
     pub padded_row: u32,
+    /// Composite reading the unblurred diffuse (SSS off).
     pub composite_bind_group: wgpu::BindGroup,
+    pub sss_temp: wgpu::TextureView,
+    pub sss_out: wgpu::TextureView,
+    /// SSS horizontal (diffuse -> temp) and vertical (temp -> out) inputs.
+    pub sss_bind_groups: [wgpu::BindGroup; 2],
+    /// Composite reading the blurred diffuse (SSS on).
+    pub composite_sss_bind_group: wgpu::BindGroup,
 }
 
 /// Bytes per readback row: `width` pixels rounded up to wgpu's 256-byte copy alignment.
@@ -404,24 +523,74 @@ impl Targets {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let composite_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("glyptic composite bind group"),
-            layout: &pipelines.composite_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: pipelines.composite_uniform.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&diffuse.view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: wgpu::BindingResource::TextureView(&specular.view),
-                },
-            ],
-        });
+        let composite_group = |label, diffuse_view: &wgpu::TextureView| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &pipelines.composite_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: pipelines.composite_uniform.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(diffuse_view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::TextureView(&specular.view),
+                    },
+                ],
+            })
+        };
+        let composite_bind_group = composite_group("glyptic composite bind group", &diffuse.view);
+        let sss_target = |label| {
+            device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: SSS_FORMAT,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default())
+        };
+        let sss_temp = sss_target("glyptic sss temp");
+        let sss_out = sss_target("glyptic sss out");
+        let sss_group = |label, uniform: &wgpu::Buffer, colour: &wgpu::TextureView| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &pipelines.sss_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: uniform.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::TextureView(colour),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::TextureView(&depth_mask.view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: wgpu::BindingResource::Sampler(&pipelines.linear_clamp),
+                    },
+                ],
+            })
+        };
+        let [uh, uv] = &pipelines.sss_uniforms;
+        let sss_bind_groups = [
+            sss_group("glyptic sss horizontal", uh, &diffuse.view),
+            sss_group("glyptic sss vertical", uv, &sss_temp),
+        ];
+        let composite_sss_bind_group = composite_group("glyptic composite (sss)", &sss_out);
         Self {
             width,
             height,
@@ -435,6 +604,10 @@ impl Targets {
             // Checked by the caller: at most max_buffer_size / height, far below u32::MAX.
             padded_row: u32::try_from(padded_row).unwrap_or(u32::MAX),
             composite_bind_group,
+            sss_temp,
+            sss_out,
+            sss_bind_groups,
+            composite_sss_bind_group,
         }
     }
 }

@@ -14,14 +14,14 @@
 //! * There is no GPU: the device is lavapipe (Vulkan) or llvmpipe (GL), chosen by wgpu;
 //!   `WGPU_BACKEND=vulkan|gl` and `WGPU_ADAPTER_NAME` override the choice.
 //!
-//! A frame is two passes with separate pipelines (the targets are described in `gpu.rs`):
+//! A frame is up to four passes (the targets are described in `gpu.rs`):
 //! 1. **scene**: lit diffuse (linear Rgba16Float), specular (Rgba16Float) and linear depth with a
 //!    subsurface-scattering mask, 4x MSAA where the device allows, resolved;
-//! 2. **composite**: diffuse + specular over the backdrop, highlight shoulder, sRGB encoding.
-//!
-//! A separable subsurface-scattering pass belongs between the two: it blurs the resolved diffuse
-//! alone (the 2021 system found that blurring highlights made the stone look hazy) and the
-//! composite then reads its result instead.
+//! 2. **subsurface scattering** (when [`RenderParams::sss`] is set): the resolved diffuse alone is
+//!    blurred horizontally, then vertically, with the kernel of [`crate::sss`] (the 2021 system
+//!    found that blurring the highlights too made the stone look hazy);
+//! 3. **composite**: diffuse (blurred or not) + specular over the backdrop, highlight shoulder,
+//!    sRGB encoding. With SSS off the composite reads the scene pass's diffuse directly.
 //!
 //! Matrix maths uses `nalgebra` (already a dependency of the crate).
 
@@ -122,6 +122,8 @@ pub struct RenderParams {
     /// Backdrop colour at the image centre, display (sRGB-encoded) values 0..1; the composite
     /// adds a gentle top-light gradient and vignette around it.
     pub background: [f32; 3],
+    /// Subsurface scattering in the stone (gold never scatters); `None` turns the pass off.
+    pub sss: Option<crate::sss::SssParams>,
 }
 
 impl Default for RenderParams {
@@ -134,6 +136,7 @@ impl Default for RenderParams {
             pitch_deg: 0.0,
             marble: MarbleParams::default(),
             background: [0.16, 0.18, 0.22],
+            sss: Some(crate::sss::SssParams::default()),
         }
     }
 }
@@ -346,6 +349,10 @@ impl Renderer {
         if let Some((name, value)) = numbers.iter().find(|(_, v)| !v.is_finite()) {
             return Err(RenderError::InvalidParams(format!("{name} is {value}")));
         }
+        if let Some(sss) = &params.sss {
+            sss.validate()
+                .map_err(|e| RenderError::InvalidParams(format!("subsurface scattering: {e}")))?;
+        }
         Ok(())
     }
 
@@ -426,6 +433,35 @@ impl Renderer {
             bytemuck::bytes_of(&composite),
         );
 
+        let sss_kernel = match &params.sss {
+            Some(p) => Some((
+                crate::sss::kernel(p).map_err(|e| {
+                    RenderError::InvalidParams(format!("subsurface scattering: {e}"))
+                })?,
+                p.width_mm,
+            )),
+            None => None,
+        };
+        if let Some((kernel, radius)) = &sss_kernel {
+            let px_per_mm = 0.5 * h as f32 / (0.5 * FOV_Y_DEG).to_radians().tan();
+            for (buffer, dir) in self
+                .pipelines
+                .sss_uniforms
+                .iter()
+                .zip([[1.0, 0.0], [0.0, 1.0]])
+            {
+                let u = gpu::sss_uniform(
+                    kernel,
+                    *radius,
+                    px_per_mm,
+                    cam.near,
+                    cam.far - cam.near,
+                    dir,
+                );
+                self.queue.write_buffer(buffer, 0, bytemuck::cast_slice(&u));
+            }
+        }
+
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -457,6 +493,27 @@ impl Renderer {
             let count = u32::try_from(mesh.indices.len()).unwrap_or(0);
             pass.draw_indexed(0..count, 0, 0..1);
         }
+        if sss_kernel.is_some() {
+            let outputs = [&targets.sss_temp, &targets.sss_out];
+            for (group, output) in targets.sss_bind_groups.iter().zip(outputs) {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("glyptic sss pass"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: output,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    ..Default::default()
+                });
+                pass.set_pipeline(&self.pipelines.sss);
+                pass.set_bind_group(0, group, &[]);
+                pass.draw(0..3, 0..1);
+            }
+        }
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("glyptic composite pass"),
@@ -473,7 +530,12 @@ impl Renderer {
                 ..Default::default()
             });
             pass.set_pipeline(&self.pipelines.composite);
-            pass.set_bind_group(0, &targets.composite_bind_group, &[]);
+            let group = if sss_kernel.is_some() {
+                &targets.composite_sss_bind_group
+            } else {
+                &targets.composite_bind_group
+            };
+            pass.set_bind_group(0, group, &[]);
             pass.draw(0..3, 0..1);
         }
         encoder.copy_texture_to_buffer(

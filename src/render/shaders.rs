@@ -17,7 +17,15 @@ pub const SCENE: &str = concat!(
 /// The composite pass (`vs_main`, `fs_main`).
 pub const COMPOSITE: &str = include_str!("../../shaders/composite.wgsl");
 
+/// The subsurface-scattering blur, one direction per draw (`vs_main`, `fs_main`).
+pub const SSS: &str = include_str!("../../shaders/sss.wgsl");
+
 /// Every module the renderer compiles, by name, exactly as it hands them to wgpu.
-pub fn modules() -> [(&'static str, &'static str); 3] {
-    [("noise", NOISE), ("scene", SCENE), ("composite", COMPOSITE)]
+pub fn modules() -> [(&'static str, &'static str); 4] {
+    [
+        ("noise", NOISE),
+        ("scene", SCENE),
+        ("composite", COMPOSITE),
+        ("sss", SSS),
+    ]
 }

@@ -1,0 +1,79 @@
+// Separable subsurface scattering: one direction of the blur (the pass runs twice, horizontal
+// then vertical), after Jimenez et al. 2015. It blurs the scene pass's diffuse light only; the
+// composite adds the specular afterwards, so highlights stay sharp.
+//
+// Inputs (all the output's size, premultiplied by coverage = diffuse.a):
+//   colour_tex  diffuse radiance (linear), a = coverage
+//   depth_tex   r = view depth normalised over [near, near + range], g = scattering mask
+// Per pixel: the step between taps is the blur radius (mm) turned into pixels at that pixel's
+// depth, times its mask; pixels without scattering material (gold, background) are copied.
+// "Follow surface": a tap on another surface (depth differing by more than about the radius),
+// on gold or on the background is replaced by the centre colour, so light does not leak across
+// silhouettes or from the bezel into the stone.
+
+const MAX_TAPS: u32 = 65u;
+
+struct Sss {
+    // x: blur radius (mm), y: pixels per mm at 1 mm depth (half the image height over
+    // tan(fov_y / 2)), z: near depth (mm), w: depth range (mm).
+    params: vec4<f32>,
+    // xy: direction ((1, 0) or (0, 1)), z: number of taps, w: kernel range R (kernel units).
+    dir: vec4<f32>,
+    // rgb: weight, w: offset in kernel units; the centre tap first.
+    kernel: array<vec4<f32>, MAX_TAPS>,
+}
+
+@group(0) @binding(0) var<uniform> sss: Sss;
+@group(0) @binding(1) var colour_tex: texture_2d<f32>;
+@group(0) @binding(2) var depth_tex: texture_2d<f32>;
+@group(0) @binding(3) var linear_clamp: sampler;
+
+@vertex
+fn vs_main(@builtin(vertex_index) index: u32) -> @builtin(position) vec4<f32> {
+    let x = f32((index << 1u) & 2u) * 2.0 - 1.0;
+    let y = f32(index & 2u) * 2.0 - 1.0;
+    return vec4<f32>(x, y, 0.0, 1.0);
+}
+
+// Depth (mm) and mask of a depth_tex texel, un-premultiplied by the texel's coverage.
+fn depth_mask_at(texel: vec2<i32>) -> vec3<f32> {
+    let coverage = textureLoad(colour_tex, texel, 0).a;
+    let dm = textureLoad(depth_tex, texel, 0).rg;
+    if coverage <= 0.0 {
+        return vec3<f32>(0.0, 0.0, 0.0);
+    }
+    let depth = sss.params.z + sss.params.w * dm.r / coverage;
+    return vec3<f32>(depth, clamp(dm.g / coverage, 0.0, 1.0), coverage);
+}
+
+@fragment
+fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
+    let texel = vec2<i32>(pos.xy);
+    let centre = textureLoad(colour_tex, texel, 0);
+    let here = depth_mask_at(texel);
+    let mask = here.y;
+    if mask <= 0.0 || here.x <= 0.0 || sss.params.x <= 0.0 {
+        return centre;
+    }
+    let size = vec2<f32>(textureDimensions(colour_tex));
+    let colour = centre.rgb / centre.a;
+    // Pixels per kernel unit along the direction.
+    let px_per_unit = sss.params.x / sss.dir.w * sss.params.y / here.x * mask;
+    let step = sss.dir.xy * px_per_unit;
+    var blurred = colour * sss.kernel[0].rgb;
+    let taps = min(u32(sss.dir.z), MAX_TAPS);
+    for (var i = 1u; i < taps; i = i + 1u) {
+        let tap = sss.kernel[i];
+        let p = pos.xy + tap.w * step;
+        let s = textureSampleLevel(colour_tex, linear_clamp, p / size, 0.0);
+        var sample = colour;
+        if s.a > 0.0 {
+            let there = depth_mask_at(vec2<i32>(clamp(p, vec2<f32>(0.0), size - vec2<f32>(1.0))));
+            let other = clamp(abs(there.x - here.x) / sss.params.x, 0.0, 1.0);
+            let away = max(other, 1.0 - there.y * there.z);
+            sample = mix(s.rgb / s.a, colour, away);
+        }
+        blurred += tap.rgb * sample;
+    }
+    return vec4<f32>(blurred * centre.a, centre.a);
+}
