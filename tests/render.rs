@@ -397,6 +397,14 @@ fn renderer_end_to_end() {
         ..SssParams::default()
     });
     let marble_strong = renderer.render(&mesh, &strong).expect("sss strong");
+    // Pass times (timestamp queries; lavapipe has them, other devices may not).
+    if let Some(t) = renderer.last_pass_times() {
+        println!("pass times with SSS: {t:?}");
+        assert!(t.scene_ms > 0.0 && t.composite_ms > 0.0 && t.sss_ms.is_some_and(|s| s > 0.0));
+        renderer.render(&mesh, &off).expect("sss off again");
+        let t = renderer.last_pass_times().expect("times again");
+        assert!(t.sss_ms.is_none() && t.scene_ms > 0.0, "{t:?}");
+    }
     save(&marble_strong, "marble_sss_strong.png");
     let outside_same = marble_strong
         .pixels()

@@ -195,6 +195,63 @@ const TEXTURE_SCALE: f32 = 1.0 / 75.0;
 /// Composite: exposure, vignette strength, vertical gradient strength, dither (8-bit steps).
 const COMPOSITE_PARAMS: [f32; 4] = [1.0, 0.45, 0.35, 1.0];
 
+/// GPU time of each pass of the last frame, from timestamp queries (where the device has them).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassTimes {
+    pub scene_ms: f64,
+    /// Both blur directions; `None` with SSS off.
+    pub sss_ms: Option<f64>,
+    pub composite_ms: f64,
+}
+
+/// Timestamp queries around each pass: scene, SSS horizontal, SSS vertical, composite.
+struct PassTimer {
+    queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    read: wgpu::Buffer,
+    /// Nanoseconds per timestamp tick.
+    period_ns: f64,
+}
+
+/// Begin and end query of each timed pass.
+const TIMED_PASSES: u32 = 4;
+
+impl PassTimer {
+    fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
+        let count = 2 * TIMED_PASSES;
+        let bytes = u64::from(count) * 8;
+        Self {
+            queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("glyptic pass times"),
+                ty: wgpu::QueryType::Timestamp,
+                count,
+            }),
+            resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("glyptic pass times resolve"),
+                size: bytes,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            read: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("glyptic pass times read"),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            period_ns: f64::from(queue.get_timestamp_period()),
+        }
+    }
+
+    /// The timestamp writes of pass `index` (0 scene, 1-2 SSS, then the composite).
+    fn writes(&self, index: u32) -> wgpu::RenderPassTimestampWrites<'_> {
+        wgpu::RenderPassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: Some(2 * index),
+            end_of_pass_write_index: Some(2 * index + 1),
+        }
+    }
+}
+
 /// Owns the device, the pipelines and the GPU memory reused from frame to frame.
 pub struct Renderer {
     device: wgpu::Device,
@@ -207,6 +264,10 @@ pub struct Renderer {
     /// Errors wgpu reports outside an error scope (e.g. device loss); kept instead of the
     /// default handler, which panics.
     uncaptured: Arc<Mutex<Option<String>>>,
+    timer: Option<PassTimer>,
+    last_pass_times: Option<PassTimes>,
+    /// Whether the last frame ran the SSS passes (their timestamps were written).
+    sss_ran: bool,
 }
 
 impl Renderer {
@@ -228,9 +289,11 @@ impl Renderer {
         let info = adapter.get_info();
         // Ask for what the adapter has: bigger images and meshes than WebGPU's defaults.
         let limits = adapter.limits();
+        // Timestamps time each pass for benchmarks, where the device offers them (lavapipe does).
+        let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("glyptic renderer"),
-            required_features: wgpu::Features::empty(),
+            required_features: features,
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -254,6 +317,9 @@ impl Renderer {
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!("building the pipelines: {error}")));
         }
+        let timer = features
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| PassTimer::new(&device, &queue));
         Ok(Self {
             device,
             queue,
@@ -263,6 +329,9 @@ impl Renderer {
             targets: None,
             mesh_buffers: None,
             uncaptured,
+            timer,
+            last_pass_times: None,
+            sss_ran: false,
         })
     }
 
@@ -273,6 +342,11 @@ impl Renderer {
             "{} ({:?}, {:?}; driver {} {}; {}x MSAA)",
             i.name, i.backend, i.device_type, i.driver, i.driver_info, self.pipelines.samples
         )
+    }
+
+    /// GPU time per pass of the last frame rendered, if the device has timestamp queries.
+    pub fn last_pass_times(&self) -> Option<PassTimes> {
+        self.last_pass_times
     }
 
     /// MSAA samples per pixel in the scene pass (4, or 1 where the device cannot resolve them).
@@ -314,6 +388,7 @@ impl Renderer {
             // The readback buffer may be left in a mapping state: rebuild it next time.
             self.targets = None;
         }
+        self.last_pass_times = self.read_pass_times();
         image
     }
 
@@ -483,6 +558,7 @@ impl Renderer {
                     }),
                     stencil_ops: None,
                 }),
+                timestamp_writes: self.timer.as_ref().map(|t| t.writes(0)),
                 ..Default::default()
             });
             pass.set_pipeline(&self.pipelines.scene);
@@ -495,7 +571,7 @@ impl Renderer {
         }
         if sss_kernel.is_some() {
             let outputs = [&targets.sss_temp, &targets.sss_out];
-            for (group, output) in targets.sss_bind_groups.iter().zip(outputs) {
+            for ((group, output), index) in targets.sss_bind_groups.iter().zip(outputs).zip(1..) {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("glyptic sss pass"),
                     color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -507,6 +583,7 @@ impl Renderer {
                             store: wgpu::StoreOp::Store,
                         },
                     })],
+                    timestamp_writes: self.timer.as_ref().map(|t| t.writes(index)),
                     ..Default::default()
                 });
                 pass.set_pipeline(&self.pipelines.sss);
@@ -527,6 +604,12 @@ impl Renderer {
                         store: wgpu::StoreOp::Store,
                     },
                 })],
+                // Queries are resolved as one run from 0 (the resolve offset must be aligned),
+                // so the composite takes the slot after the last pass that ran.
+                timestamp_writes: self
+                    .timer
+                    .as_ref()
+                    .map(|t| t.writes(if sss_kernel.is_some() { 3 } else { 1 })),
                 ..Default::default()
             });
             pass.set_pipeline(&self.pipelines.composite);
@@ -559,8 +642,51 @@ impl Renderer {
                 depth_or_array_layers: 1,
             },
         );
+        if let Some(t) = &self.timer {
+            // Resolve only what was written: unwritten queries are an error on some backends.
+            let n = 2 * if sss_kernel.is_some() {
+                TIMED_PASSES
+            } else {
+                2
+            };
+            encoder.resolve_query_set(&t.queries, 0..n, &t.resolve, 0);
+            encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, u64::from(n) * 8);
+        }
+        self.sss_ran = sss_kernel.is_some();
         self.queue.submit([encoder.finish()]);
         Ok(())
+    }
+
+    /// Reads the pass timestamps of the frame just waited for.
+    fn read_pass_times(&self) -> Option<PassTimes> {
+        let t = self.timer.as_ref()?;
+        let slice = t.read.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
+        let mapped = matches!(rx.try_recv(), Ok(Ok(())));
+        let ticks: Option<Vec<u64>> = mapped
+            .then(|| {
+                slice.get_mapped_range().ok().map(|view| {
+                    view.chunks_exact(8)
+                        .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+                        .collect()
+                })
+            })
+            .flatten();
+        t.read.unmap();
+        let ticks = ticks?;
+        let ms = |pass: usize| {
+            let (a, b) = (ticks[2 * pass], ticks[2 * pass + 1]);
+            b.saturating_sub(a) as f64 * t.period_ns / 1e6
+        };
+        Some(PassTimes {
+            scene_ms: ms(0),
+            sss_ms: self.sss_ran.then(|| ms(1) + ms(2)),
+            composite_ms: ms(if self.sss_ran { 3 } else { 1 }),
+        })
     }
 
     /// Waits for the frame and copies the padded rows into an image.

@@ -1,0 +1,104 @@
+//! Renderer benchmark: GPU time per pass (timestamp queries) of the cameo with the Surrey mean
+//! face, SSS on (21 taps) and off, at 640x400 and 1280x800, marble and agate; the SSS pass's cost
+//! as a share of the scene pass; and the relief rebuild after a fit (mean and a fitted-like
+//! varied face). Prints a Markdown report.
+//!
+//! `cargo run --release --example bench_render -- [FRAMES]` (scripts/bench-render.sh runs it and
+//! writes bench/results/render.md). Needs the Surrey model from scripts/setup.sh.
+
+use std::time::Instant;
+
+use glyptic::gem::{self, CameoParams};
+use glyptic::render::{Material, RenderParams, Renderer};
+use glyptic::sss::SssParams;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let frames: usize = std::env::args().nth(1).map_or(Ok(9), |s| s.parse())?;
+    let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir())?;
+    let mean = model.instance(&[], &[]);
+    let tris = &model.shape.triangles;
+
+    // Relief rebuild: what the pipeline thread does after each new fit.
+    let shape: Vec<f32> = (0..model.shape.num_components())
+        .map(|i| if i % 2 == 0 { 1.0 } else { -1.0 })
+        .collect();
+    let varied = model.instance(&shape, &[0.5, 0.0, 0.0, 0.3, 0.0, 0.0]);
+    let mut rebuild = Vec::new();
+    for face in [&mean, &varied] {
+        let times: Vec<f64> = (0..frames)
+            .map(|_| {
+                let t = Instant::now();
+                let m = gem::build_cameo(face, tris, &CameoParams::default());
+                let ms = t.elapsed().as_secs_f64() * 1e3;
+                std::hint::black_box(m).map(|_| ms)
+            })
+            .collect::<Result<_, _>>()?;
+        rebuild.push(median(times));
+    }
+    let mesh = gem::build_cameo(&mean, tris, &CameoParams::default())?;
+
+    let mut renderer = Renderer::new_headless()?;
+    println!("# Renderer passes\n");
+    println!(
+        "Adapter: {}. Mesh: {} vertices, {} triangles (mean face). Median of {frames} frames after one warm-up; GPU times from timestamp queries, frame = wall time of `render` (upload, passes, readback).\n",
+        renderer.adapter_info(),
+        mesh.vertices.len(),
+        mesh.indices.len() / 3
+    );
+    println!(
+        "| size | material | SSS | scene ms | SSS ms | composite ms | frame ms | SSS / scene |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for (w, h) in [(640, 400), (1280, 800)] {
+        for material in [Material::Marble, Material::Agate] {
+            for sss in [None, Some(SssParams::default())] {
+                let p = RenderParams {
+                    width: w,
+                    height: h,
+                    material,
+                    sss,
+                    ..RenderParams::default()
+                };
+                renderer.render(&mesh, &p)?;
+                let (mut scene, mut blur, mut comp, mut wall) = (vec![], vec![], vec![], vec![]);
+                for _ in 0..frames {
+                    let t = Instant::now();
+                    renderer.render(&mesh, &p)?;
+                    wall.push(t.elapsed().as_secs_f64() * 1e3);
+                    let times = renderer
+                        .last_pass_times()
+                        .ok_or("this device has no timestamp queries")?;
+                    scene.push(times.scene_ms);
+                    blur.push(times.sss_ms.unwrap_or(0.0));
+                    comp.push(times.composite_ms);
+                }
+                let (scene, blur) = (median(scene), median(blur));
+                let share = match sss {
+                    Some(_) => format!("{:.0} %", 100.0 * blur / scene),
+                    None => "-".into(),
+                };
+                println!(
+                    "| {w}x{h} | {material:?} | {} | {scene:.1} | {} | {:.1} | {:.1} | {share} |",
+                    sss.map_or("off".to_string(), |s| format!("{} taps", s.taps)),
+                    if sss.is_some() {
+                        format!("{blur:.1}")
+                    } else {
+                        "-".into()
+                    },
+                    median(comp),
+                    median(wall),
+                );
+            }
+        }
+    }
+    println!(
+        "\nRelief rebuild after a fit (`gem::build_cameo`, height field + cameo mesh): mean face {:.2} ms, a varied face {:.2} ms (median of {frames}).",
+        rebuild[0], rebuild[1]
+    );
+    Ok(())
+}
