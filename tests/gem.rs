@@ -125,10 +125,12 @@ fn face_and_head_join_without_a_seam() {
                 .map(|&cell| {
                     let cols = (300.0 / cell) as usize;
                     let rows = (400.0 / cell) as usize;
+                    let layer =
+                        glyptic::gem::relief::head_layer(&head, [-50.0, -250.0], cell, cols, rows);
                     let f = glyptic::gem::relief::portrait(
                         &mesh,
                         &m.shape.triangles,
-                        &head,
+                        &layer,
                         [-50.0, -250.0],
                         cell,
                         cols,

@@ -127,99 +127,165 @@ fn check_params(p: &CameoParams) -> Result<(), GemError> {
     Ok(())
 }
 
-/// Builds the relief height field (gem mm) from a face mesh in model mm.
+/// Builds cameos for one set of [`CameoParams`]: everything that does not depend on the face
+/// (the generated head and its hair on the relief grid, the bezel and the back) is computed once
+/// in [`CameoBuilder::new`], so rebuilding after each new fit only does the face's part.
+#[derive(Clone, Debug)]
+pub struct CameoBuilder {
+    params: CameoParams,
+    cols: usize,
+    rows: usize,
+    /// Gem position of grid node (0, 0), gem mm.
+    origin: [f32; 2],
+    /// Per node: head height (model mm) and hair weight.
+    head: Vec<(f32, f32)>,
+    /// Per node: height of the carved hair strands (model mm, before the hair weight).
+    strands: Vec<f32>,
+    /// Per node: 1 where the relief may rise, falling to 0 below the bust's truncation line and
+    /// in a margin inside the bezel.
+    allowed: Vec<f32>,
+    /// Bezel and back.
+    base: Mesh,
+}
+
+impl CameoBuilder {
+    pub fn new(p: &CameoParams) -> Result<Self, GemError> {
+        check_params(p)?;
+        let cols = (2.0 * p.half_width / p.cell).round() as usize + 1;
+        let rows = (2.0 * p.half_height / p.cell).round() as usize + 1;
+        let origin = [-p.half_width, -p.half_height];
+        let k = p.portrait_scale;
+        let model_origin = [
+            origin[0] / k + p.portrait_centre[0],
+            origin[1] / k + p.portrait_centre[1],
+        ];
+        let head = relief::head_layer(&p.head, model_origin, p.cell / k, cols, rows);
+        // Carved hair: wavy strands sweeping back around the ear.
+        let [eu, ev] = p.head.ear_centre;
+        let strands = (0..cols * rows)
+            .map(|i| {
+                let (col, row) = (i % cols, i / cols);
+                let u = (origin[0] + col as f32 * p.cell) / k + p.portrait_centre[0];
+                let v = (origin[1] + row as f32 * p.cell) / k + p.portrait_centre[1];
+                let (du, dv) = (u - eu, v - ev - 25.0);
+                let r = (du * du + dv * dv).sqrt();
+                let a = dv.atan2(du);
+                3.0 * (0.5 + 0.5 * (r / 4.0 + 1.8 * (a * 4.0).sin()).sin())
+            })
+            .collect();
+        let allowed = (0..cols * rows)
+            .map(|i| {
+                let x = origin[0] + (i % cols) as f32 * p.cell;
+                let y = origin[1] + (i / cols) as f32 * p.cell;
+                let r = ((x / p.half_width).powi(2) + (y / p.half_height).powi(2)).sqrt();
+                smoothstep(p.truncation_y - 2.5, p.truncation_y, y)
+                    * (1.0 - smoothstep(0.86, 0.94, r))
+            })
+            .collect();
+        let mut base = Mesh::default();
+        add_bezel_and_back(&mut base, p);
+        Ok(Self {
+            params: p.clone(),
+            cols,
+            rows,
+            origin,
+            head,
+            strands,
+            allowed,
+            base,
+        })
+    }
+
+    pub fn params(&self) -> &CameoParams {
+        &self.params
+    }
+
+    /// The relief height field (gem mm) for a face mesh in model mm.
+    pub fn relief(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Relief, GemError> {
+        if positions.len() < 9 || triangles.is_empty() {
+            return Err(GemError::EmptyFace);
+        }
+        if positions.iter().any(|v| !v.is_finite()) {
+            return Err(GemError::NonFinite);
+        }
+        let (p, cols, rows, origin) = (&self.params, self.cols, self.rows, self.origin);
+        let k = p.portrait_scale;
+        let model_origin = [
+            origin[0] / k + p.portrait_centre[0],
+            origin[1] / k + p.portrait_centre[1],
+        ];
+        let field: HeightField = relief::portrait(
+            positions,
+            triangles,
+            &self.head,
+            model_origin,
+            p.cell / k,
+            cols,
+            rows,
+            6.0,
+            15.0,
+        );
+
+        // Depth compression: an exponential roll-off whose asymptote is `relief_depth`, so the
+        // profile's outline keeps its detail, the cheek flattens, and nothing exceeds the depth.
+        // At the head's half-breadth the relief reaches 80 % of the depth.
+        let reference = p.head.cranium_axes[2].max(1.0);
+        let rolloff = 1.6f32;
+        let mut height = vec![0f32; cols * rows];
+        for (i, gem_h) in height.iter_mut().enumerate() {
+            // Lift the portrait off the ground, as carvers do, so its outline is a steep edge
+            // instead of fading into the ground along the profile's centre line.
+            let f = field.height[i];
+            let mut h = f + PORTRAIT_LIFT_MM * smoothstep(0.0, LIFT_RAMP_MM, f);
+            let w = field.hair[i];
+            if w > 0.0 {
+                h += w * self.strands[i];
+            }
+            let t = (h / reference).max(0.0);
+            *gem_h = p.relief_depth * (1.0 - (-rolloff * t).exp()) * self.allowed[i];
+        }
+        let hair = field.hair;
+        Ok(Relief {
+            height,
+            hair,
+            cols,
+            rows,
+            origin,
+            cell: p.cell,
+        })
+    }
+
+    /// The whole cameo mesh for a face mesh in model mm (`[x0, y0, z0, ...]`).
+    pub fn build(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Mesh, GemError> {
+        let relief = self.relief(positions, triangles)?;
+        let mut mesh = Mesh::default();
+        add_relief_surface(&mut mesh, &relief, &self.params);
+        let first = mesh.vertices.len() as u32;
+        mesh.vertices.extend_from_slice(&self.base.vertices);
+        mesh.indices
+            .extend(self.base.indices.iter().map(|&i| i + first));
+        Ok(mesh)
+    }
+}
+
+/// Builds the relief height field (gem mm) from a face mesh in model mm (one-off: see
+/// [`CameoBuilder`] to rebuild for many faces).
 pub fn build_relief(
     positions: &[f32],
     triangles: &[[u32; 3]],
     p: &CameoParams,
 ) -> Result<Relief, GemError> {
-    check_params(p)?;
-    if positions.len() < 9 || triangles.is_empty() {
-        return Err(GemError::EmptyFace);
-    }
-    if positions.iter().any(|v| !v.is_finite()) {
-        return Err(GemError::NonFinite);
-    }
-    let cols = (2.0 * p.half_width / p.cell).round() as usize + 1;
-    let rows = (2.0 * p.half_height / p.cell).round() as usize + 1;
-    let origin = [-p.half_width, -p.half_height];
-    let k = p.portrait_scale;
-    let model_origin = [
-        origin[0] / k + p.portrait_centre[0],
-        origin[1] / k + p.portrait_centre[1],
-    ];
-    let field: HeightField = relief::portrait(
-        positions,
-        triangles,
-        &p.head,
-        model_origin,
-        p.cell / k,
-        cols,
-        rows,
-        6.0,
-        15.0,
-    );
-
-    // Depth compression: an exponential roll-off whose asymptote is `relief_depth`, so the
-    // profile's outline keeps its detail, the cheek flattens, and nothing exceeds the depth.
-    // At the head's half-breadth the relief reaches 80 % of the depth.
-    let reference = p.head.cranium_axes[2].max(1.0);
-    let rolloff = 1.6f32;
-    let mut height = vec![0f32; cols * rows];
-    let mut hair = vec![0f32; cols * rows];
-    for row in 0..rows {
-        for col in 0..cols {
-            let i = row * cols + col;
-            let (x, y) = (
-                origin[0] + col as f32 * p.cell,
-                origin[1] + row as f32 * p.cell,
-            );
-            let (u, v) = (x / k + p.portrait_centre[0], y / k + p.portrait_centre[1]);
-            let w = field.hair[i];
-            // Lift the portrait off the ground, as carvers do, so its outline is a steep edge
-            // instead of fading into the ground along the profile's centre line.
-            let mut h =
-                field.height[i] + PORTRAIT_LIFT_MM * smoothstep(0.0, LIFT_RAMP_MM, field.height[i]);
-            // Carved hair: wavy strands sweeping back around the ear.
-            if w > 0.0 {
-                let [eu, ev] = p.head.ear_centre;
-                let (du, dv) = (u - eu, v - ev - 25.0);
-                let r = (du * du + dv * dv).sqrt();
-                let a = dv.atan2(du);
-                let strands = 0.5 + 0.5 * (r / 4.0 + 1.8 * (a * 4.0).sin()).sin();
-                h += w * 3.0 * strands;
-            }
-            let t = (h / reference).max(0.0);
-            let mut gem_h = p.relief_depth * (1.0 - (-rolloff * t).exp());
-            // The bust's truncation line and a margin inside the bezel.
-            gem_h *= smoothstep(p.truncation_y - 2.5, p.truncation_y, y);
-            let r = ((x / p.half_width).powi(2) + (y / p.half_height).powi(2)).sqrt();
-            gem_h *= 1.0 - smoothstep(0.86, 0.94, r);
-            height[i] = gem_h;
-            hair[i] = w;
-        }
-    }
-    Ok(Relief {
-        height,
-        hair,
-        cols,
-        rows,
-        origin,
-        cell: p.cell,
-    })
+    CameoBuilder::new(p)?.relief(positions, triangles)
 }
 
-/// Builds the whole cameo mesh from a face mesh in model mm (`[x0, y0, z0, ...]`).
+/// Builds the whole cameo mesh from a face mesh in model mm (`[x0, y0, z0, ...]`; one-off: see
+/// [`CameoBuilder`]).
 pub fn build_cameo(
     positions: &[f32],
     triangles: &[[u32; 3]],
     p: &CameoParams,
 ) -> Result<Mesh, GemError> {
-    let relief = build_relief(positions, triangles, p)?;
-    let mut mesh = Mesh::default();
-    add_relief_surface(&mut mesh, &relief, p);
-    add_bezel_and_back(&mut mesh, p);
-    Ok(mesh)
+    CameoBuilder::new(p)?.build(positions, triangles)
 }
 
 /// The stone's top: one vertex per grid node inside the oval, two triangles per cell whose
@@ -227,36 +293,39 @@ pub fn build_cameo(
 fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, p: &CameoParams) {
     let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
     let mut index = vec![u32::MAX; cols * rows];
+    // About pi/4 of the grid lies inside the oval.
+    mesh.vertices.reserve(cols * rows * 4 / 5);
+    mesh.indices.reserve(cols * rows * 6 * 4 / 5);
+    let (ia, ib) = (1.0 / p.half_width, 1.0 / p.half_height);
     for row in 0..rows {
+        let y = relief.origin[1] + row as f32 * cell;
+        let (up, down) = (row.saturating_sub(1), (row + 1).min(rows - 1));
+        let inv_dy = 1.0 / (cell * (down - up) as f32);
         for col in 0..cols {
-            let (x, y) = (
-                relief.origin[0] + col as f32 * cell,
-                relief.origin[1] + row as f32 * cell,
-            );
-            let r2 = (x / p.half_width).powi(2) + (y / p.half_height).powi(2);
+            let x = relief.origin[0] + col as f32 * cell;
+            let r2 = (x * ia).powi(2) + (y * ib).powi(2);
             if r2 > 1.0 {
                 continue;
             }
-            let h = relief.at(col, row);
-            let hx = |c: usize| relief.at(c.min(cols - 1), row);
-            let hy = |r: usize| relief.at(col, r.min(rows - 1));
-            let dzdx = (hx(col + 1) - hx(col.saturating_sub(1)))
-                / (cell * ((col + 1).min(cols - 1) - col.saturating_sub(1)) as f32);
-            let dzdy = (hy(row + 1) - hy(row.saturating_sub(1)))
-                / (cell * ((row + 1).min(rows - 1) - row.saturating_sub(1)) as f32);
-            let n = [-dzdx, -dzdy, 1.0];
-            let len = (n[0] * n[0] + n[1] * n[1] + 1.0).sqrt();
+            let i = row * cols + col;
+            let h = relief.height[i];
+            // Central differences (one-sided at the grid's edge).
+            let (left, right) = (col.saturating_sub(1), (col + 1).min(cols - 1));
+            let dzdx = (relief.height[row * cols + right] - relief.height[row * cols + left])
+                / (cell * (right - left) as f32);
+            let dzdy = (relief.height[down * cols + col] - relief.height[up * cols + col]) * inv_dy;
+            let inv_len = 1.0 / (dzdx * dzdx + dzdy * dzdy + 1.0).sqrt();
             let region = if h < GROUND_EPS {
                 Region::Ground
-            } else if relief.hair[row * cols + col] > 0.5 {
+            } else if relief.hair[i] > 0.5 {
                 Region::Hair
             } else {
                 Region::Relief
             };
-            index[row * cols + col] = mesh.vertices.len() as u32;
+            index[i] = mesh.vertices.len() as u32;
             mesh.vertices.push(Vertex {
                 position: [x, y, h],
-                normal: [n[0] / len, n[1] / len, n[2] / len],
+                normal: [-dzdx * inv_len, -dzdy * inv_len, inv_len],
                 relief: h,
                 region: region as u32,
             });

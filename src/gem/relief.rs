@@ -192,11 +192,12 @@ pub fn rasterise_profile(
         if max_x < 0 || max_y < 0 {
             continue;
         }
+        let inv_area = 1.0 / area;
         for y in min_y..=max_y as usize {
             for x in min_x..=max_x as usize {
                 let (px, py) = (x as f32, y as f32);
-                let w0 = ((b[0] - px) * (c[1] - py) - (c[0] - px) * (b[1] - py)) / area;
-                let w1 = ((c[0] - px) * (a[1] - py) - (a[0] - px) * (c[1] - py)) / area;
+                let w0 = ((b[0] - px) * (c[1] - py) - (c[0] - px) * (b[1] - py)) * inv_area;
+                let w1 = ((c[0] - px) * (a[1] - py) - (a[0] - px) * (c[1] - py)) * inv_area;
                 let w2 = 1.0 - w0 - w1;
                 // A small tolerance closes hairline cracks between neighbouring triangles.
                 if w0 >= -1e-4 && w1 >= -1e-4 && w2 >= -1e-4 {
@@ -215,36 +216,41 @@ pub fn rasterise_profile(
 /// For each cell, the index of the nearest cell with a finite value (two-pass chamfer
 /// propagation of nearest seeds; exact enough for a soft fade). `None` if there is no seed.
 pub fn nearest_seeds(values: &[f32], cols: usize, rows: usize) -> Vec<Option<usize>> {
-    let mut nearest: Vec<Option<usize>> = values
-        .iter()
-        .enumerate()
-        .map(|(i, v)| v.is_finite().then_some(i))
-        .collect();
-    let d2 = |a: usize, b: usize| {
-        let (ax, ay) = ((a % cols) as i64, (a / cols) as i64);
-        let (bx, by) = ((b % cols) as i64, (b / cols) as i64);
-        (ax - bx).pow(2) + (ay - by).pow(2)
-    };
-    let relax = |nearest: &mut Vec<Option<usize>>, i: usize, j: usize| {
-        if let Some(s) = nearest[j]
-            && nearest[i].is_none_or(|c| d2(i, s) < d2(i, c))
-        {
-            nearest[i] = Some(s);
+    // Seeds kept as coordinates (no division per comparison); `i32::MIN` marks "none yet".
+    const NONE: i32 = i32::MIN;
+    let mut sx = vec![NONE; values.len()];
+    let mut sy = vec![NONE; values.len()];
+    for (i, v) in values.iter().enumerate() {
+        if v.is_finite() {
+            sx[i] = (i % cols) as i32;
+            sy[i] = (i / cols) as i32;
+        }
+    }
+    let relax = |sx: &mut [i32], sy: &mut [i32], x: usize, y: usize, j: usize| {
+        let i = y * cols + x;
+        if sx[j] == NONE {
+            return;
+        }
+        let (xi, yi) = (x as i64, y as i64);
+        let d2 = |ax: i32, ay: i32| (xi - i64::from(ax)).pow(2) + (yi - i64::from(ay)).pow(2);
+        if sx[i] == NONE || d2(sx[j], sy[j]) < d2(sx[i], sy[i]) {
+            sx[i] = sx[j];
+            sy[i] = sy[j];
         }
     };
     for y in 0..rows {
         for x in 0..cols {
             let i = y * cols + x;
             if x > 0 {
-                relax(&mut nearest, i, i - 1);
+                relax(&mut sx, &mut sy, x, y, i - 1);
             }
             if y > 0 {
-                relax(&mut nearest, i, i - cols);
+                relax(&mut sx, &mut sy, x, y, i - cols);
                 if x > 0 {
-                    relax(&mut nearest, i, i - cols - 1);
+                    relax(&mut sx, &mut sy, x, y, i - cols - 1);
                 }
                 if x + 1 < cols {
-                    relax(&mut nearest, i, i - cols + 1);
+                    relax(&mut sx, &mut sy, x, y, i - cols + 1);
                 }
             }
         }
@@ -253,20 +259,23 @@ pub fn nearest_seeds(values: &[f32], cols: usize, rows: usize) -> Vec<Option<usi
         for x in (0..cols).rev() {
             let i = y * cols + x;
             if x + 1 < cols {
-                relax(&mut nearest, i, i + 1);
+                relax(&mut sx, &mut sy, x, y, i + 1);
             }
             if y + 1 < rows {
-                relax(&mut nearest, i, i + cols);
+                relax(&mut sx, &mut sy, x, y, i + cols);
                 if x + 1 < cols {
-                    relax(&mut nearest, i, i + cols + 1);
+                    relax(&mut sx, &mut sy, x, y, i + cols + 1);
                 }
                 if x > 0 {
-                    relax(&mut nearest, i, i + cols - 1);
+                    relax(&mut sx, &mut sy, x, y, i + cols - 1);
                 }
             }
         }
     }
-    nearest
+    sx.iter()
+        .zip(&sy)
+        .map(|(&x, &y)| (x != NONE).then(|| y as usize * cols + x as usize))
+        .collect()
 }
 
 /// Builds the portrait height field from a face mesh (model mm) and a head shape.
@@ -275,11 +284,14 @@ pub fn nearest_seeds(values: &[f32], cols: usize, rows: usize) -> Vec<Option<usi
 /// `blend_mm` of the footprint's edge; outside, the face's edge height fades to the ground
 /// within `fade_mm` and the head joins it by a smooth maximum. Both sides agree on the edge,
 /// so the surface is continuous there by construction.
+///
+/// `head` is [`head_layer`] over the same grid: the head does not depend on the face, so a
+/// caller rebuilding after every fit computes it once.
 #[allow(clippy::too_many_arguments)]
 pub fn portrait(
     positions: &[f32],
     triangles: &[[u32; 3]],
-    head: &HeadShape,
+    head: &[(f32, f32)],
     origin: [f32; 2],
     cell: f32,
     cols: usize,
@@ -288,12 +300,38 @@ pub fn portrait(
     blend_mm: f32,
 ) -> HeightField {
     let face = rasterise_profile(positions, triangles, origin, cell, cols, rows);
-    let outside_seeds = nearest_seeds(&face, cols, rows);
-    let complement: Vec<f32> = face
-        .iter()
-        .map(|v| if v.is_finite() { f32::NAN } else { 0.0 })
-        .collect();
-    let inside_seeds = nearest_seeds(&complement, cols, rows);
+    // Seeds matter only within the fade of the footprint (outside) and inside it: search the
+    // footprint's bounding box grown by the fade, not the whole grid (a quarter of its cost).
+    let margin = (fade_mm / cell).ceil() as usize + 2;
+    let (mut x0, mut y0, mut x1, mut y1) = (cols, rows, 0, 0);
+    for (i, v) in face.iter().enumerate() {
+        if v.is_finite() {
+            let (x, y) = (i % cols, i / cols);
+            (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+        }
+    }
+    let (mut outside_seeds, mut inside_seeds) = (vec![None; cols * rows], vec![None; cols * rows]);
+    if x0 <= x1 {
+        let (x0, y0) = (x0.saturating_sub(margin), y0.saturating_sub(margin));
+        let (x1, y1) = ((x1 + margin).min(cols - 1), (y1 + margin).min(rows - 1));
+        let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
+        let crop: Vec<f32> = (0..w * h)
+            .map(|k| face[(y0 + k / w) * cols + x0 + k % w])
+            .collect();
+        let complement: Vec<f32> = crop
+            .iter()
+            .map(|v| if v.is_finite() { f32::NAN } else { 0.0 })
+            .collect();
+        let to_grid = |k: usize| (y0 + k / w) * cols + x0 + k % w;
+        for (seeds, values) in [
+            (&mut outside_seeds, &crop),
+            (&mut inside_seeds, &complement),
+        ] {
+            for (k, s) in nearest_seeds(values, w, h).into_iter().enumerate() {
+                seeds[to_grid(k)] = s.map(to_grid);
+            }
+        }
+    }
     let dist = |i: usize, s: usize| {
         let (dx, dy) = (
             (i % cols) as f32 - (s % cols) as f32,
@@ -307,9 +345,7 @@ pub fn portrait(
     for y in 0..rows {
         for x in 0..cols {
             let i = y * cols + x;
-            let u = origin[0] + x as f32 * cell;
-            let v = origin[1] + y as f32 * cell;
-            let (head_h, hair_w) = head.height(u, v);
+            let (head_h, hair_w) = head.get(i).copied().unwrap_or((0.0, 0.0));
             let (h, face_weight) = if face[i].is_finite() {
                 let f = face[i].max(0.0);
                 let depth = inside_seeds[i].map_or(f32::INFINITY, |s| dist(i, s));
@@ -337,6 +373,22 @@ pub fn portrait(
         hair,
         face_mask,
     }
+}
+
+/// [`HeadShape::height`] at every node of a grid (`origin`, `cell` in model mm, row-major).
+pub fn head_layer(
+    head: &HeadShape,
+    origin: [f32; 2],
+    cell: f32,
+    cols: usize,
+    rows: usize,
+) -> Vec<(f32, f32)> {
+    (0..cols * rows)
+        .map(|i| {
+            let (x, y) = (i % cols, i / cols);
+            head.height(origin[0] + x as f32 * cell, origin[1] + y as f32 * cell)
+        })
+        .collect()
 }
 
 /// Binomial (1-2-1) smoothing, `passes` times, to remove rasterisation noise.
