@@ -302,6 +302,62 @@ fn landmarks_json_gives_each_face_its_68_points() {
     assert!(!stderr.contains("panicked"));
 }
 
+/// `glyptic render --face FILE.obj --gem-obj GEM.obj`: a face mesh read from OBJ (here the one
+/// `glyptic photo --obj` wrote) becomes a gem, and the gem's mesh is written; a broken face
+/// file is named.
+#[test]
+fn render_takes_a_face_obj_and_writes_the_gem_obj() {
+    let d = scratch("render-face");
+    let face = d.join("face.obj");
+    let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir()).unwrap();
+    let shape: Vec<f32> = (0..63)
+        .map(|i| if i % 3 == 0 { 1.5 } else { -0.5 })
+        .collect();
+    let positions = model.instance(&shape, &[]);
+    std::fs::write(
+        &face,
+        glyptic::gem::to_obj(&positions, &model.shape.triangles, "test"),
+    )
+    .unwrap();
+    let (png, gem_obj) = (d.join("gem.png"), d.join("gem.obj"));
+    let run = glyptic()
+        .args(["render", "--size", "160x200", "--sss", "off", "--face"])
+        .arg(&face)
+        .arg("--gem-obj")
+        .arg(&gem_obj)
+        .arg("-o")
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert_eq!(
+        image::open(&png).unwrap().to_rgb8().dimensions(),
+        (160, 200)
+    );
+    let (models, _) = tobj::load_obj(&gem_obj, &tobj::GPU_LOAD_OPTIONS).unwrap();
+    let expected =
+        glyptic::gem::build_cameo(&positions, &model.shape.triangles, &Default::default()).unwrap();
+    assert_eq!(models[0].mesh.indices.len(), expected.indices.len());
+
+    let broken = d.join("broken.obj");
+    std::fs::write(&broken, "v 1 2\nf 1 2 9\n").unwrap();
+    let run = glyptic()
+        .args(["render", "-o"])
+        .arg(d.join("never.png"))
+        .arg("--face")
+        .arg(&broken)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("broken.obj"), "{stderr}");
+    assert!(!d.join("never.png").exists());
+}
+
 /// `glyptic kernel N` prints N taps whose weights sum to 1 per channel; bad sizes are named.
 #[test]
 fn kernel_prints_a_normalised_kernel() {

@@ -110,10 +110,20 @@ pub struct RenderArgs {
     pub output: PathBuf,
     #[command(flatten)]
     pub view: ViewArgs,
+    /// Use this face mesh instead of the mean face: Wavefront OBJ in model millimetres
+    /// (y up, face towards +z), e.g. one written by `glyptic photo --obj`.
+    #[arg(long, value_name = "FILE.obj", conflicts_with = "photo")]
+    pub face: Option<PathBuf>,
+    /// Fit the face in this photo instead (as `glyptic photo`).
+    #[arg(long, value_name = "IMAGE")]
+    pub photo: Option<PathBuf>,
+    /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
+    #[arg(long, value_name = "FILE.obj")]
+    pub gem_obj: Option<PathBuf>,
 }
 
 /// How the gem is shown.
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Debug, Clone)]
 pub struct ViewArgs {
     /// Stone of the cameo.
     #[arg(long, value_enum, default_value_t = MaterialArg::Marble)]
@@ -289,6 +299,9 @@ pub struct PhotoArgs {
     /// Also write the fitted face mesh (model millimetres) as Wavefront OBJ.
     #[arg(long, value_name = "FILE.obj")]
     pub obj: Option<PathBuf>,
+    /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
+    #[arg(long, value_name = "FILE.obj")]
+    pub gem_obj: Option<PathBuf>,
 }
 
 /// `glyptic landmarks`: detection and 68 landmarks per face, with per-stage times.
@@ -570,23 +583,49 @@ fn encode_png(rgba: image::RgbaImage, output: &Path) -> Result<Vec<u8>> {
 }
 
 fn render_mean(args: &RenderArgs) -> Result<()> {
+    if let Some(image) = &args.photo {
+        return photo(&PhotoArgs {
+            image: image.clone(),
+            output: args.output.clone(),
+            view: args.view.clone(),
+            choice: ChoiceArgs {
+                prefer: PreferArg::Largest,
+            },
+            landmarks_out: None,
+            obj: None,
+            gem_obj: args.gem_obj.clone(),
+        });
+    }
     let start = Instant::now();
     let params = args.view.params()?;
-    check_output_dirs([&args.output])?;
+    check_output_dirs([&args.output].into_iter().chain(args.gem_obj.as_ref()))?;
     let renderer_thread = spawn_renderer();
     let mut stages = Vec::new();
-    let sfm = glyptic::assets::sfm_dir();
-    let model = timed(
-        &mut stages,
-        "load face model",
-        || glyptic::shapemodel::SurreyModel::load_dir(&sfm),
-        |m| format!("{} vertices (mean face)", m.shape.num_vertices()),
-    )?;
-    let mean = model.instance(&[], &[]);
-    let mesh = build_gem(&mut stages, &mean, &model.shape.triangles)?;
+    let (face, triangles) = match &args.face {
+        Some(path) => timed(
+            &mut stages,
+            "load face",
+            || read_face_obj(path),
+            |(p, t)| format!("{} vertices, {} triangles", p.len() / 3, t.len()),
+        )?,
+        None => {
+            let sfm = glyptic::assets::sfm_dir();
+            let model = timed(
+                &mut stages,
+                "load face model",
+                || glyptic::shapemodel::SurreyModel::load_dir(&sfm),
+                |m| format!("{} vertices (mean face)", m.shape.num_vertices()),
+            )?;
+            (model.instance(&[], &[]), model.shape.triangles.clone())
+        }
+    };
+    let mesh = build_gem(&mut stages, &face, &triangles)?;
     stages.iter().for_each(print_stage);
     let mut renderer = join_renderer(renderer_thread)?;
     let png = render_and_write(&mut renderer, &mesh, &params, &args.output)?;
+    if let Some(obj) = &args.gem_obj {
+        write_gem_obj(obj, &mesh, "the mean face")?;
+    }
     write_atomic(&args.output, &png)?;
     print_stage(&Stage {
         name: "total",
@@ -594,6 +633,43 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
         detail: args.output.display().to_string(),
     });
     Ok(())
+}
+
+/// A face mesh from an OBJ file: positions `[x0, y0, z0, ...]` and triangles.
+fn read_face_obj(path: &Path) -> Result<(Vec<f32>, Vec<[u32; 3]>)> {
+    let (models, _) = tobj::load_obj(
+        path,
+        &tobj::LoadOptions {
+            triangulate: true,
+            single_index: true,
+            ..Default::default()
+        },
+    )
+    .with_context(|| format!("{}: cannot read the face mesh", path.display()))?;
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for m in &models {
+        let first = u32::try_from(positions.len() / 3)?;
+        positions.extend_from_slice(&m.mesh.positions);
+        triangles.extend(
+            m.mesh
+                .indices
+                .chunks_exact(3)
+                .map(|t| [t[0] + first, t[1] + first, t[2] + first]),
+        );
+    }
+    if triangles.is_empty() {
+        bail!("{}: the face mesh has no triangles", path.display());
+    }
+    Ok((positions, triangles))
+}
+
+/// Writes the cameo mesh as OBJ (gem millimetres, normals).
+fn write_gem_obj(path: &Path, mesh: &glyptic::render::Mesh, source: &str) -> Result<()> {
+    let comment = format!(
+        "glyptic cameo from {source}\ngem millimetres: the cameo in the XY plane facing +Z, ground at z = 0"
+    );
+    write_atomic(path, gem::mesh_to_obj(mesh, &comment).as_bytes())
 }
 
 /// `glyptic kernel N`.
@@ -651,20 +727,16 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 fn photo(args: &PhotoArgs) -> Result<()> {
     let start = Instant::now();
     let params = args.view.params()?;
-    for out in [
-        Some(&args.output),
-        args.landmarks_out.as_ref(),
-        args.obj.as_ref(),
-    ]
-    .into_iter()
-    .flatten()
-    {
-        if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
-            && !dir.is_dir()
-        {
-            bail!("{}: output folder does not exist", dir.display());
-        }
-    }
+    check_output_dirs(
+        [
+            Some(&args.output),
+            args.landmarks_out.as_ref(),
+            args.obj.as_ref(),
+            args.gem_obj.as_ref(),
+        ]
+        .into_iter()
+        .flatten(),
+    )?;
     let image_path = &args.image;
     let ctx = || image_path.display().to_string();
 
@@ -706,6 +778,9 @@ fn photo(args: &PhotoArgs) -> Result<()> {
             obj,
             gem::to_obj(&face.mesh, &pipeline.model.shape.triangles, &comment).as_bytes(),
         )?;
+    }
+    if let Some(obj) = &args.gem_obj {
+        write_gem_obj(obj, &mesh, &image_path.display().to_string())?;
     }
     write_atomic(&args.output, &png)?;
     print_stage(&Stage {
