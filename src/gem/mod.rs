@@ -288,59 +288,183 @@ pub fn build_cameo(
     CameoBuilder::new(p)?.build(positions, triangles)
 }
 
-/// The stone's top: one vertex per grid node inside the oval, two triangles per cell whose
-/// four corners are inside. The bezel's inner foot covers the stepped outline.
+/// Largest square of grid cells the stone's top is simplified to, how far (gem mm) a
+/// simplified square's grid heights may stray from the bilinear patch of its corners, and how
+/// far their slopes may (shading follows the interpolated normals, which show a fan's pattern
+/// long before its heights do).
+const MAX_BLOCK: usize = 8;
+const FLAT_TOLERANCE_MM: f32 = 0.004;
+const SLOPE_TOLERANCE: f32 = 0.004;
+
+/// One square element of the stone's top: `size` x `size` cells from node (`x`, `y`).
+#[derive(Clone, Copy)]
+struct Element {
+    x: usize,
+    y: usize,
+    size: usize,
+}
+
+/// The stone's top, with detail only where the surface needs it: the grid's cells are merged
+/// (quadtree fashion, up to [`MAX_BLOCK`] cells a side) wherever the heights stay within
+/// [`FLAT_TOLERANCE_MM`] of a plane and the material does not change, so the flat ground and
+/// smooth slopes take a few triangles and the face keeps every cell. A merged square is a fan
+/// around its centre node through every node on its border that a neighbour uses as a corner,
+/// so the surface stays watertight (no T-junctions). Cells need all four corners inside the
+/// oval; the bezel's inner foot covers the stepped outline.
 fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, p: &CameoParams) {
     let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
-    let mut index = vec![u32::MAX; cols * rows];
-    // About pi/4 of the grid lies inside the oval.
-    mesh.vertices.reserve(cols * rows * 4 / 5);
-    mesh.indices.reserve(cols * rows * 6 * 4 / 5);
+    let node_xy = |i: usize| {
+        (
+            relief.origin[0] + (i % cols) as f32 * cell,
+            relief.origin[1] + (i / cols) as f32 * cell,
+        )
+    };
     let (ia, ib) = (1.0 / p.half_width, 1.0 / p.half_height);
-    for row in 0..rows {
-        let y = relief.origin[1] + row as f32 * cell;
-        let (up, down) = (row.saturating_sub(1), (row + 1).min(rows - 1));
-        let inv_dy = 1.0 / (cell * (down - up) as f32);
-        for col in 0..cols {
-            let x = relief.origin[0] + col as f32 * cell;
-            let r2 = (x * ia).powi(2) + (y * ib).powi(2);
-            if r2 > 1.0 {
-                continue;
-            }
-            let i = row * cols + col;
-            let h = relief.height[i];
-            // Central differences (one-sided at the grid's edge).
-            let (left, right) = (col.saturating_sub(1), (col + 1).min(cols - 1));
-            let dzdx = (relief.height[row * cols + right] - relief.height[row * cols + left])
-                / (cell * (right - left) as f32);
-            let dzdy = (relief.height[down * cols + col] - relief.height[up * cols + col]) * inv_dy;
-            let inv_len = 1.0 / (dzdx * dzdx + dzdy * dzdy + 1.0).sqrt();
-            let region = if h < GROUND_EPS {
+    let inside: Vec<bool> = (0..cols * rows)
+        .map(|i| {
+            let (x, y) = node_xy(i);
+            (x * ia).powi(2) + (y * ib).powi(2) <= 1.0
+        })
+        .collect();
+    let region: Vec<Region> = (0..cols * rows)
+        .map(|i| {
+            if relief.height[i] < GROUND_EPS {
                 Region::Ground
             } else if relief.hair[i] > 0.5 {
                 Region::Hair
             } else {
                 Region::Relief
-            };
-            index[i] = mesh.vertices.len() as u32;
-            mesh.vertices.push(Vertex {
-                position: [x, y, h],
-                normal: [-dzdx * inv_len, -dzdy * inv_len, inv_len],
-                relief: h,
-                region: region as u32,
+            }
+        })
+        .collect();
+
+    // Slopes (dz/dx, dz/dy) at every node: central differences, one-sided at the grid's edge.
+    let slope: Vec<[f32; 2]> = (0..cols * rows)
+        .map(|i| {
+            let (col, row) = (i % cols, i / cols);
+            let (left, right) = (col.saturating_sub(1), (col + 1).min(cols - 1));
+            let (up, down) = (row.saturating_sub(1), (row + 1).min(rows - 1));
+            [
+                (relief.height[row * cols + right] - relief.height[row * cols + left])
+                    / (cell * (right - left) as f32),
+                (relief.height[down * cols + col] - relief.height[up * cols + col])
+                    / (cell * (down - up) as f32),
+            ]
+        })
+        .collect();
+    // A square may be one element if every node is inside, of one region, and near the
+    // bilinear patch of its corners in height and slope.
+    let mergeable = |e: Element| {
+        let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
+        let c = [at(0, 0), at(e.size, 0), at(0, e.size), at(e.size, e.size)];
+        let bilinear = |v: [f32; 4], u: f32, w: f32| {
+            (v[0] * (1.0 - u) + v[1] * u) * (1.0 - w) + (v[2] * (1.0 - u) + v[3] * u) * w
+        };
+        let heights = c.map(|i| relief.height[i]);
+        let sx = c.map(|i| slope[i][0]);
+        let sy = c.map(|i| slope[i][1]);
+        let first = region[c[0]];
+        (0..=e.size).all(|dy| {
+            (0..=e.size).all(|dx| {
+                let i = at(dx, dy);
+                let (u, w) = (dx as f32 / e.size as f32, dy as f32 / e.size as f32);
+                inside[i]
+                    && region[i] == first
+                    && (relief.height[i] - bilinear(heights, u, w)).abs() <= FLAT_TOLERANCE_MM
+                    && (slope[i][0] - bilinear(sx, u, w)).abs() <= SLOPE_TOLERANCE
+                    && (slope[i][1] - bilinear(sy, u, w)).abs() <= SLOPE_TOLERANCE
+            })
+        })
+    };
+    let mut elements = Vec::new();
+    let mut stack: Vec<Element> = Vec::new();
+    for y in (0..rows - 1).step_by(MAX_BLOCK) {
+        for x in (0..cols - 1).step_by(MAX_BLOCK) {
+            stack.push(Element {
+                x,
+                y,
+                size: MAX_BLOCK,
             });
         }
     }
-    for row in 0..rows - 1 {
-        for col in 0..cols - 1 {
-            let a = index[row * cols + col];
-            let b = index[row * cols + col + 1];
-            let c = index[(row + 1) * cols + col + 1];
-            let d = index[(row + 1) * cols + col];
-            if [a, b, c, d].contains(&u32::MAX) {
-                continue;
+    while let Some(e) = stack.pop() {
+        if e.x >= cols - 1 || e.y >= rows - 1 {
+            continue;
+        }
+        let fits = e.x + e.size < cols && e.y + e.size < rows;
+        if e.size == 1 {
+            let corners = [(0, 0), (1, 0), (0, 1), (1, 1)];
+            if corners
+                .iter()
+                .all(|&(dx, dy)| inside[(e.y + dy) * cols + e.x + dx])
+            {
+                elements.push(e);
             }
+        } else if fits && mergeable(e) {
+            elements.push(e);
+        } else {
+            let h = e.size / 2;
+            for (dx, dy) in [(0, 0), (h, 0), (0, h), (h, h)] {
+                stack.push(Element {
+                    x: e.x + dx,
+                    y: e.y + dy,
+                    size: h,
+                });
+            }
+        }
+    }
+
+    // Nodes in use: every element's corners, and merged squares' centres.
+    let mut corner = vec![false; cols * rows];
+    let mut used = vec![false; cols * rows];
+    for e in &elements {
+        for (dx, dy) in [(0, 0), (e.size, 0), (0, e.size), (e.size, e.size)] {
+            corner[(e.y + dy) * cols + e.x + dx] = true;
+            used[(e.y + dy) * cols + e.x + dx] = true;
+        }
+        if e.size > 1 {
+            used[(e.y + e.size / 2) * cols + e.x + e.size / 2] = true;
+        }
+    }
+
+    let mut index = vec![u32::MAX; cols * rows];
+    let count = used.iter().filter(|u| **u).count();
+    mesh.vertices.reserve(count);
+    for (i, _) in used.iter().enumerate().filter(|(_, u)| **u) {
+        let (x, y) = node_xy(i);
+        let h = relief.height[i];
+        let [dzdx, dzdy] = slope[i];
+        let inv_len = 1.0 / (dzdx * dzdx + dzdy * dzdy + 1.0).sqrt();
+        index[i] = mesh.vertices.len() as u32;
+        mesh.vertices.push(Vertex {
+            position: [x, y, h],
+            normal: [-dzdx * inv_len, -dzdy * inv_len, inv_len],
+            relief: h,
+            region: region[i] as u32,
+        });
+    }
+
+    // Counter-clockwise seen from +Z (y up), like the bezel's.
+    let mut border = Vec::with_capacity(4 * MAX_BLOCK);
+    for e in &elements {
+        let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
+        if e.size == 1 {
+            let [a, b, c, d] = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)].map(|i| index[i]);
             mesh.indices.extend_from_slice(&[a, b, c, a, c, d]);
+            continue;
+        }
+        let n = e.size;
+        border.clear();
+        border.extend((0..n).map(|k| at(k, 0)));
+        border.extend((0..n).map(|k| at(n, k)));
+        border.extend((0..n).map(|k| at(n - k, n)));
+        border.extend((0..n).map(|k| at(0, n - k)));
+        border.retain(|&i| corner[i]);
+        let centre = index[at(n / 2, n / 2)];
+        for k in 0..border.len() {
+            let (a, b) = (border[k], border[(k + 1) % border.len()]);
+            mesh.indices
+                .extend_from_slice(&[centre, index[a], index[b]]);
         }
     }
 }
