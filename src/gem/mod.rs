@@ -146,6 +146,8 @@ pub struct CameoBuilder {
     allowed: Vec<f32>,
     /// Bezel and back.
     base: Mesh,
+    /// Per node: inside the oval (the stone's top is made of cells with four such corners).
+    inside: Vec<bool>,
 }
 
 impl CameoBuilder {
@@ -184,6 +186,14 @@ impl CameoBuilder {
             .collect();
         let mut base = Mesh::default();
         add_bezel_and_back(&mut base, p);
+        let (ia, ib) = (1.0 / p.half_width, 1.0 / p.half_height);
+        let inside = (0..cols * rows)
+            .map(|i| {
+                let x = origin[0] + (i % cols) as f32 * p.cell;
+                let y = origin[1] + (i / cols) as f32 * p.cell;
+                (x * ia).powi(2) + (y * ib).powi(2) <= 1.0
+            })
+            .collect();
         Ok(Self {
             params: p.clone(),
             cols,
@@ -193,6 +203,7 @@ impl CameoBuilder {
             strands,
             allowed,
             base,
+            inside,
         })
     }
 
@@ -259,7 +270,7 @@ impl CameoBuilder {
     pub fn build(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Mesh, GemError> {
         let relief = self.relief(positions, triangles)?;
         let mut mesh = Mesh::default();
-        add_relief_surface(&mut mesh, &relief, &self.params);
+        add_relief_surface(&mut mesh, &relief, &self.inside);
         let first = mesh.vertices.len() as u32;
         mesh.vertices.extend_from_slice(&self.base.vertices);
         mesh.indices
@@ -311,7 +322,7 @@ struct Element {
 /// around its centre node through every node on its border that a neighbour uses as a corner,
 /// so the surface stays watertight (no T-junctions). Cells need all four corners inside the
 /// oval; the bezel's inner foot covers the stepped outline.
-fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, p: &CameoParams) {
+fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, inside: &[bool]) {
     let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
     let node_xy = |i: usize| {
         (
@@ -319,13 +330,6 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, p: &CameoParams) {
             relief.origin[1] + (i / cols) as f32 * cell,
         )
     };
-    let (ia, ib) = (1.0 / p.half_width, 1.0 / p.half_height);
-    let inside: Vec<bool> = (0..cols * rows)
-        .map(|i| {
-            let (x, y) = node_xy(i);
-            (x * ia).powi(2) + (y * ib).powi(2) <= 1.0
-        })
-        .collect();
     let region: Vec<Region> = (0..cols * rows)
         .map(|i| {
             if relief.height[i] < GROUND_EPS {
@@ -354,7 +358,26 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, p: &CameoParams) {
         .collect();
     // A square may be one element if every node is inside, of one region, and near the
     // bilinear patch of its corners in height and slope.
+    // Summed-area table of nodes that are not bare ground (inside, height and slope 0): a
+    // square without any is merged without looking at its nodes (most of the field).
+    let mut busy = vec![0u32; (cols + 1) * (rows + 1)];
+    for y in 0..rows {
+        let mut run = 0;
+        for x in 0..cols {
+            let i = y * cols + x;
+            run += u32::from(!(inside[i] && relief.height[i] == 0.0 && slope[i] == [0.0, 0.0]));
+            busy[(y + 1) * (cols + 1) + x + 1] = busy[y * (cols + 1) + x + 1] + run;
+        }
+    }
+    let busy_in = |e: Element| {
+        let (x0, y0, x1, y1) = (e.x, e.y, e.x + e.size + 1, e.y + e.size + 1);
+        let w = cols + 1;
+        busy[y1 * w + x1] + busy[y0 * w + x0] - busy[y0 * w + x1] - busy[y1 * w + x0]
+    };
     let mergeable = |e: Element| {
+        if busy_in(e) == 0 {
+            return true;
+        }
         let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
         let c = [at(0, 0), at(e.size, 0), at(0, e.size), at(e.size, e.size)];
         let bilinear = |v: [f32; 4], u: f32, w: f32| {
@@ -364,17 +387,22 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, p: &CameoParams) {
         let sx = c.map(|i| slope[i][0]);
         let sy = c.map(|i| slope[i][1]);
         let first = region[c[0]];
-        (0..=e.size).all(|dy| {
-            (0..=e.size).all(|dx| {
-                let i = at(dx, dy);
-                let (u, w) = (dx as f32 / e.size as f32, dy as f32 / e.size as f32);
-                inside[i]
-                    && region[i] == first
-                    && (relief.height[i] - bilinear(heights, u, w)).abs() <= FLAT_TOLERANCE_MM
-                    && (slope[i][0] - bilinear(sx, u, w)).abs() <= SLOPE_TOLERANCE
-                    && (slope[i][1] - bilinear(sy, u, w)).abs() <= SLOPE_TOLERANCE
-            })
-        })
+        let scale = 1.0 / e.size as f32;
+        let node_ok = |dx: usize, dy: usize| {
+            let i = at(dx, dy);
+            let (u, w) = (dx as f32 * scale, dy as f32 * scale);
+            inside[i]
+                && region[i] == first
+                && (relief.height[i] - bilinear(heights, u, w)).abs() <= FLAT_TOLERANCE_MM
+                && (slope[i][0] - bilinear(sx, u, w)).abs() <= SLOPE_TOLERANCE
+                && (slope[i][1] - bilinear(sy, u, w)).abs() <= SLOPE_TOLERANCE
+        };
+        // The centre and the edges' midpoints stray first on a curved surface: try them first.
+        let h = e.size / 2;
+        [(h, h), (h, 0), (0, h), (e.size, h), (h, e.size)]
+            .iter()
+            .all(|&(dx, dy)| node_ok(dx, dy))
+            && (0..=e.size).all(|dy| (0..=e.size).all(|dx| node_ok(dx, dy)))
     };
     let mut elements = Vec::new();
     let mut stack: Vec<Element> = Vec::new();
