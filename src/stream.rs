@@ -7,6 +7,9 @@
 //! fails on (no face, a broken model call) is an update without a face and a reason, counted
 //! in the summary; it never ends the stream.
 //!
+//! With a [`CameoBuilder`] the face thread also rebuilds the cameo mesh after each fit (stage
+//! "gem"), so the render thread only draws: it never builds geometry.
+//!
 //! Units: milliseconds for stage times and latency, seconds for frame times.
 
 use std::sync::Arc;
@@ -15,7 +18,9 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crate::capture::{Capture, CaptureEvent, CaptureSummary, Frame, LatestReceiver, latest};
+use crate::gem::CameoBuilder;
 use crate::pipeline::Stage;
+use crate::render::Mesh;
 use crate::track::{TrackStep, TrackedFace, Tracker};
 
 /// One processed frame.
@@ -28,6 +33,8 @@ pub struct FaceUpdate {
     /// Milliseconds from capture to this update.
     pub latency_ms: f64,
     pub face: Option<TrackedFace>,
+    /// The cameo built around `face` (when the stream has a [`CameoBuilder`]), gem mm.
+    pub gem: Option<Arc<Mesh>>,
     /// Why there is no face (or why the track was lost on this frame).
     pub note: Option<String>,
     pub stages: Vec<Stage>,
@@ -46,9 +53,35 @@ impl FaceUpdate {
             captured: frame.captured,
             latency_ms: frame.captured.elapsed().as_secs_f64() * 1e3,
             face: step.face,
+            gem: None,
             note,
             stages: step.stages,
         }
+    }
+}
+
+impl FaceUpdate {
+    /// Builds the cameo around this update's face (if it has one) as stage "gem"; latency then
+    /// counts until the gem is ready. A cameo that cannot be built leaves a note, no gem.
+    pub fn build_gem(&mut self, builder: &CameoBuilder, triangles: &[[u32; 3]]) {
+        let Some(face) = &self.face else {
+            return;
+        };
+        let t = Instant::now();
+        let built = builder.build(&face.mesh, triangles);
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        match built {
+            Ok(mesh) => {
+                self.stages.push(Stage {
+                    name: "gem",
+                    ms,
+                    detail: format!("{} triangles", mesh.indices.len() / 3),
+                });
+                self.gem = Some(Arc::new(mesh));
+            }
+            Err(e) => self.note = Some(format!("cameo: {e}")),
+        }
+        self.latency_ms = self.captured.elapsed().as_secs_f64() * 1e3;
     }
 }
 
@@ -88,6 +121,16 @@ pub struct FaceStream {
 impl FaceStream {
     /// Starts the face thread on `capture`'s frames.
     pub fn spawn(capture: Capture, tracker: Tracker) -> FaceStream {
+        Self::spawn_with_gem(capture, tracker, None)
+    }
+
+    /// [`FaceStream::spawn`], also building each fitted face's cameo with `builder` on the face
+    /// thread. A face whose cameo cannot be built is an update without a gem and a note.
+    pub fn spawn_with_gem(
+        capture: Capture,
+        tracker: Tracker,
+        builder: Option<CameoBuilder>,
+    ) -> FaceStream {
         let (tx, updates) = latest();
         let (etx, events) = crossbeam_channel::bounded(256);
         let stop = Arc::new(AtomicBool::new(false));
@@ -111,7 +154,11 @@ impl FaceStream {
                     let update = match tracker.process(&frame.image, frame.time_s) {
                         Ok(step) => {
                             summary.with_face += u64::from(step.face.is_some());
-                            FaceUpdate::new(&frame, step)
+                            let mut update = FaceUpdate::new(&frame, step);
+                            if let Some(b) = &builder {
+                                update.build_gem(b, tracker.triangles());
+                            }
+                            update
                         }
                         Err(e) => {
                             summary.errors += 1;
@@ -125,6 +172,7 @@ impl FaceStream {
                                 captured: frame.captured,
                                 latency_ms: frame.captured.elapsed().as_secs_f64() * 1e3,
                                 face: None,
+                                gem: None,
                                 note: Some(e.to_string()),
                                 stages: Vec::new(),
                             }

@@ -127,6 +127,11 @@ pub struct Tracker {
 }
 
 impl Tracker {
+    /// The face model's triangles (of every [`TrackedFace::mesh`]).
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.pipeline.model.shape.triangles
+    }
+
     pub fn new(pipeline: FacePipeline, options: TrackOptions) -> Self {
         Tracker {
             pipeline,

@@ -230,3 +230,56 @@ fn a_face_replaced_by_a_textured_scene_is_lost_within_the_verify_period() {
         "lost at frame {lost_at}, the wall from frame 12"
     );
 }
+
+/// The face thread builds the cameo after each fit (stage "gem") when given a builder: the
+/// render thread receives ready geometry. A frame without a face carries no gem.
+#[test]
+fn the_face_thread_hands_over_a_built_cameo() {
+    use glyptic::capture::{Capture, CaptureOptions, MemorySource};
+    use glyptic::stream::FaceStream;
+    let (still, _, _) = common::framed("lenna.png", 640, 480);
+    // One second of the face, then a few empty frames, played in real time.
+    let mut frames: Vec<image::RgbImage> = (0..30).map(|_| still.clone()).collect();
+    let empty = image::RgbImage::from_pixel(640, 480, image::Rgb([90, 90, 90]));
+    frames.extend(std::iter::repeat_n(empty, 3));
+    // Models first: the capture thread plays in real time from the moment it starts.
+    let tracker = tracker(TrackOptions::default());
+    let builder = glyptic::gem::CameoBuilder::new(&Default::default()).expect("builder");
+    let capture = Capture::spawn(
+        move || Box::new(MemorySource::new("lenna", frames, FPS)),
+        CaptureOptions::default(),
+    );
+    let stream = FaceStream::spawn_with_gem(capture, tracker, Some(builder));
+    let (mut with_gem, mut without) = (0, 0);
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while std::time::Instant::now() < deadline {
+        match stream
+            .updates()
+            .recv_timeout(std::time::Duration::from_millis(200))
+        {
+            Ok(Some(u)) => {
+                if let Some(gem) = &u.gem {
+                    assert!(u.face.is_some());
+                    assert!(gem.indices.len() > 30_000, "{} indices", gem.indices.len());
+                    let stage = u
+                        .stages
+                        .iter()
+                        .find(|s| s.name == "gem")
+                        .expect("gem stage");
+                    assert!(stage.ms > 0.0 && u.latency_ms >= stage.ms);
+                    with_gem += 1;
+                } else {
+                    assert!(u.face.is_none(), "a face without a gem: {:?}", u.note);
+                    without += 1;
+                }
+            }
+            Ok(None) => {}
+            Err(_) => break,
+        }
+    }
+    // Newest-wins may drop frames, but the face frames and the empty one are both seen.
+    assert!(
+        with_gem >= 1 && without >= 1,
+        "{with_gem} with a gem, {without} without"
+    );
+}

@@ -36,6 +36,9 @@ pub struct TrackArgs {
     /// Turn smoothing off (each frame's own fit).
     #[arg(long)]
     pub no_smoothing: bool,
+    /// Also build each fitted face's cameo on the face thread (stage "gem"), as the kiosk does.
+    #[arg(long)]
+    pub gem: bool,
     /// Which face to pick up when the track starts or is lost (a tracked face is kept).
     #[command(flatten)]
     pub choice: super::ChoiceArgs,
@@ -139,6 +142,13 @@ pub fn track(args: &TrackArgs) -> Result<()> {
         ..TrackOptions::default()
     };
     let mut tracker = Tracker::new(pipeline, options);
+    let builder = if args.gem {
+        Some(glyptic::gem::CameoBuilder::new(
+            &glyptic::gem::CameoParams::default(),
+        )?)
+    } else {
+        None
+    };
     let mut jsonl = match &args.jsonl {
         Some(p) => Some(std::io::BufWriter::new(
             std::fs::File::create(p).with_context(|| format!("{}: cannot create", p.display()))?,
@@ -191,7 +201,10 @@ pub fn track(args: &TrackArgs) -> Result<()> {
             processed += 1;
             match tracker.process(&frame.image, frame.time_s) {
                 Ok(step) => {
-                    let u = FaceUpdate::new(&frame, step);
+                    let mut u = FaceUpdate::new(&frame, step);
+                    if let Some(b) = &builder {
+                        u.build_gem(b, tracker.triangles());
+                    }
                     with_face += u64::from(u.face.is_some());
                     record(&u, &mut times)?;
                 }
@@ -210,7 +223,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
             move || open_source(&make_args).unwrap_or_else(|e| Box::new(Failed(e.to_string()))),
             CaptureOptions::default(),
         );
-        let stream = FaceStream::spawn(capture, tracker);
+        let stream = FaceStream::spawn_with_gem(capture, tracker, builder);
         while processed < limit {
             for e in stream.events().try_iter() {
                 match e {
