@@ -77,6 +77,10 @@ const BACK_Z: f32 = -3.0;
 /// of the underlying surface the edge rises.
 const PORTRAIT_LIFT_MM: f32 = 8.0;
 const LIFT_RAMP_MM: f32 = 2.5;
+/// How far the face's edge height fades out beyond its footprint, and how far inside it the
+/// face blends into the head, model mm.
+const FADE_MM: f32 = 6.0;
+const BLEND_MM: f32 = 15.0;
 /// Relief below this height (gem mm) counts as ground.
 const GROUND_EPS: f32 = 0.03;
 
@@ -148,6 +152,10 @@ pub struct CameoBuilder {
     base: Mesh,
     /// Per node: inside the oval (the stone's top is made of cells with four such corners).
     inside: Vec<bool>,
+    /// The portrait field of the head alone, and its gem heights: a face changes only the
+    /// window around it.
+    base_field: HeightField,
+    base_height: Vec<f32>,
 }
 
 impl CameoBuilder {
@@ -194,7 +202,8 @@ impl CameoBuilder {
                 (x * ia).powi(2) + (y * ib).powi(2) <= 1.0
             })
             .collect();
-        Ok(Self {
+        let base_field = relief::head_only(&head, model_origin, p.cell / k, cols, rows);
+        let mut builder = Self {
             params: p.clone(),
             cols,
             rows,
@@ -204,7 +213,13 @@ impl CameoBuilder {
             allowed,
             base,
             inside,
-        })
+            base_field,
+            base_height: Vec::new(),
+        };
+        builder.base_height = (0..cols * rows)
+            .map(|i| builder.gem_height(&builder.base_field, i))
+            .collect();
+        Ok(builder)
     }
 
     pub fn params(&self) -> &CameoParams {
@@ -220,40 +235,22 @@ impl CameoBuilder {
             return Err(GemError::NonFinite);
         }
         let (p, cols, rows, origin) = (&self.params, self.cols, self.rows, self.origin);
-        let k = p.portrait_scale;
-        let model_origin = [
-            origin[0] / k + p.portrait_centre[0],
-            origin[1] / k + p.portrait_centre[1],
-        ];
-        let field: HeightField = relief::portrait(
+        let (field, window) = relief::portrait_over(
             positions,
             triangles,
             &self.head,
-            model_origin,
-            p.cell / k,
-            cols,
-            rows,
-            6.0,
-            15.0,
+            &self.base_field,
+            FADE_MM,
+            BLEND_MM,
         );
-
-        // Depth compression: an exponential roll-off whose asymptote is `relief_depth`, so the
-        // profile's outline keeps its detail, the cheek flattens, and nothing exceeds the depth.
-        // At the head's half-breadth the relief reaches 80 % of the depth.
-        let reference = p.head.cranium_axes[2].max(1.0);
-        let rolloff = 1.6f32;
-        let mut height = vec![0f32; cols * rows];
-        for (i, gem_h) in height.iter_mut().enumerate() {
-            // Lift the portrait off the ground, as carvers do, so its outline is a steep edge
-            // instead of fading into the ground along the profile's centre line.
-            let f = field.height[i];
-            let mut h = f + PORTRAIT_LIFT_MM * smoothstep(0.0, LIFT_RAMP_MM, f);
-            let w = field.hair[i];
-            if w > 0.0 {
-                h += w * self.strands[i];
+        let mut height = self.base_height.clone();
+        if let Some(w) = window {
+            for y in w.y0..=w.y1 {
+                for x in w.x0..=w.x1 {
+                    let i = y * cols + x;
+                    height[i] = self.gem_height(&field, i);
+                }
             }
-            let t = (h / reference).max(0.0);
-            *gem_h = p.relief_depth * (1.0 - (-rolloff * t).exp()) * self.allowed[i];
         }
         let hair = field.hair;
         Ok(Relief {
@@ -264,6 +261,26 @@ impl CameoBuilder {
             origin,
             cell: p.cell,
         })
+    }
+
+    /// Gem height (mm) of node `i` of a portrait field: the lift off the ground, the carved
+    /// hair strands and the depth compression, an exponential roll-off whose asymptote is
+    /// `relief_depth` (the profile's outline keeps its detail, the cheek flattens, nothing
+    /// exceeds the depth; at the head's half-breadth the relief reaches 80 % of the depth).
+    fn gem_height(&self, field: &HeightField, i: usize) -> f32 {
+        const ROLLOFF: f32 = 1.6;
+        let p = &self.params;
+        let reference = p.head.cranium_axes[2].max(1.0);
+        // Lift the portrait off the ground, as carvers do, so its outline is a steep edge
+        // instead of fading into the ground along the profile's centre line.
+        let f = field.height[i];
+        let mut h = f + PORTRAIT_LIFT_MM * smoothstep(0.0, LIFT_RAMP_MM, f);
+        let w = field.hair[i];
+        if w > 0.0 {
+            h += w * self.strands[i];
+        }
+        let t = (h / reference).max(0.0);
+        p.relief_depth * (1.0 - (-ROLLOFF * t).exp()) * self.allowed[i]
     }
 
     /// The whole cameo mesh for a face mesh in model mm (`[x0, y0, z0, ...]`).

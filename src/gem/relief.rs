@@ -285,8 +285,9 @@ pub fn nearest_seeds(values: &[f32], cols: usize, rows: usize) -> Vec<Option<usi
 /// within `fade_mm` and the head joins it by a smooth maximum. Both sides agree on the edge,
 /// so the surface is continuous there by construction.
 ///
-/// `head` is [`head_layer`] over the same grid: the head does not depend on the face, so a
-/// caller rebuilding after every fit computes it once.
+/// `head` is [`head_layer`] over the same grid. A caller rebuilding after every fit keeps the
+/// head layer and [`head_only`] and calls [`portrait_over`], which computes only the face's
+/// neighbourhood.
 #[allow(clippy::too_many_arguments)]
 pub fn portrait(
     positions: &[f32],
@@ -299,71 +300,40 @@ pub fn portrait(
     fade_mm: f32,
     blend_mm: f32,
 ) -> HeightField {
-    let face = rasterise_profile(positions, triangles, origin, cell, cols, rows);
-    // Seeds matter only within the fade of the footprint (outside) and inside it: search the
-    // footprint's bounding box grown by the fade, not the whole grid (a quarter of its cost).
-    let margin = (fade_mm / cell).ceil() as usize + 2;
-    let (mut x0, mut y0, mut x1, mut y1) = (cols, rows, 0, 0);
-    for (i, v) in face.iter().enumerate() {
-        if v.is_finite() {
-            let (x, y) = (i % cols, i / cols);
-            (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
-        }
-    }
-    let (mut outside_seeds, mut inside_seeds) = (vec![None; cols * rows], vec![None; cols * rows]);
-    if x0 <= x1 {
-        let (x0, y0) = (x0.saturating_sub(margin), y0.saturating_sub(margin));
-        let (x1, y1) = ((x1 + margin).min(cols - 1), (y1 + margin).min(rows - 1));
-        let (w, h) = (x1 - x0 + 1, y1 - y0 + 1);
-        let crop: Vec<f32> = (0..w * h)
-            .map(|k| face[(y0 + k / w) * cols + x0 + k % w])
-            .collect();
-        let complement: Vec<f32> = crop
-            .iter()
-            .map(|v| if v.is_finite() { f32::NAN } else { 0.0 })
-            .collect();
-        let to_grid = |k: usize| (y0 + k / w) * cols + x0 + k % w;
-        for (seeds, values) in [
-            (&mut outside_seeds, &crop),
-            (&mut inside_seeds, &complement),
-        ] {
-            for (k, s) in nearest_seeds(values, w, h).into_iter().enumerate() {
-                seeds[to_grid(k)] = s.map(to_grid);
-            }
-        }
-    }
-    let dist = |i: usize, s: usize| {
-        let (dx, dy) = (
-            (i % cols) as f32 - (s % cols) as f32,
-            (i / cols) as f32 - (s / cols) as f32,
-        );
-        (dx * dx + dy * dy).sqrt() * cell
-    };
-    const JOIN: f32 = 10.0;
-    let mut height = vec![0f32; cols * rows];
-    let mut hair = vec![0f32; cols * rows];
-    for y in 0..rows {
-        for x in 0..cols {
-            let i = y * cols + x;
-            let (head_h, hair_w) = head.get(i).copied().unwrap_or((0.0, 0.0));
-            let (h, face_weight) = if face[i].is_finite() {
-                let f = face[i].max(0.0);
-                let depth = inside_seeds[i].map_or(f32::INFINITY, |s| dist(i, s));
-                let w = smoothstep(0.0, blend_mm, depth);
-                (smooth_max(f, head_h, JOIN) * (1.0 - w) + f * w, w)
-            } else {
-                let edge = outside_seeds[i].map_or(0.0, |s| {
-                    face[s].max(0.0) * (1.0 - smoothstep(0.0, fade_mm, dist(i, s)))
-                });
-                (smooth_max(edge, head_h, JOIN), 0.0)
-            };
-            height[i] = h;
-            // Hair only where the head, not the face, makes the surface.
-            hair[i] = hair_w * (1.0 - face_weight) * smoothstep(0.0, 6.0, h - 0.5 * head_h.min(h));
-        }
-    }
-    smooth(&mut height, cols, rows, 2);
-    let face_mask = face.iter().map(|v| v.is_finite()).collect();
+    let base = head_only(head, origin, cell, cols, rows);
+    portrait_over(positions, triangles, head, &base, fade_mm, blend_mm).0
+}
+
+/// The cells (inclusive bounds) where a portrait differs from the head alone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    pub x0: usize,
+    pub y0: usize,
+    pub x1: usize,
+    pub y1: usize,
+}
+
+/// Smoothing passes of the portrait's heights (each reaches one cell further).
+const SMOOTH_PASSES: usize = 2;
+/// Height-field smooth maximum width where face and head join, model mm.
+const JOIN: f32 = 10.0;
+
+/// The portrait field of the head alone (no face), over a grid with head layer `head`.
+pub fn head_only(
+    head: &[(f32, f32)],
+    origin: [f32; 2],
+    cell: f32,
+    cols: usize,
+    rows: usize,
+) -> HeightField {
+    let mut height: Vec<f32> = head.iter().map(|&(h, _)| h).collect();
+    height.resize(cols * rows, 0.0);
+    let mut hair: Vec<f32> = head
+        .iter()
+        .map(|&(h, w)| w * smoothstep(0.0, 6.0, 0.5 * h))
+        .collect();
+    hair.resize(cols * rows, 0.0);
+    smooth(&mut height, cols, rows, SMOOTH_PASSES);
     HeightField {
         origin,
         cell,
@@ -371,8 +341,105 @@ pub fn portrait(
         rows,
         height,
         hair,
-        face_mask,
+        face_mask: vec![false; cols * rows],
     }
+}
+
+/// [`portrait`] from `base` = [`head_only`] of the same grid: the face changes only its
+/// footprint grown by the fade and the smoothing, so only that window is computed (the rest is
+/// copied, bit-identical to computing it). Also returns the window (`None`: no footprint).
+pub fn portrait_over(
+    positions: &[f32],
+    triangles: &[[u32; 3]],
+    head: &[(f32, f32)],
+    base: &HeightField,
+    fade_mm: f32,
+    blend_mm: f32,
+) -> (HeightField, Option<Window>) {
+    let (origin, cell, cols, rows) = (base.origin, base.cell, base.cols, base.rows);
+    let face = rasterise_profile(positions, triangles, origin, cell, cols, rows);
+    let (mut x0, mut y0, mut x1, mut y1) = (cols, rows, 0, 0);
+    for (i, v) in face.iter().enumerate() {
+        if v.is_finite() {
+            let (x, y) = (i % cols, i / cols);
+            (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+        }
+    }
+    let mut field = base.clone();
+    if x0 > x1 {
+        return (field, None);
+    }
+    // The face reaches `fade` beyond its footprint, smoothing 2 cells further; the window keeps
+    // 2 more cells as an apron whose smoothed values (edges clamped) are not used.
+    let reach = (fade_mm / cell).ceil() as usize + 1 + SMOOTH_PASSES;
+    let apron = SMOOTH_PASSES;
+    let (wx0, wy0) = (
+        x0.saturating_sub(reach + apron),
+        y0.saturating_sub(reach + apron),
+    );
+    let (wx1, wy1) = (
+        (x1 + reach + apron).min(cols - 1),
+        (y1 + reach + apron).min(rows - 1),
+    );
+    let (w, h) = (wx1 - wx0 + 1, wy1 - wy0 + 1);
+    let to_grid = |k: usize| (wy0 + k / w) * cols + wx0 + k % w;
+    let crop: Vec<f32> = (0..w * h).map(|k| face[to_grid(k)]).collect();
+    let complement: Vec<f32> = crop
+        .iter()
+        .map(|v| if v.is_finite() { f32::NAN } else { 0.0 })
+        .collect();
+    // Nearest footprint cell (outside it) and nearest non-footprint cell (inside), in window
+    // indices.
+    let outside_seeds = nearest_seeds(&crop, w, h);
+    let inside_seeds = nearest_seeds(&complement, w, h);
+    let dist = |k: usize, s: usize| {
+        let (dx, dy) = (
+            (k % w) as f32 - (s % w) as f32,
+            (k / w) as f32 - (s / w) as f32,
+        );
+        (dx * dx + dy * dy).sqrt() * cell
+    };
+    let mut height = vec![0f32; w * h];
+    let mut hair = vec![0f32; w * h];
+    for k in 0..w * h {
+        let (head_h, hair_w) = head.get(to_grid(k)).copied().unwrap_or((0.0, 0.0));
+        let (hk, face_weight) = if crop[k].is_finite() {
+            let f = crop[k].max(0.0);
+            let depth = inside_seeds[k].map_or(f32::INFINITY, |s| dist(k, s));
+            let wgt = smoothstep(0.0, blend_mm, depth);
+            (smooth_max(f, head_h, JOIN) * (1.0 - wgt) + f * wgt, wgt)
+        } else {
+            let edge = outside_seeds[k].map_or(0.0, |s| {
+                crop[s].max(0.0) * (1.0 - smoothstep(0.0, fade_mm, dist(k, s)))
+            });
+            (smooth_max(edge, head_h, JOIN), 0.0)
+        };
+        height[k] = hk;
+        // Hair only where the head, not the face, makes the surface.
+        hair[k] = hair_w * (1.0 - face_weight) * smoothstep(0.0, 6.0, hk - 0.5 * head_h.min(hk));
+    }
+    smooth(&mut height, w, h, SMOOTH_PASSES);
+    // Copy all but the apron (except where the window meets the grid's edge, where the
+    // clamped smoothing is the grid's own).
+    let cx0 = if wx0 > 0 { apron } else { 0 };
+    let cy0 = if wy0 > 0 { apron } else { 0 };
+    let cx1 = if wx1 < cols - 1 { w - 1 - apron } else { w - 1 };
+    let cy1 = if wy1 < rows - 1 { h - 1 - apron } else { h - 1 };
+    for ly in cy0..=cy1 {
+        for lx in cx0..=cx1 {
+            let (k, i) = (ly * w + lx, (wy0 + ly) * cols + wx0 + lx);
+            field.height[i] = height[k];
+            field.hair[i] = hair[k];
+            field.face_mask[i] = crop[k].is_finite();
+        }
+    }
+    let window = Window {
+        x0: wx0 + cx0,
+        y0: wy0 + cy0,
+        x1: wx0 + cx1,
+        y1: wy0 + cy1,
+    };
+    (field, Some(window))
 }
 
 /// [`HeadShape::height`] at every node of a grid (`origin`, `cell` in model mm, row-major).
