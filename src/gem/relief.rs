@@ -389,9 +389,27 @@ pub fn portrait_over(
         .map(|v| if v.is_finite() { f32::NAN } else { 0.0 })
         .collect();
     // Nearest footprint cell (outside it) and nearest non-footprint cell (inside), in window
-    // indices.
-    let outside_seeds = nearest_seeds(&crop, w, h);
-    let inside_seeds = nearest_seeds(&complement, w, h);
+    // indices. Seeds matter only within the fade around the footprint: search the footprint's
+    // box grown by the fade (two passes over that, not the window).
+    let m = (fade_mm / cell).ceil() as usize + 1;
+    let (sx0, sy0) = (
+        x0.saturating_sub(m).max(wx0) - wx0,
+        y0.saturating_sub(m).max(wy0) - wy0,
+    );
+    let (sx1, sy1) = ((x1 + m).min(wx1) - wx0, (y1 + m).min(wy1) - wy0);
+    let (sw, sh) = (sx1 - sx0 + 1, sy1 - sy0 + 1);
+    let to_window = |j: usize| (sy0 + j / sw) * w + sx0 + j % sw;
+    let mut outside_seeds = vec![None; w * h];
+    let mut inside_seeds = vec![None; w * h];
+    for (seeds, values) in [
+        (&mut outside_seeds, &crop),
+        (&mut inside_seeds, &complement),
+    ] {
+        let sub: Vec<f32> = (0..sw * sh).map(|j| values[to_window(j)]).collect();
+        for (j, seed) in nearest_seeds(&sub, sw, sh).into_iter().enumerate() {
+            seeds[to_window(j)] = seed.map(to_window);
+        }
+    }
     let dist = |k: usize, s: usize| {
         let (dx, dy) = (
             (k % w) as f32 - (s % w) as f32,
