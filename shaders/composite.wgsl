@@ -1,3 +1,5 @@
+// requires: fullscreen.wgsl
+//
 // Composite pass: diffuse + specular (both linear, premultiplied by coverage) over a soft studio
 // backdrop, a gentle highlight shoulder, sRGB encoding and a 1/255 ordered dither (so the dark
 // backdrop gradient does not band in 8 bits). The output target is Rgba8Unorm and this shader
@@ -17,14 +19,6 @@ struct Composite {
 @group(0) @binding(0) var<uniform> comp: Composite;
 @group(0) @binding(1) var diffuse_tex: texture_2d<f32>;
 @group(0) @binding(2) var specular_tex: texture_2d<f32>;
-
-@vertex
-fn vs_main(@builtin(vertex_index) index: u32) -> @builtin(position) vec4<f32> {
-    // One triangle covering the screen: (-1,-1), (3,-1), (-1,3).
-    let x = f32((index << 1u) & 2u) * 2.0 - 1.0;
-    let y = f32(index & 2u) * 2.0 - 1.0;
-    return vec4<f32>(x, y, 0.0, 1.0);
-}
 
 fn linear_to_srgb(c: vec3<f32>) -> vec3<f32> {
     let lo = c * 12.92;

@@ -1,3 +1,5 @@
+// requires: fullscreen.wgsl
+//
 // Separable subsurface scattering: one direction of the blur (the pass runs twice, horizontal
 // then vertical), after Jimenez et al. 2015. It blurs the scene pass's diffuse light only; the
 // composite adds the specular afterwards, so highlights stay sharp.
@@ -27,13 +29,6 @@ struct Sss {
 @group(0) @binding(1) var colour_tex: texture_2d<f32>;
 @group(0) @binding(2) var depth_tex: texture_2d<f32>;
 @group(0) @binding(3) var linear_clamp: sampler;
-
-@vertex
-fn vs_main(@builtin(vertex_index) index: u32) -> @builtin(position) vec4<f32> {
-    let x = f32((index << 1u) & 2u) * 2.0 - 1.0;
-    let y = f32(index & 2u) * 2.0 - 1.0;
-    return vec4<f32>(x, y, 0.0, 1.0);
-}
 
 // Depth (mm) and mask of a depth_tex texel, un-premultiplied by the texel's coverage.
 fn depth_mask_at(texel: vec2<i32>) -> vec3<f32> {

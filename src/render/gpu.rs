@@ -143,27 +143,15 @@ fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGrou
     }
 }
 
-/// A float texture read with `textureLoad` only: declared unfilterable so that any float format
-/// (and GL) is accepted.
-fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+/// A float texture for the fragment stage. Textures read with `textureLoad` only are declared
+/// unfilterable so that any float format (and GL) is accepted; the SSS pass samples its colour
+/// input bilinearly, which needs it filterable.
+fn texture_entry(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::FRAGMENT,
         ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
-fn filterable_texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: true },
+            sample_type: wgpu::TextureSampleType::Float { filterable },
             view_dimension: wgpu::TextureViewDimension::D2,
             multisampled: false,
         },
@@ -309,8 +297,8 @@ impl Pipelines {
             label: Some("glyptic composite layout"),
             entries: &[
                 uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
-                texture_entry(1),
-                texture_entry(2),
+                texture_entry(1, false),
+                texture_entry(2, false),
             ],
         });
         let composite = fullscreen_pipeline(
@@ -329,8 +317,8 @@ impl Pipelines {
             label: Some("glyptic sss layout"),
             entries: &[
                 uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
-                filterable_texture_entry(1),
-                texture_entry(2),
+                texture_entry(1, true),
+                texture_entry(2, false),
                 wgpu::BindGroupLayoutEntry {
                     binding: 3,
                     visibility: wgpu::ShaderStages::FRAGMENT,
