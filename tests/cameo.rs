@@ -160,10 +160,20 @@ fn cameo_has_no_holes_and_matches_its_golden_images() {
         ),
     ];
 
-    // --- No holes: from the front and turned far to each side, above and below.
+    // --- No holes: profile and frontal portraits, from the front and turned far to each side,
+    // above and below.
+    let frontal = CameoBuilder::new(&CameoParams::frontal()).expect("frontal builder");
     let mut worst = 0usize;
-    for (name, face) in &faces {
-        let mesh = builder.build(face, &model.shape.triangles).expect("cameo");
+    let cases = faces.iter().flat_map(|(name, face)| {
+        [
+            (*name, "profile", face, &builder),
+            (*name, "frontal", face, &frontal),
+        ]
+    });
+    for (face_name, view, face, b) in cases {
+        let name = format!("{face_name} ({view})");
+        let name = name.as_str();
+        let mesh = b.build(face, &model.shape.triangles).expect("cameo");
         assert_height_field(&mesh, name);
         for (yaw, pitch) in [
             (0.0, 0.0),
@@ -195,7 +205,10 @@ fn cameo_has_no_holes_and_matches_its_golden_images() {
             );
         }
     }
-    println!("no holes: {} faces x 5 views, worst {worst}", faces.len());
+    println!(
+        "no holes: {} faces x 2 portraits x 5 views, worst {worst}",
+        faces.len()
+    );
 
     // The hole detector finds a real hole: cut triangles out of the relief's middle.
     let mut holed = builder

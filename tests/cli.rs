@@ -336,6 +336,21 @@ fn render_takes_a_face_obj_and_writes_the_gem_obj() {
         image::open(&png).unwrap().to_rgb8().dimensions(),
         (160, 200)
     );
+    // The frontal portrait from the same face.
+    succeeds(
+        glyptic()
+            .args([
+                "render",
+                "--size",
+                "160x200",
+                "--portrait",
+                "frontal",
+                "--face",
+            ])
+            .arg(&face)
+            .arg("-o")
+            .arg(d.join("frontal.png")),
+    );
     let (models, _) = tobj::load_obj(&gem_obj, &tobj::GPU_LOAD_OPTIONS).unwrap();
     let expected =
         glyptic::gem::build_cameo(&positions, &model.shape.triangles, &Default::default()).unwrap();

@@ -130,6 +130,7 @@ fn face_and_head_join_without_a_seam() {
                     let f = glyptic::gem::relief::portrait(
                         &mesh,
                         &m.shape.triangles,
+                        glyptic::gem::relief::View::Profile,
                         &layer,
                         [-50.0, -250.0],
                         cell,
@@ -244,6 +245,56 @@ fn obj_export_round_trips_through_tobj() {
                 .zip(&b.vertices)
                 .all(|(p, q)| p.position == q.position && p.region == q.region)
         );
+    }
+}
+
+/// The frontal portrait looks out of the stone: its highest point on the face is the nose tip
+/// (the mean face's vertex furthest along +z), where the profile's is not.
+#[test]
+fn frontal_portrait_faces_the_viewer() {
+    let m = model();
+    let mean = m.instance(&[], &[]);
+    let tip = mean
+        .chunks_exact(3)
+        .max_by(|a, b| a[2].total_cmp(&b[2]))
+        .map(|v| [v[0], v[1]])
+        .unwrap();
+    for (params, frontal) in [
+        (CameoParams::frontal(), true),
+        (CameoParams::default(), false),
+    ] {
+        let r = gem::build_relief(&mean, &m.shape.triangles, &params).unwrap();
+        let (i, _) = r
+            .height
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .unwrap();
+        // Grid node -> gem mm -> model mm (frontal plane: u = x, v = y).
+        let gx = r.origin[0] + (i % r.cols) as f32 * r.cell;
+        let gy = r.origin[1] + (i / r.cols) as f32 * r.cell;
+        let k = params.portrait_scale;
+        let (u, v) = (
+            gx / k + params.portrait_centre[0],
+            gy / k + params.portrait_centre[1],
+        );
+        let d = ((u - tip[0]).powi(2) + (v - tip[1]).powi(2)).sqrt();
+        println!(
+            "frontal {frontal}: highest point at model ({u:.1}, {v:.1}), nose tip {tip:?}, {d:.1} mm away"
+        );
+        if frontal {
+            assert!(
+                d < 8.0,
+                "the frontal relief's top is {d} mm from the nose tip"
+            );
+        } else {
+            assert!(
+                d > 30.0,
+                "the profile relief peaks at the nose tip's frontal position"
+            );
+        }
+        let max = r.height.iter().cloned().fold(0f32, f32::max);
+        assert!(max > 3.0 && max <= params.relief_depth, "{max}");
     }
 }
 

@@ -129,6 +129,7 @@ fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
 fn face_job(
     pipeline: &mut FacePipeline,
     input: &Path,
+    cameo: &glyptic::gem::CameoParams,
     row: &mut Row,
 ) -> Result<glyptic::render::Mesh> {
     let mut stages: Vec<Stage> = Vec::new();
@@ -141,7 +142,12 @@ fn face_job(
         )?;
         let face = pipeline.process(&img, &mut stages)?;
         row.faces = face.faces_found;
-        let mesh = super::build_gem(&mut stages, &face.mesh, &pipeline.model.shape.triangles)?;
+        let mesh = super::build_gem(
+            &mut stages,
+            &face.mesh,
+            &pipeline.model.shape.triangles,
+            cameo,
+        )?;
         Ok(mesh)
     })();
     row.stages.extend(stages.iter().map(|s| (s.name, s.ms)));
@@ -150,6 +156,8 @@ fn face_job(
 
 pub fn batch(args: &BatchArgs) -> Result<()> {
     let view = args.view.params()?;
+    let cameo = args.view.portrait.cameo();
+    let cameo = &cameo;
     let start = Instant::now();
     let files = glyptic::capture::source::list_images(&args.dir)?;
     if files.is_empty() {
@@ -225,7 +233,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                     };
                     // A panic in one image must not take the batch down.
                     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        face_job(&mut pipeline, input, &mut row)
+                        face_job(&mut pipeline, input, cameo, &mut row)
                     }));
                     let mesh = match outcome {
                         Ok(Ok(mesh)) => Some(mesh),

@@ -137,8 +137,26 @@ pub struct ViewArgs {
     /// Tilt the view, degrees.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub pitch: f32,
+    /// How the portrait is carved: in profile (the classic cameo) or facing the viewer.
+    #[arg(long, value_enum, default_value_t = PortraitArg::Profile)]
+    pub portrait: PortraitArg,
     #[command(flatten)]
     pub sss: SssArgs,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PortraitArg {
+    Profile,
+    Frontal,
+}
+
+impl PortraitArg {
+    pub fn cameo(self) -> CameoParams {
+        match self {
+            PortraitArg::Profile => CameoParams::default(),
+            PortraitArg::Frontal => CameoParams::frontal(),
+        }
+    }
 }
 
 /// Subsurface scattering options (`render`, `photo`, `batch`).
@@ -503,11 +521,12 @@ fn build_gem(
     stages: &mut Vec<Stage>,
     face: &[f32],
     triangles: &[[u32; 3]],
+    cameo: &CameoParams,
 ) -> Result<glyptic::render::Mesh> {
     let mesh = timed(
         stages,
         "gem",
-        || gem::build_cameo(face, triangles, &CameoParams::default()),
+        || gem::build_cameo(face, triangles, cameo),
         |m| {
             format!(
                 "{} vertices, {} triangles",
@@ -619,7 +638,7 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
             (model.instance(&[], &[]), model.shape.triangles.clone())
         }
     };
-    let mesh = build_gem(&mut stages, &face, &triangles)?;
+    let mesh = build_gem(&mut stages, &face, &triangles, &args.view.portrait.cameo())?;
     stages.iter().for_each(print_stage);
     let mut renderer = join_renderer(renderer_thread)?;
     let png = render_and_write(&mut renderer, &mesh, &params, &args.output)?;
@@ -754,7 +773,12 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     let mut pipeline = FacePipeline::load_default(&mut stages)?;
     args.choice.apply(&mut pipeline.faces.detect_options);
     let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
-    let mesh = build_gem(&mut stages, &face.mesh, &pipeline.model.shape.triangles)?;
+    let mesh = build_gem(
+        &mut stages,
+        &face.mesh,
+        &pipeline.model.shape.triangles,
+        &args.view.portrait.cameo(),
+    )?;
     for s in &stages[1..] {
         print_stage(s);
     }

@@ -39,6 +39,9 @@ pub struct TrackArgs {
     /// Also build each fitted face's cameo on the face thread (stage "gem"), as the kiosk does.
     #[arg(long)]
     pub gem: bool,
+    /// The cameo's portrait with --gem.
+    #[arg(long, value_enum, default_value_t = super::PortraitArg::Profile, requires = "gem")]
+    pub portrait: super::PortraitArg,
     /// Which face to pick up when the track starts or is lost (a tracked face is kept).
     #[command(flatten)]
     pub choice: super::ChoiceArgs,
@@ -143,9 +146,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
     };
     let mut tracker = Tracker::new(pipeline, options);
     let builder = if args.gem {
-        Some(glyptic::gem::CameoBuilder::new(
-            &glyptic::gem::CameoParams::default(),
-        )?)
+        Some(glyptic::gem::CameoBuilder::new(&args.portrait.cameo())?)
     } else {
         None
     };

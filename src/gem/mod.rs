@@ -32,8 +32,12 @@ pub struct CameoParams {
     pub half_height: f32,
     /// Grid spacing of the relief, gem mm.
     pub cell: f32,
-    /// Highest point of the relief above the ground, gem mm.
+    /// Highest point of the relief above the ground, gem mm (the compression's asymptote).
     pub relief_depth: f32,
+    /// Depth compression: gem height = `relief_depth` (1 - e^(-rolloff t)), t = model height
+    /// over the cranium's depth. Large: strong flattening (a profile keeps its outline and
+    /// loses the cheek's bulk); small: nearly linear (a frontal face keeps its features).
+    pub rolloff: f32,
     /// Gem mm per model mm in the plane.
     pub portrait_scale: f32,
     /// Model point (u, v) of the portrait plane placed at the oval's centre.
@@ -43,13 +47,29 @@ pub struct CameoParams {
     pub head: HeadShape,
 }
 
+impl CameoParams {
+    /// A frontal portrait (the face looks out of the stone) on the default stone.
+    pub fn frontal() -> Self {
+        CameoParams {
+            portrait_centre: [0.0, 12.0],
+            head: HeadShape::frontal(),
+            // Nearly linear, reaching 5 mm at the face's front (t = 1).
+            rolloff: 0.6,
+            relief_depth: 5.0 / (1.0 - (-0.6f32).exp()),
+            ..CameoParams::default()
+        }
+    }
+}
+
 impl Default for CameoParams {
+    /// A profile portrait facing left, the classic cameo.
     fn default() -> Self {
         CameoParams {
             half_width: 22.0,
             half_height: 28.0,
             cell: 0.2,
             relief_depth: 5.0,
+            rolloff: 1.6,
             portrait_scale: 0.155,
             portrait_centre: [97.0, 16.0],
             truncation_y: -20.0,
@@ -116,6 +136,7 @@ fn check_params(p: &CameoParams) -> Result<(), GemError> {
         p.cell,
         p.relief_depth,
         p.portrait_scale,
+        p.rolloff,
     ];
     if pos.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
         return Err(GemError::BadParams(
@@ -238,6 +259,7 @@ impl CameoBuilder {
         let (field, window) = relief::portrait_over(
             positions,
             triangles,
+            p.head.view,
             &self.head,
             &self.base_field,
             FADE_MM,
@@ -268,7 +290,6 @@ impl CameoBuilder {
     /// `relief_depth` (the profile's outline keeps its detail, the cheek flattens, nothing
     /// exceeds the depth; at the head's half-breadth the relief reaches 80 % of the depth).
     fn gem_height(&self, field: &HeightField, i: usize) -> f32 {
-        const ROLLOFF: f32 = 1.6;
         let p = &self.params;
         let reference = p.head.cranium_axes[2].max(1.0);
         // Lift the portrait off the ground, as carvers do, so its outline is a steep edge
@@ -280,7 +301,7 @@ impl CameoBuilder {
             h += w * self.strands[i];
         }
         let t = (h / reference).max(0.0);
-        p.relief_depth * (1.0 - (-ROLLOFF * t).exp()) * self.allowed[i]
+        p.relief_depth * (1.0 - (-p.rolloff * t).exp()) * self.allowed[i]
     }
 
     /// The whole cameo mesh for a face mesh in model mm (`[x0, y0, z0, ...]`).

@@ -1,9 +1,12 @@
-//! The portrait as a height field: face (rasterised in profile) joined to a generated head.
+//! The portrait as a height field: face (rasterised in profile or from the front) joined to a
+//! generated head.
 //!
 //! Frames and units: the face mesh comes in model millimetres (y up, face along +z). The
-//! profile view looks at the face's +x side, so a model point (x, y, z) lands on the portrait
-//! plane at (u, v) = (-z, y) with height x above the face's centre plane; the nose points
-//! towards -u (the portrait faces left). The grid samples that plane in model millimetres.
+//! profile view (the default, see [`View`]) looks at the face's +x side, so a model point
+//! (x, y, z) lands on the portrait plane at (u, v) = (-z, y) with height x above the face's
+//! centre plane; the nose points towards -u (the portrait faces left). The frontal view maps
+//! (x, y, z) to (u, v) = (x, y), height z + [`FRONTAL_BACK_MM`]. The grid samples the plane in
+//! model millimetres.
 //!
 //! Because the portrait is one height field, face and head form one continuous surface with no
 //! gaps or intersections by construction: outside the face's footprint the face's edge height
@@ -47,10 +50,28 @@ impl HeightField {
     }
 }
 
+/// Which way the portrait looks out of the stone.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum View {
+    /// Facing left, seen from the face's +x side: the classic cameo. The plane is (u, v) =
+    /// (-z, y); height is x above the face's centre plane.
+    #[default]
+    Profile,
+    /// Facing the viewer: (u, v) = (x, y); height is z above a plane [`FRONTAL_BACK_MM`] behind
+    /// the face's front (about the ears' depth).
+    Frontal,
+}
+
+/// Frontal view: depth of the plane the heights are measured from, behind the face's front
+/// (the Surrey face's nose tip is near z = 0 and its ears near z = -95), model mm.
+pub const FRONTAL_BACK_MM: f32 = 95.0;
+
 /// Head proportions around the Surrey face, model mm (an average adult head: length about
 /// 195 mm, breadth about 150 mm, chin to crown about 230 mm).
 #[derive(Clone, Copy, Debug)]
 pub struct HeadShape {
+    /// The view these proportions are for (the plane's axes differ).
+    pub view: View,
     /// Cranium ellipsoid centre (u, v) and semi-axes (u, v, height).
     pub cranium_centre: [f32; 2],
     pub cranium_axes: [f32; 3],
@@ -68,9 +89,31 @@ pub struct HeadShape {
     pub hairline_angle: f32,
 }
 
+impl HeadShape {
+    /// A head seen from the front: the cranium frames the face (hair above the ears' line and
+    /// beside the face), the neck below; the face mesh brings its own ears.
+    pub fn frontal() -> Self {
+        HeadShape {
+            view: View::Frontal,
+            cranium_centre: [0.0, 28.0],
+            cranium_axes: [82.0, 118.0, 98.0],
+            neck_u: 0.0,
+            neck_half_width: 50.0,
+            neck_top: -70.0,
+            neck_height: 72.0,
+            ear_centre: [0.0, -5.0],
+            ear_axes: [1.0, 1.0],
+            ear_height: 0.0,
+            hairline_angle: 0.0,
+        }
+    }
+}
+
 impl Default for HeadShape {
+    /// The profile head.
     fn default() -> Self {
         HeadShape {
+            view: View::Profile,
             cranium_centre: [100.0, 38.0],
             cranium_axes: [102.0, 108.0, 76.0],
             neck_u: 95.0,
@@ -137,6 +180,11 @@ impl HeadShape {
         } else {
             head
         };
+        if self.view == View::Frontal {
+            // Hair: the cranium above the ears' line (the face covers the rest of it).
+            let hair = smoothstep(ev - 10.0, ev + 10.0, v) * smoothstep(0.0, 8.0, cranium);
+            return (head, hair);
+        }
         // Hair: the part of the cranium behind a hairline that sweeps from the top of the
         // forehead over the ear and down to the nape, measured as an angle around the ear.
         let (du, dv) = (u - eu, v - ev);
@@ -149,11 +197,13 @@ impl HeadShape {
     }
 }
 
-/// Rasterises triangles (model mm) into a max-height grid over the profile plane.
-/// Only the near half (x >= 0) is drawn. Returns heights (NaN where no triangle covers a cell).
-pub fn rasterise_profile(
+/// Rasterises triangles (model mm) into a max-height grid over the portrait plane of `view`.
+/// Only what lies above the height 0 plane is drawn (profile: the near half, x >= 0). Returns
+/// heights (NaN where no triangle covers a cell).
+pub fn rasterise(
     positions: &[f32],
     triangles: &[[u32; 3]],
+    view: View,
     origin: [f32; 2],
     cell: f32,
     cols: usize,
@@ -167,17 +217,24 @@ pub fn rasterise_profile(
             return None;
         }
         let (x, y, z) = (positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]);
-        let p = [(-z - origin[0]) / cell, (y - origin[1]) / cell, x];
+        let p = match view {
+            View::Profile => [(-z - origin[0]) / cell, (y - origin[1]) / cell, x],
+            View::Frontal => [
+                (x - origin[0]) / cell,
+                (y - origin[1]) / cell,
+                z + FRONTAL_BACK_MM,
+            ],
+        };
         p.iter().all(|v| v.is_finite()).then_some(p)
     };
     for t in triangles {
         let (Some(a), Some(b), Some(c)) = (plane(t[0]), plane(t[1]), plane(t[2])) else {
             continue;
         };
-        // The far half of the head (x < 0) is hidden behind the near half; where its outline
-        // pokes past the near half's edge it would leave slivers of zero height inside the
-        // footprint (seen at the top of the forehead). Triangles that reach the centre plane
-        // stay: they make the profile's outline.
+        // Profile: the far half of the head (x < 0) is hidden behind the near half; where its
+        // outline pokes past the near half's edge it would leave slivers of zero height inside
+        // the footprint (seen at the top of the forehead). Triangles that reach the centre plane
+        // stay: they make the profile's outline. Frontal: nothing lies behind the back plane.
         if a[2].max(b[2]).max(c[2]) < 0.0 {
             continue;
         }
@@ -292,6 +349,7 @@ pub fn nearest_seeds(values: &[f32], cols: usize, rows: usize) -> Vec<Option<usi
 pub fn portrait(
     positions: &[f32],
     triangles: &[[u32; 3]],
+    view: View,
     head: &[(f32, f32)],
     origin: [f32; 2],
     cell: f32,
@@ -301,7 +359,7 @@ pub fn portrait(
     blend_mm: f32,
 ) -> HeightField {
     let base = head_only(head, origin, cell, cols, rows);
-    portrait_over(positions, triangles, head, &base, fade_mm, blend_mm).0
+    portrait_over(positions, triangles, view, head, &base, fade_mm, blend_mm).0
 }
 
 /// The cells (inclusive bounds) where a portrait differs from the head alone.
@@ -351,13 +409,14 @@ pub fn head_only(
 pub fn portrait_over(
     positions: &[f32],
     triangles: &[[u32; 3]],
+    view: View,
     head: &[(f32, f32)],
     base: &HeightField,
     fade_mm: f32,
     blend_mm: f32,
 ) -> (HeightField, Option<Window>) {
     let (origin, cell, cols, rows) = (base.origin, base.cell, base.cols, base.rows);
-    let face = rasterise_profile(positions, triangles, origin, cell, cols, rows);
+    let face = rasterise(positions, triangles, view, origin, cell, cols, rows);
     let (mut x0, mut y0, mut x1, mut y1) = (cols, rows, 0, 0);
     for (i, v) in face.iter().enumerate() {
         if v.is_finite() {
