@@ -38,6 +38,7 @@ struct VsIn {
     @location(1) normal: vec3<f32>,
     @location(2) relief: f32,
     @location(3) region: u32,
+    @location(4) hair: f32,
 }
 
 struct VsOut {
@@ -51,7 +52,6 @@ struct VsOut {
     @location(4) gold: f32,
 }
 
-const REGION_HAIR: u32 = 2u;
 const REGION_GOLD: u32 = 3u;
 
 @vertex
@@ -61,7 +61,7 @@ fn vs_main(in: VsIn) -> VsOut {
     out.world = in.position;
     out.normal = in.normal;
     out.relief = in.relief;
-    out.hair = select(0.0, 1.0, in.region == REGION_HAIR);
+    out.hair = clamp(in.hair, 0.0, 1.0);
     out.gold = select(0.0, 1.0, in.region == REGION_GOLD);
     return out;
 }

@@ -47,6 +47,7 @@ impl Builder {
             normal,
             relief,
             region: region as u32,
+            hair: if region == Region::Hair { 1.0 } else { 0.0 },
         });
         (self.mesh.vertices.len() - 1) as u32
     }
@@ -253,7 +254,8 @@ fn renderer_end_to_end() {
                 position: [0.0; 3],
                 normal: [0.0, 0.0, 1.0],
                 relief: 0.0,
-                region: 0
+                region: 0,
+                hair: 0.0,
             };
             3
         ],

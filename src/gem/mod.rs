@@ -344,6 +344,8 @@ pub fn build_cameo(
 const MAX_BLOCK: usize = 8;
 const FLAT_TOLERANCE_MM: f32 = 0.004;
 const SLOPE_TOLERANCE: f32 = 0.004;
+/// How far the hair layer's weight may stray from the corners' bilinear patch in a merged square.
+const HAIR_TOLERANCE: f32 = 0.02;
 
 /// One square element of the stone's top: `size` x `size` cells from node (`x`, `y`).
 #[derive(Clone, Copy)]
@@ -395,15 +397,19 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, inside: &[bool]) {
         })
         .collect();
     // A square may be one element if every node is inside, of one region, and near the
-    // bilinear patch of its corners in height and slope.
-    // Summed-area table of nodes that are not bare ground (inside, height and slope 0): a
+    // bilinear patch of its corners in height, slope and hair weight.
+    // Summed-area table of nodes that are not bare ground (inside, height, slope and hair 0): a
     // square without any is merged without looking at its nodes (most of the field).
     let mut busy = vec![0u32; (cols + 1) * (rows + 1)];
     for y in 0..rows {
         let mut run = 0;
         for x in 0..cols {
             let i = y * cols + x;
-            run += u32::from(!(inside[i] && relief.height[i] == 0.0 && slope[i] == [0.0, 0.0]));
+            let bare = inside[i]
+                && relief.height[i] == 0.0
+                && slope[i] == [0.0, 0.0]
+                && relief.hair[i] == 0.0;
+            run += u32::from(!bare);
             busy[(y + 1) * (cols + 1) + x + 1] = busy[y * (cols + 1) + x + 1] + run;
         }
     }
@@ -424,6 +430,7 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, inside: &[bool]) {
         let heights = c.map(|i| relief.height[i]);
         let sx = c.map(|i| slope[i][0]);
         let sy = c.map(|i| slope[i][1]);
+        let hair = c.map(|i| relief.hair[i]);
         let first = region[c[0]];
         let scale = 1.0 / e.size as f32;
         let node_ok = |dx: usize, dy: usize| {
@@ -434,6 +441,7 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, inside: &[bool]) {
                 && (relief.height[i] - bilinear(heights, u, w)).abs() <= FLAT_TOLERANCE_MM
                 && (slope[i][0] - bilinear(sx, u, w)).abs() <= SLOPE_TOLERANCE
                 && (slope[i][1] - bilinear(sy, u, w)).abs() <= SLOPE_TOLERANCE
+                && (relief.hair[i] - bilinear(hair, u, w)).abs() <= HAIR_TOLERANCE
         };
         // The centre and the edges' midpoints stray first on a curved surface: try them first.
         let h = e.size / 2;
@@ -507,6 +515,7 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, inside: &[bool]) {
             normal: [-dzdx * inv_len, -dzdy * inv_len, inv_len],
             relief: h,
             region: region[i] as u32,
+            hair: relief.hair[i].clamp(0.0, 1.0),
         });
     }
 
@@ -551,6 +560,7 @@ fn add_bezel_and_back(mesh: &mut Mesh, p: &CameoParams) {
         normal,
         relief: 0.0,
         region: Region::Gold as u32,
+        hair: 0.0,
     };
     for seg in BEZEL_PROFILE.windows(2) {
         let ([d0, z0], [d1, z1]) = (seg[0], seg[1]);

@@ -242,6 +242,7 @@ impl Pipelines {
             1 => Float32x3, // normal
             2 => Float32,   // relief
             3 => Uint32,    // region
+            4 => Float32,   // hair
         ];
         let scene = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("glyptic scene pipeline"),

@@ -66,7 +66,8 @@ pub(crate) fn validate(mesh: &Mesh, max_buffer_bytes: u64) -> Result<Bounds, Ren
             .iter()
             .chain(v.normal.iter())
             .all(|c| c.is_finite())
-            && v.relief.is_finite();
+            && v.relief.is_finite()
+            && v.hair.is_finite();
         if !finite {
             return Err(RenderError::NonFiniteVertex { index });
         }
@@ -114,6 +115,7 @@ mod tests {
             normal: [0.0, 0.0, 1.0],
             relief: 0.0,
             region: 0,
+            hair: 0.0,
         }
     }
 

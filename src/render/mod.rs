@@ -36,7 +36,7 @@ use self::gpu::{CompositeUniform, FrameUniform, MeshBuffers, Pipelines, Targets}
 
 pub use self::camera::FOV_Y_DEG;
 
-/// One vertex of the draw data, laid out for the GPU (32 bytes).
+/// One vertex of the draw data, laid out for the GPU (36 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Vertex {
@@ -48,6 +48,9 @@ pub struct Vertex {
     pub relief: f32,
     /// A [`Region`] as `u32`.
     pub region: u32,
+    /// How much of the agate's brown hair layer lies here, 0..1 (clamped). Interpolated across
+    /// triangles, so the layer's border runs smoothly between vertices instead of along them.
+    pub hair: f32,
 }
 
 /// What a vertex is made of.
