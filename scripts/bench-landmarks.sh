@@ -13,17 +13,9 @@ REPEATS="${1:-21}"
 bash scripts/setup.sh
 source scripts/env.sh
 
-PKGS=(libdlib-dev g++)
-missing=()
-for p in "${PKGS[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ "${#missing[@]}" -gt 0 ]; then
-  echo "bench-landmarks: installing ${missing[*]}"
-  SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
+# The peer only: dlib's headers and library, and a C++ compiler.
+source scripts/apt.sh
+apt_ensure bench-landmarks libdlib-dev g++
 
 PEER=target/dlib_peer
 mkdir -p target

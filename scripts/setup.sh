@@ -18,6 +18,8 @@ DEPS="$ROOT/.deps"
 CACHE="$DEPS/cache"
 mkdir -p "$DEPS" "$CACHE" models shapemodel/sfm data/menpo
 
+# shellcheck source=apt.sh
+source "$ROOT/scripts/apt.sh"
 say() { printf 'setup: %s\n' "$*"; }
 die() { printf 'setup: error: %s\n' "$*" >&2; exit 1; }
 
@@ -30,23 +32,7 @@ APT_PKGS=(build-essential pkg-config python3 python3-venv ca-certificates
   libopencv-dev opencv-data clang libclang-dev
   mesa-vulkan-drivers libvulkan1 libegl1 libgl1 xvfb xauth libxkbcommon-x11-0
   libdlib-data)
-missing=()
-for p in "${APT_PKGS[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ "${#missing[@]}" -gt 0 ]; then
-  say "installing Debian packages: ${missing[*]}"
-  SUDO=""
-  if [ "$(id -u)" -ne 0 ]; then
-    command -v sudo >/dev/null || die "need root or sudo to install: ${missing[*]}"
-    SUDO="sudo"
-  fi
-  export DEBIAN_FRONTEND=noninteractive
-  $SUDO apt-get update -qq
-  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-else
-  say "Debian packages present"
-fi
+apt_ensure setup "${APT_PKGS[@]}"
 
 command -v cargo >/dev/null || die "cargo not found: install the Rust toolchain (rustup) first"
 PY=python3
