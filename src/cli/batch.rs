@@ -134,12 +134,7 @@ fn face_job(
 ) -> Result<glyptic::render::Mesh> {
     let mut stages: Vec<Stage> = Vec::new();
     let result = (|| -> Result<glyptic::render::Mesh> {
-        let img = glyptic::pipeline::timed(
-            &mut stages,
-            "decode",
-            || glyptic::capture::load_photo(input),
-            |_| String::new(),
-        )?;
+        let img = super::decode(&mut stages, input)?;
         let face = pipeline.process(&img, &mut stages)?;
         row.faces = face.faces_found;
         let mesh = super::build_gem(

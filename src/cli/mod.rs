@@ -326,12 +326,7 @@ pub struct PhotoArgs {
 fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
     let path = &args.image;
     let mut stages = Vec::new();
-    let img = timed(
-        &mut stages,
-        "decode",
-        || glyptic::capture::load_photo(path),
-        |i| format!("{}x{}", i.width(), i.height()),
-    )?;
+    let img = decode(&mut stages, path)?;
     let mut pipeline = glyptic::pipeline::LandmarkPipeline::load_default(&mut stages)?;
     args.choice.apply(&mut pipeline.detect_options);
     let mut detections = pipeline
@@ -517,6 +512,16 @@ fn check_output_dirs<'a>(outputs: impl IntoIterator<Item = &'a PathBuf>) -> Resu
 }
 
 /// Builds the cameo around a face mesh (model mm), as a timed stage.
+/// Decodes a photo as stage "decode" (its size as the detail).
+fn decode(stages: &mut Vec<Stage>, path: &Path) -> Result<image::RgbImage> {
+    Ok(timed(
+        stages,
+        "decode",
+        || glyptic::capture::load_photo(path),
+        |i| format!("{}x{}", i.width(), i.height()),
+    )?)
+}
+
 fn build_gem(
     stages: &mut Vec<Stage>,
     face: &[f32],
@@ -763,12 +768,7 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     let renderer_thread = spawn_renderer();
 
     let mut stages = Vec::new();
-    let img = timed(
-        &mut stages,
-        "decode",
-        || glyptic::capture::load_photo(image_path),
-        |i| format!("{}x{}", i.width(), i.height()),
-    )?;
+    let img = decode(&mut stages, image_path)?;
     print_stage(&stages[0]);
     let mut pipeline = FacePipeline::load_default(&mut stages)?;
     args.choice.apply(&mut pipeline.faces.detect_options);
