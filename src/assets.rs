@@ -14,9 +14,11 @@ pub const SFM_ENV: &str = "GLYPTIC_SFM_DIR";
 /// Environment variable that names the ONNX Runtime shared library (as `ort` uses it).
 pub const ORT_ENV: &str = "ORT_DYLIB_PATH";
 
+/// File name of the face detector model in `models/`.
+const DETECTOR_FILE: &str = "centerface.onnx";
+
 fn looks_like_root(dir: &Path) -> bool {
-    dir.join("models").join("centerface.onnx").is_file()
-        || dir.join("shapemodel").join("sfm").is_dir()
+    dir.join("models").join(DETECTOR_FILE).is_file() || dir.join("shapemodel").join("sfm").is_dir()
 }
 
 /// The project root holding set-up's files (see the module doc for the search order).
@@ -52,6 +54,11 @@ pub fn sfm_dir() -> PathBuf {
 /// Folder of the detector and landmark models.
 pub fn models_dir() -> PathBuf {
     root().join("models")
+}
+
+/// The CenterFace detector model set-up puts in [`models_dir`].
+pub fn detector_model() -> PathBuf {
+    models_dir().join(DETECTOR_FILE)
 }
 
 /// The ONNX Runtime shared library (`ORT_DYLIB_PATH` or the copy set-up made).

@@ -114,7 +114,7 @@ impl LandmarkPipeline {
     /// Loads the models from where set-up puts them ([`crate::assets`]).
     pub fn load_default(stages: &mut Vec<Stage>) -> Result<Self, PipelineError> {
         Self::load(
-            &crate::assets::models_dir().join("centerface.onnx"),
+            &crate::assets::detector_model(),
             &crate::assets::onnxruntime_lib(),
             &crate::landmarks::default_model_path(),
             stages,
@@ -221,7 +221,7 @@ impl FacePipeline {
     /// Loads the models from where set-up puts them ([`crate::assets`]).
     pub fn load_default(stages: &mut Vec<Stage>) -> Result<Self, PipelineError> {
         Self::load(
-            &crate::assets::models_dir().join("centerface.onnx"),
+            &crate::assets::detector_model(),
             &crate::assets::onnxruntime_lib(),
             &crate::landmarks::default_model_path(),
             &crate::assets::sfm_dir(),

@@ -19,7 +19,7 @@ use glyptic::detect::{
 use image::RgbImage;
 
 fn model_path() -> PathBuf {
-    assets::models_dir().join("centerface.onnx")
+    assets::detector_model()
 }
 
 /// One shared detector: loading is done once, and holding the lock keeps runs (and so the

@@ -182,7 +182,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     let mut pipelines = vec![first];
     for _ in 1..jobs {
         let p = pipelines[0].fork(
-            &glyptic::assets::models_dir().join("centerface.onnx"),
+            &glyptic::assets::detector_model(),
             &glyptic::assets::onnxruntime_lib(),
         )?;
         pipelines.push(p);
