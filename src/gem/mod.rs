@@ -177,6 +177,8 @@ pub struct CameoBuilder {
     /// window around it.
     base_field: HeightField,
     base_height: Vec<f32>,
+    /// The stone's top planned for the head alone: a face replans only its window.
+    base_plan: SurfacePlan,
 }
 
 impl CameoBuilder {
@@ -236,10 +238,20 @@ impl CameoBuilder {
             inside,
             base_field,
             base_height: Vec::new(),
+            base_plan: SurfacePlan::default(),
         };
         builder.base_height = (0..cols * rows)
             .map(|i| builder.gem_height(&builder.base_field, i))
             .collect();
+        let base = Relief {
+            height: builder.base_height.clone(),
+            hair: builder.base_field.hair.clone(),
+            cols,
+            rows,
+            origin,
+            cell: p.cell,
+        };
+        builder.base_plan = plan_surface(&base, &builder.inside, None);
         Ok(builder)
     }
 
@@ -249,6 +261,16 @@ impl CameoBuilder {
 
     /// The relief height field (gem mm) for a face mesh in model mm.
     pub fn relief(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Relief, GemError> {
+        self.relief_in(positions, triangles)
+            .map(|(relief, _)| relief)
+    }
+
+    /// [`Self::relief`] and the window outside which it is the head alone's.
+    fn relief_in(
+        &self,
+        positions: &[f32],
+        triangles: &[[u32; 3]],
+    ) -> Result<(Relief, Option<relief::Window>), GemError> {
         if positions.len() < 9 || triangles.is_empty() {
             return Err(GemError::EmptyFace);
         }
@@ -275,14 +297,15 @@ impl CameoBuilder {
             }
         }
         let hair = field.hair;
-        Ok(Relief {
+        let relief = Relief {
             height,
             hair,
             cols,
             rows,
             origin,
             cell: p.cell,
-        })
+        };
+        Ok((relief, window))
     }
 
     /// Gem height (mm) of node `i` of a portrait field: the lift off the ground, the carved
@@ -306,9 +329,15 @@ impl CameoBuilder {
 
     /// The whole cameo mesh for a face mesh in model mm (`[x0, y0, z0, ...]`).
     pub fn build(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Mesh, GemError> {
-        let relief = self.relief(positions, triangles)?;
+        let (relief, window) = self.relief_in(positions, triangles)?;
         let mut mesh = Mesh::default();
-        add_relief_surface(&mut mesh, &relief, &self.inside);
+        match window {
+            Some(w) => {
+                let plan = plan_surface(&relief, &self.inside, Some((&self.base_plan, w)));
+                add_relief_surface(&mut mesh, &relief, &plan);
+            }
+            None => add_relief_surface(&mut mesh, &relief, &self.base_plan),
+        }
         let first = mesh.vertices.len() as u32;
         mesh.vertices.extend_from_slice(&self.base.vertices);
         mesh.indices
@@ -348,76 +377,121 @@ const SLOPE_TOLERANCE: f32 = 0.004;
 const HAIR_TOLERANCE: f32 = 0.02;
 
 /// One square element of the stone's top: `size` x `size` cells from node (`x`, `y`).
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug)]
 struct Element {
     x: usize,
     y: usize,
     size: usize,
 }
 
+/// The stone's top before triangulation: per node its material region and slope, and the
+/// quadtree's elements, grouped by top-level block (blocks of [`MAX_BLOCK`] cells, row-major;
+/// block `b`'s elements are `elements[block[b]]`).
+#[derive(Clone, Debug, Default)]
+struct SurfacePlan {
+    region: Vec<Region>,
+    slope: Vec<[f32; 2]>,
+    elements: Vec<Element>,
+    block: Vec<std::ops::Range<usize>>,
+}
+
 /// The stone's top, with detail only where the surface needs it: the grid's cells are merged
 /// (quadtree fashion, up to [`MAX_BLOCK`] cells a side) wherever the heights stay within
 /// [`FLAT_TOLERANCE_MM`] of a plane and the material does not change, so the flat ground and
-/// smooth slopes take a few triangles and the face keeps every cell. A merged square is a fan
-/// around its centre node through every node on its border that a neighbour uses as a corner,
-/// so the surface stays watertight (no T-junctions). Cells need all four corners inside the
-/// oval; the bezel's inner foot covers the stepped outline.
-fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, inside: &[bool]) {
+/// smooth slopes take a few triangles and the face keeps every cell. Cells need all four
+/// corners inside the oval; the bezel's inner foot covers the stepped outline.
+///
+/// With `base` = (the plan of another relief, the window outside which both reliefs are
+/// equal), only the window's nodes and the blocks that reach it are planned again: the rest is
+/// the base's (the same result as planning everything).
+fn plan_surface(
+    relief: &Relief,
+    inside: &[bool],
+    base: Option<(&SurfacePlan, relief::Window)>,
+) -> SurfacePlan {
     let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
-    let node_xy = |i: usize| {
-        (
-            relief.origin[0] + (i % cols) as f32 * cell,
-            relief.origin[1] + (i / cols) as f32 * cell,
-        )
+    // Nodes to compute again: the window, one node wider for the slopes' differences.
+    let all = relief::Window {
+        x0: 0,
+        y0: 0,
+        x1: cols - 1,
+        y1: rows - 1,
     };
-    let region: Vec<Region> = (0..cols * rows)
-        .map(|i| {
-            if relief.height[i] < GROUND_EPS {
+    let dirty = base.map_or(all, |(_, w)| relief::Window {
+        x0: w.x0.saturating_sub(1),
+        y0: w.y0.saturating_sub(1),
+        x1: (w.x1 + 1).min(cols - 1),
+        y1: (w.y1 + 1).min(rows - 1),
+    });
+    let (mut region, mut slope) = match base {
+        Some((b, _)) => (b.region.clone(), b.slope.clone()),
+        None => (
+            vec![Region::Ground; cols * rows],
+            vec![[0.0; 2]; cols * rows],
+        ),
+    };
+    for row in dirty.y0..=dirty.y1 {
+        for col in dirty.x0..=dirty.x1 {
+            let i = row * cols + col;
+            region[i] = if relief.height[i] < GROUND_EPS {
                 Region::Ground
             } else if relief.hair[i] > 0.5 {
                 Region::Hair
             } else {
                 Region::Relief
-            }
-        })
-        .collect();
-
-    // Slopes (dz/dx, dz/dy) at every node: central differences, one-sided at the grid's edge.
-    let slope: Vec<[f32; 2]> = (0..cols * rows)
-        .map(|i| {
-            let (col, row) = (i % cols, i / cols);
+            };
+            // Central differences, one-sided at the grid's edge.
             let (left, right) = (col.saturating_sub(1), (col + 1).min(cols - 1));
             let (up, down) = (row.saturating_sub(1), (row + 1).min(rows - 1));
-            [
+            slope[i] = [
                 (relief.height[row * cols + right] - relief.height[row * cols + left])
                     / (cell * (right - left) as f32),
                 (relief.height[down * cols + col] - relief.height[up * cols + col])
                     / (cell * (down - up) as f32),
-            ]
-        })
-        .collect();
-    // A square may be one element if every node is inside, of one region, and near the
-    // bilinear patch of its corners in height, slope and hair weight.
-    // Summed-area table of nodes that are not bare ground (inside, height, slope and hair 0): a
-    // square without any is merged without looking at its nodes (most of the field).
-    let mut busy = vec![0u32; (cols + 1) * (rows + 1)];
-    for y in 0..rows {
+            ];
+        }
+    }
+
+    // Top-level blocks that reach a dirty node (block (bx, by) spans nodes bx * MAX_BLOCK to
+    // bx * MAX_BLOCK + MAX_BLOCK) are planned again; the rest keep the base's elements.
+    let (blocks_x, blocks_y) = (
+        (cols - 1).div_ceil(MAX_BLOCK),
+        (rows - 1).div_ceil(MAX_BLOCK),
+    );
+    let bx0 = dirty.x0.saturating_sub(1) / MAX_BLOCK;
+    let by0 = dirty.y0.saturating_sub(1) / MAX_BLOCK;
+    let bx1 = (dirty.x1 / MAX_BLOCK).min(blocks_x - 1);
+    let by1 = (dirty.y1 / MAX_BLOCK).min(blocks_y - 1);
+    // Summed-area table, over the replanned blocks' nodes, of nodes that are not bare ground
+    // (inside, height, slope and hair 0): a square without any is merged without looking at its
+    // nodes (most of the field).
+    let (nx0, ny0) = (bx0 * MAX_BLOCK, by0 * MAX_BLOCK);
+    let nx1 = ((bx1 + 1) * MAX_BLOCK).min(cols - 1);
+    let ny1 = ((by1 + 1) * MAX_BLOCK).min(rows - 1);
+    let sat_w = nx1 - nx0 + 2;
+    let mut busy = vec![0u32; sat_w * (ny1 - ny0 + 2)];
+    for y in ny0..=ny1 {
         let mut run = 0;
-        for x in 0..cols {
+        for x in nx0..=nx1 {
             let i = y * cols + x;
             let bare = inside[i]
                 && relief.height[i] == 0.0
                 && slope[i] == [0.0, 0.0]
                 && relief.hair[i] == 0.0;
             run += u32::from(!bare);
-            busy[(y + 1) * (cols + 1) + x + 1] = busy[y * (cols + 1) + x + 1] + run;
+            let (ly, lx) = (y - ny0, x - nx0);
+            busy[(ly + 1) * sat_w + lx + 1] = busy[ly * sat_w + lx + 1] + run;
         }
     }
     let busy_in = |e: Element| {
-        let (x0, y0, x1, y1) = (e.x, e.y, e.x + e.size + 1, e.y + e.size + 1);
-        let w = cols + 1;
-        busy[y1 * w + x1] + busy[y0 * w + x0] - busy[y0 * w + x1] - busy[y1 * w + x0]
+        let (x0, y0) = (e.x - nx0, e.y - ny0);
+        let (x1, y1) = (x0 + e.size + 1, y0 + e.size + 1);
+        busy[y1 * sat_w + x1] + busy[y0 * sat_w + x0]
+            - busy[y0 * sat_w + x1]
+            - busy[y1 * sat_w + x0]
     };
+    // A square may be one element if every node is inside, of one region, and near the
+    // bilinear patch of its corners in height, slope and hair weight.
     let mergeable = |e: Element| {
         if busy_in(e) == 0 {
             return true;
@@ -450,48 +524,80 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, inside: &[bool]) {
             .all(|&(dx, dy)| node_ok(dx, dy))
             && (0..=e.size).all(|dy| (0..=e.size).all(|dx| node_ok(dx, dy)))
     };
-    let mut elements = Vec::new();
-    let mut stack: Vec<Element> = Vec::new();
-    for y in (0..rows - 1).step_by(MAX_BLOCK) {
-        for x in (0..cols - 1).step_by(MAX_BLOCK) {
-            stack.push(Element {
-                x,
-                y,
-                size: MAX_BLOCK,
-            });
-        }
-    }
-    while let Some(e) = stack.pop() {
-        if e.x >= cols - 1 || e.y >= rows - 1 {
-            continue;
-        }
-        let fits = e.x + e.size < cols && e.y + e.size < rows;
-        if e.size == 1 {
-            let corners = [(0, 0), (1, 0), (0, 1), (1, 1)];
-            if corners
-                .iter()
-                .all(|&(dx, dy)| inside[(e.y + dy) * cols + e.x + dx])
-            {
+    let split = |root: Element, elements: &mut Vec<Element>| {
+        let mut stack = vec![root];
+        while let Some(e) = stack.pop() {
+            if e.x >= cols - 1 || e.y >= rows - 1 {
+                continue;
+            }
+            let fits = e.x + e.size < cols && e.y + e.size < rows;
+            if e.size == 1 {
+                let corners = [(0, 0), (1, 0), (0, 1), (1, 1)];
+                if corners
+                    .iter()
+                    .all(|&(dx, dy)| inside[(e.y + dy) * cols + e.x + dx])
+                {
+                    elements.push(e);
+                }
+            } else if fits && mergeable(e) {
                 elements.push(e);
-            }
-        } else if fits && mergeable(e) {
-            elements.push(e);
-        } else {
-            let h = e.size / 2;
-            for (dx, dy) in [(0, 0), (h, 0), (0, h), (h, h)] {
-                stack.push(Element {
-                    x: e.x + dx,
-                    y: e.y + dy,
-                    size: h,
-                });
+            } else {
+                let h = e.size / 2;
+                for (dx, dy) in [(0, 0), (h, 0), (0, h), (h, h)] {
+                    stack.push(Element {
+                        x: e.x + dx,
+                        y: e.y + dy,
+                        size: h,
+                    });
+                }
             }
         }
+    };
+    let mut elements = Vec::with_capacity(base.map_or(0, |(b, _)| b.elements.len() + 1024));
+    let mut block = vec![0..0; blocks_x * blocks_y];
+    // Last block first (the order of a stack of all blocks, as before planning by block).
+    for b in (0..blocks_x * blocks_y).rev() {
+        let start = elements.len();
+        let (bx, by) = (b % blocks_x, b / blocks_x);
+        match base {
+            Some((plan, _)) if !((bx0..=bx1).contains(&bx) && (by0..=by1).contains(&by)) => {
+                elements.extend_from_slice(&plan.elements[plan.block[b].clone()]);
+            }
+            _ => split(
+                Element {
+                    x: bx * MAX_BLOCK,
+                    y: by * MAX_BLOCK,
+                    size: MAX_BLOCK,
+                },
+                &mut elements,
+            ),
+        }
+        block[b] = start..elements.len();
     }
+    SurfacePlan {
+        region,
+        slope,
+        elements,
+        block,
+    }
+}
 
+/// Adds the stone's top as planned: a merged square is a fan around its centre node through
+/// every node on its border that a neighbour uses as a corner, so the surface stays watertight
+/// (no T-junctions).
+fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &SurfacePlan) {
+    let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
+    let (elements, region, slope) = (&plan.elements, &plan.region, &plan.slope);
+    let node_xy = |col: usize, row: usize| {
+        (
+            relief.origin[0] + col as f32 * cell,
+            relief.origin[1] + row as f32 * cell,
+        )
+    };
     // Nodes in use: every element's corners, and merged squares' centres.
     let mut corner = vec![false; cols * rows];
     let mut used = vec![false; cols * rows];
-    for e in &elements {
+    for e in elements {
         for (dx, dy) in [(0, 0), (e.size, 0), (0, e.size), (e.size, e.size)] {
             corner[(e.y + dy) * cols + e.x + dx] = true;
             used[(e.y + dy) * cols + e.x + dx] = true;
@@ -504,8 +610,11 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, inside: &[bool]) {
     let mut index = vec![u32::MAX; cols * rows];
     let count = used.iter().filter(|u| **u).count();
     mesh.vertices.reserve(count);
-    for (i, _) in used.iter().enumerate().filter(|(_, u)| **u) {
-        let (x, y) = node_xy(i);
+    for (i, (x, y)) in (0..rows)
+        .flat_map(|row| (0..cols).map(move |col| (row * cols + col, col, row)))
+        .filter(|&(i, _, _)| used[i])
+        .map(|(i, col, row)| (i, node_xy(col, row)))
+    {
         let h = relief.height[i];
         let [dzdx, dzdy] = slope[i];
         let inv_len = 1.0 / (dzdx * dzdx + dzdy * dzdy + 1.0).sqrt();
@@ -521,7 +630,7 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, inside: &[bool]) {
 
     // Counter-clockwise seen from +Z (y up), like the bezel's.
     let mut border = Vec::with_capacity(4 * MAX_BLOCK);
-    for e in &elements {
+    for e in elements {
         let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
         if e.size == 1 {
             let [a, b, c, d] = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)].map(|i| index[i]);

@@ -210,25 +210,26 @@ pub fn rasterise(
     rows: usize,
 ) -> Vec<f32> {
     let mut h = vec![f32::NAN; cols * rows];
-    let n = positions.len() / 3;
-    let plane = |i: u32| -> Option<[f32; 3]> {
-        let i = i as usize;
-        if i >= n {
-            return None;
-        }
-        let (x, y, z) = (positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]);
-        let p = match view {
-            View::Profile => [(-z - origin[0]) / cell, (y - origin[1]) / cell, x],
-            View::Frontal => [
-                (x - origin[0]) / cell,
-                (y - origin[1]) / cell,
-                z + FRONTAL_BACK_MM,
-            ],
-        };
-        p.iter().all(|v| v.is_finite()).then_some(p)
-    };
+    // Every vertex in grid coordinates (x, y in cells) and height, once: each is shared by
+    // about six triangles. `None` for a non-finite vertex.
+    let plane: Vec<Option<[f32; 3]>> = positions
+        .chunks_exact(3)
+        .map(|v| {
+            let (x, y, z) = (v[0], v[1], v[2]);
+            let p = match view {
+                View::Profile => [(-z - origin[0]) / cell, (y - origin[1]) / cell, x],
+                View::Frontal => [
+                    (x - origin[0]) / cell,
+                    (y - origin[1]) / cell,
+                    z + FRONTAL_BACK_MM,
+                ],
+            };
+            p.iter().all(|v| v.is_finite()).then_some(p)
+        })
+        .collect();
+    let corner = |i: u32| plane.get(i as usize).copied().flatten();
     for t in triangles {
-        let (Some(a), Some(b), Some(c)) = (plane(t[0]), plane(t[1]), plane(t[2])) else {
+        let (Some(a), Some(b), Some(c)) = (corner(t[0]), corner(t[1]), corner(t[2])) else {
             continue;
         };
         // Profile: the far half of the head (x < 0) is hidden behind the near half; where its
@@ -242,11 +243,18 @@ pub fn rasterise(
         if area.abs() < 1e-12 {
             continue;
         }
-        let min_x = a[0].min(b[0]).min(c[0]).floor().max(0.0) as usize;
-        let max_x = (a[0].max(b[0]).max(c[0]).ceil() as isize).min(cols as isize - 1);
-        let min_y = a[1].min(b[1]).min(c[1]).floor().max(0.0) as usize;
-        let max_y = (a[1].max(b[1]).max(c[1]).ceil() as isize).min(rows as isize - 1);
-        if max_x < 0 || max_y < 0 {
+        // Samples sit on whole cells: the box runs from the first whole cell at or after the
+        // smallest coordinate to the last at or before the largest, widened by the edge
+        // tolerance below (a sample with every weight >= -1e-4 lies within 3e-4 of the
+        // triangle's extent outside it).
+        let (lo_x, hi_x) = (a[0].min(b[0]).min(c[0]), a[0].max(b[0]).max(c[0]));
+        let (lo_y, hi_y) = (a[1].min(b[1]).min(c[1]), a[1].max(b[1]).max(c[1]));
+        let slack = 3e-4 * (hi_x - lo_x).max(hi_y - lo_y) + 1e-5;
+        let min_x = (lo_x - slack).ceil().max(0.0) as usize;
+        let max_x = ((hi_x + slack).floor() as isize).min(cols as isize - 1);
+        let min_y = (lo_y - slack).ceil().max(0.0) as usize;
+        let max_y = ((hi_y + slack).floor() as isize).min(rows as isize - 1);
+        if max_x < min_x as isize || max_y < min_y as isize {
             continue;
         }
         let inv_area = 1.0 / area;
@@ -270,69 +278,84 @@ pub fn rasterise(
     h
 }
 
-/// For each cell, the index of the nearest cell with a finite value (two-pass chamfer
-/// propagation of nearest seeds; exact enough for a soft fade). `None` if there is no seed.
-pub fn nearest_seeds(values: &[f32], cols: usize, rows: usize) -> Vec<Option<usize>> {
-    // Seeds kept as coordinates (no division per comparison); `i32::MIN` marks "none yet".
-    const NONE: i32 = i32::MIN;
-    let mut sx = vec![NONE; values.len()];
-    let mut sy = vec![NONE; values.len()];
-    for (i, v) in values.iter().enumerate() {
-        if v.is_finite() {
-            sx[i] = (i % cols) as i32;
-            sy[i] = (i / cols) as i32;
-        }
-    }
-    let relax = |sx: &mut [i32], sy: &mut [i32], x: usize, y: usize, j: usize| {
-        let i = y * cols + x;
-        if sx[j] == NONE {
-            return;
-        }
-        let (xi, yi) = (x as i64, y as i64);
-        let d2 = |ax: i32, ay: i32| (xi - i64::from(ax)).pow(2) + (yi - i64::from(ay)).pow(2);
-        if sx[i] == NONE || d2(sx[j], sy[j]) < d2(sx[i], sy[i]) {
-            sx[i] = sx[j];
-            sy[i] = sy[j];
+/// No cell of the other class (see [`nearest_other`]).
+pub const NO_CELL: [i32; 2] = [i32::MIN, i32::MIN];
+
+/// For each cell of a grid split in two classes (`mask`, row-major), the coordinates `[x, y]`
+/// of the nearest cell of the other class, or [`NO_CELL`]: two-pass chamfer propagation
+/// (8 neighbours; exact enough for a soft fade). Both distance transforms, footprint to
+/// outside and outside to footprint, in one pass: a neighbour of the other class offers itself,
+/// one of the same class its own nearest.
+pub fn nearest_other(mask: &[bool], cols: usize, rows: usize) -> Vec<[i32; 2]> {
+    let mut seed = vec![NO_CELL; mask.len()];
+    // Offers cell (x, y) the nearest of neighbour (jx, jy), keeping the nearer (ties keep what
+    // it has: the earlier neighbour).
+    let offer = |seed: &[[i32; 2]],
+                 best: &mut ([i32; 2], i64),
+                 x: usize,
+                 y: usize,
+                 jx: usize,
+                 jy: usize| {
+        let j = jy * cols + jx;
+        let s = if mask[j] != mask[y * cols + x] {
+            [jx as i32, jy as i32]
+        } else {
+            seed[j]
+        };
+        if s != NO_CELL {
+            let d = (x as i64 - i64::from(s[0])).pow(2) + (y as i64 - i64::from(s[1])).pow(2);
+            if d < best.1 {
+                *best = (s, d);
+            }
         }
     };
+    let start = |seed: &[[i32; 2]], x: usize, y: usize| {
+        let s = seed[y * cols + x];
+        let d = if s == NO_CELL {
+            i64::MAX
+        } else {
+            (x as i64 - i64::from(s[0])).pow(2) + (y as i64 - i64::from(s[1])).pow(2)
+        };
+        (s, d)
+    };
+    // Forward: left, up, up-left, up-right; backward: right, down, down-right, down-left.
     for y in 0..rows {
         for x in 0..cols {
-            let i = y * cols + x;
+            let mut best = start(&seed, x, y);
             if x > 0 {
-                relax(&mut sx, &mut sy, x, y, i - 1);
+                offer(&seed, &mut best, x, y, x - 1, y);
             }
             if y > 0 {
-                relax(&mut sx, &mut sy, x, y, i - cols);
+                offer(&seed, &mut best, x, y, x, y - 1);
                 if x > 0 {
-                    relax(&mut sx, &mut sy, x, y, i - cols - 1);
+                    offer(&seed, &mut best, x, y, x - 1, y - 1);
                 }
                 if x + 1 < cols {
-                    relax(&mut sx, &mut sy, x, y, i - cols + 1);
+                    offer(&seed, &mut best, x, y, x + 1, y - 1);
                 }
             }
+            seed[y * cols + x] = best.0;
         }
     }
     for y in (0..rows).rev() {
         for x in (0..cols).rev() {
-            let i = y * cols + x;
+            let mut best = start(&seed, x, y);
             if x + 1 < cols {
-                relax(&mut sx, &mut sy, x, y, i + 1);
+                offer(&seed, &mut best, x, y, x + 1, y);
             }
             if y + 1 < rows {
-                relax(&mut sx, &mut sy, x, y, i + cols);
+                offer(&seed, &mut best, x, y, x, y + 1);
                 if x + 1 < cols {
-                    relax(&mut sx, &mut sy, x, y, i + cols + 1);
+                    offer(&seed, &mut best, x, y, x + 1, y + 1);
                 }
                 if x > 0 {
-                    relax(&mut sx, &mut sy, x, y, i + cols - 1);
+                    offer(&seed, &mut best, x, y, x - 1, y + 1);
                 }
             }
+            seed[y * cols + x] = best.0;
         }
     }
-    sx.iter()
-        .zip(&sy)
-        .map(|(&x, &y)| (x != NONE).then(|| y as usize * cols + x as usize))
-        .collect()
+    seed
 }
 
 /// Builds the portrait height field from a face mesh (model mm) and a head shape.
@@ -441,59 +464,72 @@ pub fn portrait_over(
         (y1 + reach + apron).min(rows - 1),
     );
     let (w, h) = (wx1 - wx0 + 1, wy1 - wy0 + 1);
-    let to_grid = |k: usize| (wy0 + k / w) * cols + wx0 + k % w;
-    let crop: Vec<f32> = (0..w * h).map(|k| face[to_grid(k)]).collect();
-    let complement: Vec<f32> = crop
-        .iter()
-        .map(|v| if v.is_finite() { f32::NAN } else { 0.0 })
-        .collect();
-    // Nearest footprint cell (outside it) and nearest non-footprint cell (inside), in window
-    // indices. Seeds matter only within the fade around the footprint: search the footprint's
-    // box grown by the fade (two passes over that, not the window).
+    let mut crop = Vec::with_capacity(w * h);
+    for y in wy0..=wy1 {
+        crop.extend_from_slice(&face[y * cols + wx0..=y * cols + wx1]);
+    }
+    // For each cell near the footprint, the nearest cell across its edge: outside, the nearest
+    // footprint cell (whose height fades out); inside, the nearest outside cell (how deep it
+    // lies). Seeds matter only within the fade around the footprint: search the footprint's
+    // box grown by the fade, not the window.
     let m = (fade_mm / cell).ceil() as usize + 1;
     let (sx0, sy0) = (
         x0.saturating_sub(m).max(wx0) - wx0,
         y0.saturating_sub(m).max(wy0) - wy0,
     );
     let (sx1, sy1) = ((x1 + m).min(wx1) - wx0, (y1 + m).min(wy1) - wy0);
-    let (sw, sh) = (sx1 - sx0 + 1, sy1 - sy0 + 1);
-    let to_window = |j: usize| (sy0 + j / sw) * w + sx0 + j % sw;
-    let mut outside_seeds = vec![None; w * h];
-    let mut inside_seeds = vec![None; w * h];
-    for (seeds, values) in [
-        (&mut outside_seeds, &crop),
-        (&mut inside_seeds, &complement),
-    ] {
-        let sub: Vec<f32> = (0..sw * sh).map(|j| values[to_window(j)]).collect();
-        for (j, seed) in nearest_seeds(&sub, sw, sh).into_iter().enumerate() {
-            seeds[to_window(j)] = seed.map(to_window);
-        }
-    }
-    let dist = |k: usize, s: usize| {
-        let (dx, dy) = (
-            (k % w) as f32 - (s % w) as f32,
-            (k / w) as f32 - (s / w) as f32,
+    let sw = sx1 - sx0 + 1;
+    let mut footprint = Vec::with_capacity(sw * (sy1 - sy0 + 1));
+    for y in sy0..=sy1 {
+        footprint.extend(
+            crop[y * w + sx0..=y * w + sx1]
+                .iter()
+                .map(|v| v.is_finite()),
         );
-        (dx * dx + dy * dy).sqrt() * cell
-    };
+    }
+    let across = nearest_other(&footprint, sw, sy1 - sy0 + 1);
     let mut height = vec![0f32; w * h];
     let mut hair = vec![0f32; w * h];
-    for k in 0..w * h {
-        let (head_h, hair_w) = head.get(to_grid(k)).copied().unwrap_or((0.0, 0.0));
-        let (hk, face_weight) = if crop[k].is_finite() {
-            let f = crop[k].max(0.0);
-            let depth = inside_seeds[k].map_or(f32::INFINITY, |s| dist(k, s));
-            let wgt = smoothstep(0.0, blend_mm, depth);
-            (smooth_max(f, head_h, JOIN) * (1.0 - wgt) + f * wgt, wgt)
-        } else {
-            let edge = outside_seeds[k].map_or(0.0, |s| {
-                crop[s].max(0.0) * (1.0 - smoothstep(0.0, fade_mm, dist(k, s)))
-            });
-            (smooth_max(edge, head_h, JOIN), 0.0)
-        };
-        height[k] = hk;
-        // Hair only where the head, not the face, makes the surface.
-        hair[k] = hair_w * (1.0 - face_weight) * smoothstep(0.0, 6.0, hk - 0.5 * head_h.min(hk));
+    for y in 0..h {
+        for x in 0..w {
+            let k = y * w + x;
+            let (head_h, hair_w) = head
+                .get((wy0 + y) * cols + wx0 + x)
+                .copied()
+                .unwrap_or((0.0, 0.0));
+            // The nearest cell across the footprint's edge, as (distance mm, window index).
+            let inside_search = (sx0..=sx1).contains(&x) && (sy0..=sy1).contains(&y);
+            let other = if inside_search {
+                let s = across[(y - sy0) * sw + x - sx0];
+                (s != NO_CELL).then(|| {
+                    let (dx, dy) = (
+                        (x - sx0) as f32 - s[0] as f32,
+                        (y - sy0) as f32 - s[1] as f32,
+                    );
+                    (
+                        (dx * dx + dy * dy).sqrt() * cell,
+                        (sy0 + s[1] as usize) * w + sx0 + s[0] as usize,
+                    )
+                })
+            } else {
+                None
+            };
+            let (hk, face_weight) = if crop[k].is_finite() {
+                let f = crop[k].max(0.0);
+                let depth = other.map_or(f32::INFINITY, |(d, _)| d);
+                let wgt = smoothstep(0.0, blend_mm, depth);
+                (smooth_max(f, head_h, JOIN) * (1.0 - wgt) + f * wgt, wgt)
+            } else {
+                let edge = other.map_or(0.0, |(d, s)| {
+                    crop[s].max(0.0) * (1.0 - smoothstep(0.0, fade_mm, d))
+                });
+                (smooth_max(edge, head_h, JOIN), 0.0)
+            };
+            height[k] = hk;
+            // Hair only where the head, not the face, makes the surface.
+            hair[k] =
+                hair_w * (1.0 - face_weight) * smoothstep(0.0, 6.0, hk - 0.5 * head_h.min(hk));
+        }
     }
     smooth(&mut height, w, h, SMOOTH_PASSES);
     // Copy all but the apron (except where the window meets the grid's edge, where the
@@ -553,5 +589,92 @@ fn smooth(values: &mut [f32], cols: usize, rows: usize, passes: usize) {
                     0.25 * at(y.saturating_sub(1)) + 0.5 * at(y) + 0.25 * at((y + 1).min(rows - 1));
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pseudo-random masks: blobs and speckle, from a small LCG (no dependency).
+    fn masks() -> Vec<(Vec<bool>, usize, usize)> {
+        let mut state = 12345u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 33) as f32 / (1u64 << 31) as f32
+        };
+        let mut out = Vec::new();
+        for (cols, rows) in [(1, 1), (1, 7), (9, 1), (23, 17), (40, 31)] {
+            for density in [0.02, 0.3, 0.9] {
+                let (cx, cy, r) = (next() * cols as f32, next() * rows as f32, next() * 12.0);
+                let mask = (0..cols * rows)
+                    .map(|i| {
+                        let (x, y) = ((i % cols) as f32, (i / cols) as f32);
+                        (x - cx).hypot(y - cy) < r || next() < density * 0.2
+                    })
+                    .collect();
+                out.push((mask, cols, rows));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn nearest_other_finds_a_near_cell_of_the_other_class() {
+        let mut worst = 0f32;
+        for (mask, cols, rows) in masks() {
+            let found = nearest_other(&mask, cols, rows);
+            for i in 0..cols * rows {
+                let (x, y) = ((i % cols) as f32, (i / cols) as f32);
+                let truth = (0..cols * rows)
+                    .filter(|&j| mask[j] != mask[i])
+                    .map(|j| (x - (j % cols) as f32).hypot(y - (j / cols) as f32))
+                    .min_by(f32::total_cmp);
+                match (truth, found[i]) {
+                    (None, s) => assert_eq!(s, NO_CELL, "cell {i}: nothing to find"),
+                    (Some(_), NO_CELL) => panic!("cell {i}: a cell of the other class was missed"),
+                    (Some(d), s) => {
+                        let j = s[1] as usize * cols + s[0] as usize;
+                        assert_ne!(mask[j], mask[i], "cell {i}: {s:?} is of its own class");
+                        let got = (x - s[0] as f32).hypot(y - s[1] as f32);
+                        worst = worst.max(got - d);
+                    }
+                }
+            }
+        }
+        // Two-pass 8-neighbour propagation misses the nearest by a fraction of a cell at most.
+        assert!(worst < 0.5, "chamfer error {worst} cells");
+    }
+
+    #[test]
+    fn rasterise_covers_cells_on_edges_and_corners() {
+        // A right triangle with corners on cell centres (profile view: u = -z, v = y, height x).
+        let positions = [5.0, 1.0, -1.0, 5.0, 1.0, -4.0, 5.0, 4.0, -1.0];
+        let h = rasterise(
+            &positions,
+            &[[0, 1, 2]],
+            View::Profile,
+            [0.0, 0.0],
+            1.0,
+            6,
+            6,
+        );
+        let covered: Vec<(usize, usize)> = (0..36)
+            .filter(|&i| h[i].is_finite())
+            .map(|i| (i % 6, i / 6))
+            .collect();
+        // Cells with u in 1..=4, v in 1..=4 and (u - 1) + (v - 1) <= 3: ten, corners included.
+        let expected: Vec<(usize, usize)> = (0..36)
+            .map(|i| (i % 6, i / 6))
+            .filter(|&(u, v)| u >= 1 && v >= 1 && (u - 1) + (v - 1) <= 3)
+            .collect();
+        assert_eq!(covered, expected);
+        assert!(
+            h.iter()
+                .filter(|v| v.is_finite())
+                .all(|&v| (v - 5.0).abs() < 1e-5)
+        );
     }
 }
