@@ -120,7 +120,9 @@ pub(crate) struct Pipelines {
     pub scene: wgpu::RenderPipeline,
     pub frame_uniform: wgpu::Buffer,
     pub scene_bind_group: wgpu::BindGroup,
-    pub composite: wgpu::RenderPipeline,
+    /// Composite pipelines by output format (the image's, a window's), built on first use.
+    composite: Vec<(wgpu::TextureFormat, wgpu::RenderPipeline)>,
+    composite_module: wgpu::ShaderModule,
     pub composite_layout: wgpu::BindGroupLayout,
     pub composite_uniform: wgpu::Buffer,
     pub sss: wgpu::RenderPipeline,
@@ -302,13 +304,16 @@ impl Pipelines {
                 texture_entry(2, false),
             ],
         });
-        let composite = fullscreen_pipeline(
-            device,
-            "glyptic composite pipeline",
-            &composite_module,
-            &composite_layout,
+        let composite = vec![(
             OUTPUT_FORMAT,
-        );
+            fullscreen_pipeline(
+                device,
+                "glyptic composite pipeline",
+                &composite_module,
+                &composite_layout,
+                OUTPUT_FORMAT,
+            ),
+        )];
 
         let sss_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("glyptic sss"),
@@ -362,6 +367,7 @@ impl Pipelines {
             frame_uniform,
             scene_bind_group,
             composite,
+            composite_module,
             composite_layout,
             composite_uniform,
             sss,
@@ -369,6 +375,30 @@ impl Pipelines {
             sss_uniforms,
             linear_clamp,
         }
+    }
+}
+
+impl Pipelines {
+    /// Builds the composite pipeline for `format` if there is none yet.
+    pub fn ensure_composite(&mut self, device: &wgpu::Device, format: wgpu::TextureFormat) {
+        if !self.composite.iter().any(|(f, _)| *f == format) {
+            let pipeline = fullscreen_pipeline(
+                device,
+                "glyptic composite pipeline",
+                &self.composite_module,
+                &self.composite_layout,
+                format,
+            );
+            self.composite.push((format, pipeline));
+        }
+    }
+
+    /// The composite pipeline for `format` (see [`Pipelines::ensure_composite`]).
+    pub fn composite(&self, format: wgpu::TextureFormat) -> Option<&wgpu::RenderPipeline> {
+        self.composite
+            .iter()
+            .find(|(f, _)| *f == format)
+            .map(|(_, p)| p)
     }
 }
 

@@ -255,6 +255,15 @@ impl PassTimer {
     }
 }
 
+/// Where a frame's composite goes.
+#[derive(Clone, Copy)]
+enum Output<'a> {
+    /// The renderer's own image, read back.
+    Image,
+    /// A caller's texture view (a window's surface), in a format without sRGB encoding.
+    View(&'a wgpu::TextureView, wgpu::TextureFormat),
+}
+
 /// Owns the device, the pipelines and the GPU memory reused from frame to frame.
 pub struct Renderer {
     device: wgpu::Device,
@@ -285,8 +294,26 @@ impl Renderer {
     pub fn new_headless_with(msaa: bool) -> Result<Self, RenderError> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle().with_env());
+        Self::on_adapter(&instance, None, msaa)
+    }
+
+    /// A renderer on an adapter that can present to `surface` (made by `instance`), for a
+    /// window: frames go to the surface with [`Renderer::render_to_view`].
+    pub fn new_for_surface(
+        instance: &wgpu::Instance,
+        surface: &wgpu::Surface<'_>,
+        msaa: bool,
+    ) -> Result<Self, RenderError> {
+        Self::on_adapter(instance, Some(surface), msaa)
+    }
+
+    fn on_adapter(
+        instance: &wgpu::Instance,
+        surface: Option<&wgpu::Surface<'_>>,
+        msaa: bool,
+    ) -> Result<Self, RenderError> {
         let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
-            &instance, None,
+            instance, surface,
         ))
         .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
         let info = adapter.get_info();
@@ -357,6 +384,48 @@ impl Renderer {
         self.pipelines.samples
     }
 
+    /// The device, to configure a window's surface and draw overlays with it.
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    pub fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
+    /// A GPU error reported outside any frame (e.g. device loss, a failed present), once.
+    pub fn take_gpu_error(&self) -> Option<String> {
+        self.uncaptured.lock().ok().and_then(|mut e| e.take())
+    }
+
+    /// Encodes a frame of `mesh` into `encoder`, drawn into `view` (a window's surface texture,
+    /// `format` one without sRGB encoding: the composite encodes). The caller submits (after
+    /// its overlays, if any) and presents. The same passes as [`Renderer::render`], without the
+    /// readback or the pass timestamps (which would wait for the GPU).
+    ///
+    /// Errors on an invalid mesh or parameters before touching the GPU; GPU errors surface
+    /// through [`Renderer::take_gpu_error`] once the frame is submitted.
+    pub fn render_to_view(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        mesh: &Mesh,
+        params: &RenderParams,
+        view: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+    ) -> Result<(), RenderError> {
+        self.check_params(params)?;
+        if format.is_srgb() {
+            return Err(RenderError::InvalidParams(format!(
+                "output format {format:?} encodes sRGB itself: use its non-sRGB view"
+            )));
+        }
+        let bounds = mesh::validate(mesh, self.limits.max_buffer_size)?;
+        if let Some(error) = self.take_gpu_error() {
+            return Err(RenderError::Gpu(error));
+        }
+        self.encode_frame(encoder, mesh, &bounds, params, Output::View(view, format))
+    }
+
     /// Renders `mesh` as described by `params` and reads the image back.
     ///
     /// Errors on an invalid mesh or parameters before touching the GPU, and on any GPU error
@@ -368,7 +437,7 @@ impl Renderer {
     ) -> Result<image::RgbaImage, RenderError> {
         self.check_params(params)?;
         let bounds = mesh::validate(mesh, self.limits.max_buffer_size)?;
-        if let Some(error) = self.uncaptured.lock().ok().and_then(|mut e| e.take()) {
+        if let Some(error) = self.take_gpu_error() {
             return Err(RenderError::Gpu(error));
         }
 
@@ -434,14 +503,74 @@ impl Renderer {
         Ok(())
     }
 
-    /// Uploads, encodes both passes and the copy into the readback buffer, and submits.
+    /// Uploads, encodes the passes and the copy into the readback buffer, and submits.
     fn encode_and_submit(
         &mut self,
         mesh: &Mesh,
         bounds: &mesh::Bounds,
         params: &RenderParams,
     ) -> Result<(), RenderError> {
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("glyptic frame"),
+            });
+        self.encode_frame(&mut encoder, mesh, bounds, params, Output::Image)?;
         let (w, h) = (params.width, params.height);
+        let Some(targets) = &self.targets else {
+            return Err(RenderError::Gpu("frame resources missing".into()));
+        };
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &targets.output,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &targets.readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(targets.padded_row),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+        if let Some(t) = &self.timer {
+            // Resolve only what was written: unwritten queries are an error on some backends.
+            let n = 2 * if self.sss_ran { TIMED_PASSES } else { 2 };
+            encoder.resolve_query_set(&t.queries, 0..n, &t.resolve, 0);
+            encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, u64::from(n) * 8);
+        }
+        self.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// Uploads the mesh and the frame's uniforms and encodes the scene, SSS and composite
+    /// passes, the composite into `output`. Timestamps only for an image (read back after).
+    fn encode_frame(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        mesh: &Mesh,
+        bounds: &mesh::Bounds,
+        params: &RenderParams,
+        output: Output<'_>,
+    ) -> Result<(), RenderError> {
+        let (w, h) = (params.width, params.height);
+        let format = match output {
+            Output::Image => gpu::OUTPUT_FORMAT,
+            Output::View(_, format) => format,
+        };
+        self.pipelines.ensure_composite(&self.device, format);
+        let timer = match output {
+            Output::Image => self.timer.as_ref(),
+            Output::View(..) => None,
+        };
         if self
             .targets
             .as_ref()
@@ -540,11 +669,6 @@ impl Renderer {
             }
         }
 
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("glyptic frame"),
-            });
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("glyptic scene pass"),
@@ -561,7 +685,7 @@ impl Renderer {
                     }),
                     stencil_ops: None,
                 }),
-                timestamp_writes: self.timer.as_ref().map(|t| t.writes(0)),
+                timestamp_writes: timer.map(|t| t.writes(0)),
                 ..Default::default()
             });
             pass.set_pipeline(&self.pipelines.scene);
@@ -586,7 +710,7 @@ impl Renderer {
                             store: wgpu::StoreOp::Store,
                         },
                     })],
-                    timestamp_writes: self.timer.as_ref().map(|t| t.writes(index)),
+                    timestamp_writes: timer.map(|t| t.writes(index)),
                     ..Default::default()
                 });
                 pass.set_pipeline(&self.pipelines.sss);
@@ -594,11 +718,19 @@ impl Renderer {
                 pass.draw(0..3, 0..1);
             }
         }
+        let composite = self
+            .pipelines
+            .composite(format)
+            .ok_or_else(|| RenderError::Gpu(format!("no composite pipeline for {format:?}")))?;
         {
+            let view = match output {
+                Output::Image => &targets.output_view,
+                Output::View(view, _) => view,
+            };
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("glyptic composite pass"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &targets.output_view,
+                    view,
                     depth_slice: None,
                     resolve_target: None,
                     ops: wgpu::Operations {
@@ -609,13 +741,10 @@ impl Renderer {
                 })],
                 // Queries are resolved as one run from 0 (the resolve offset must be aligned),
                 // so the composite takes the slot after the last pass that ran.
-                timestamp_writes: self
-                    .timer
-                    .as_ref()
-                    .map(|t| t.writes(if sss_kernel.is_some() { 3 } else { 1 })),
+                timestamp_writes: timer.map(|t| t.writes(if sss_kernel.is_some() { 3 } else { 1 })),
                 ..Default::default()
             });
-            pass.set_pipeline(&self.pipelines.composite);
+            pass.set_pipeline(composite);
             let group = if sss_kernel.is_some() {
                 &targets.composite_sss_bind_group
             } else {
@@ -624,39 +753,7 @@ impl Renderer {
             pass.set_bind_group(0, group, &[]);
             pass.draw(0..3, 0..1);
         }
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: &targets.output,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &targets.readback,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(targets.padded_row),
-                    rows_per_image: Some(h),
-                },
-            },
-            wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-        );
-        if let Some(t) = &self.timer {
-            // Resolve only what was written: unwritten queries are an error on some backends.
-            let n = 2 * if sss_kernel.is_some() {
-                TIMED_PASSES
-            } else {
-                2
-            };
-            encoder.resolve_query_set(&t.queries, 0..n, &t.resolve, 0);
-            encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, u64::from(n) * 8);
-        }
         self.sss_ran = sss_kernel.is_some();
-        self.queue.submit([encoder.finish()]);
         Ok(())
     }
 
