@@ -11,6 +11,7 @@ pub mod capture;
 pub mod detect;
 pub mod fit;
 pub mod gem;
+pub mod kiosk;
 pub mod landmarks;
 #[cfg(feature = "face")]
 pub mod pipeline;

@@ -1,6 +1,7 @@
 //! Sub-commands. Each stage prints one line with its time.
 
 mod batch;
+mod kiosk;
 mod track;
 
 use std::io::Write as _;
@@ -39,6 +40,8 @@ pub enum Command {
     Track(track::TrackArgs),
     /// Makes a gem from every photo in a folder (all cores), with a CSV of status and times.
     Batch(batch::BatchArgs),
+    /// The museum window: the visitor's face as a live cameo, with touch controls.
+    Kiosk(kiosk::KioskArgs),
     /// Prints the subsurface-scattering kernel: one line per tap, `offset  r g b`, centre first.
     Kernel(KernelArgs),
 }
@@ -394,6 +397,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Track(args) => track::track(&args),
         Command::Batch(args) => batch::batch(&args),
         Command::Kernel(args) => print_kernel(&args),
+        Command::Kiosk(args) => kiosk::kiosk(&args),
     }
 }
 
@@ -595,6 +599,11 @@ fn render_and_write(
     )?;
     print_stage(&stages[0]);
     encode_png(rgba, output)
+}
+
+/// Encodes `rgba` as PNG and writes it whole (or not at all) to `path`.
+fn write_png(rgba: image::RgbaImage, path: &Path) -> Result<()> {
+    write_atomic(path, &encode_png(rgba, path)?)
 }
 
 /// A rendered image as PNG bytes (`output` names it in errors).

@@ -281,7 +281,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
 }
 
 /// A source that failed to open on the capture thread: reports the error as fatal.
-struct Failed(String);
+pub(super) struct Failed(pub String);
 
 impl FrameSource for Failed {
     fn name(&self) -> String {

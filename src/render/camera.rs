@@ -38,11 +38,17 @@ pub(crate) struct Camera {
     pub far: f32,
 }
 
-/// Camera for a mesh with `bounds`, seen at `yaw_deg`/`pitch_deg` on a `width` x `height` image.
+/// Zoom range: out to twice the fitting distance, in to a quarter of it (still outside the
+/// bounding sphere, so the depth range stays valid).
+pub const ZOOM_RANGE: (f32, f32) = (0.5, 4.0);
+
+/// Camera for a mesh with `bounds`, seen at `yaw_deg`/`pitch_deg` on a `width` x `height` image,
+/// `zoom` times closer than the distance at which the mesh fits (clamped to [`ZOOM_RANGE`]).
 pub(crate) fn orbit(
     bounds: &Bounds,
     yaw_deg: f32,
     pitch_deg: f32,
+    zoom: f32,
     width: u32,
     height: u32,
 ) -> Camera {
@@ -52,7 +58,12 @@ pub(crate) fn orbit(
     let half_fov = half_fov_y.min(half_fov_x);
     // A floor on the radius keeps a degenerate (single point) mesh from putting the eye on it.
     let radius = bounds.radius.max(1e-3);
-    let distance = MARGIN * radius / half_fov.sin();
+    let zoom = if zoom.is_finite() {
+        zoom.clamp(ZOOM_RANGE.0, ZOOM_RANGE.1)
+    } else {
+        1.0
+    };
+    let distance = MARGIN * radius / half_fov.sin() / zoom;
 
     let yaw = yaw_deg.to_radians();
     let pitch = pitch_deg.clamp(-MAX_PITCH_DEG, MAX_PITCH_DEG).to_radians();
@@ -121,7 +132,7 @@ mod tests {
 
     #[test]
     fn yaw_zero_looks_at_the_front() {
-        let c = orbit(&bounds(), 0.0, 0.0, 160, 200);
+        let c = orbit(&bounds(), 0.0, 0.0, 1.0, 160, 200);
         assert!(c.eye.z > 50.0 && c.eye.x.abs() < 1e-4 && c.eye.y.abs() < 1e-4);
         let centre = project(&c, [0.0, 0.0, 2.5]);
         assert!(centre[0].abs() < 1e-5 && centre[1].abs() < 1e-5);
@@ -133,11 +144,34 @@ mod tests {
     }
 
     #[test]
+    fn zoom_moves_the_eye_along_the_view() {
+        let far = orbit(&bounds(), 20.0, 10.0, 1.0, 160, 200);
+        let near = orbit(&bounds(), 20.0, 10.0, 2.0, 160, 200);
+        let centre = Vector3::from(bounds().center);
+        let (df, dn) = ((far.eye - centre).norm(), (near.eye - centre).norm());
+        assert!((df / dn - 2.0).abs() < 1e-4, "{df} / {dn}");
+        assert!((far.forward - near.forward).norm() < 1e-6);
+        // Clamped: no closer than ZOOM_RANGE allows, and NaN means no zoom.
+        let inside = orbit(&bounds(), 0.0, 0.0, 1e6, 160, 200);
+        let limit = orbit(&bounds(), 0.0, 0.0, ZOOM_RANGE.1, 160, 200);
+        assert_eq!(inside.eye, limit.eye);
+        assert_eq!(
+            orbit(&bounds(), 0.0, 0.0, f32::NAN, 160, 200).eye,
+            far_eye(&bounds())
+        );
+        assert!(inside.near > 0.0);
+    }
+
+    fn far_eye(b: &Bounds) -> Vector3<f32> {
+        orbit(b, 0.0, 0.0, 1.0, 160, 200).eye
+    }
+
+    #[test]
     fn sphere_fits_at_any_angle() {
         for (w, h) in [(160, 200), (1280, 800), (100, 1000)] {
             for yaw in [0.0f32, 30.0, 90.0, 180.0, 271.0] {
                 for pitch in [-95.0f32, -40.0, 0.0, 60.0] {
-                    let c = orbit(&bounds(), yaw, pitch, w, h);
+                    let c = orbit(&bounds(), yaw, pitch, 1.0, w, h);
                     for corner in 0..8 {
                         let b = bounds();
                         let p = [0, 1, 2].map(|a| {

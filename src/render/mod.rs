@@ -34,7 +34,7 @@ use std::sync::{Arc, Mutex};
 
 use self::gpu::{CompositeUniform, FrameUniform, MeshBuffers, Pipelines, Targets};
 
-pub use self::camera::FOV_Y_DEG;
+pub use self::camera::{FOV_Y_DEG, ZOOM_RANGE};
 
 /// One vertex of the draw data, laid out for the GPU (36 bytes).
 #[repr(C)]
@@ -121,6 +121,9 @@ pub struct RenderParams {
     pub yaw_deg: f32,
     /// Orbit elevation (degrees; positive looks down from above), kept within +-89.
     pub pitch_deg: f32,
+    /// How many times closer than the distance at which the whole cameo fits the frame, within
+    /// [`ZOOM_RANGE`].
+    pub zoom: f32,
     pub marble: MarbleParams,
     /// Backdrop colour at the image centre, display (sRGB-encoded) values 0..1; the composite
     /// adds a gentle top-light gradient and vignette around it.
@@ -137,6 +140,7 @@ impl Default for RenderParams {
             material: Material::Marble,
             yaw_deg: 0.0,
             pitch_deg: 0.0,
+            zoom: 1.0,
             marble: MarbleParams::default(),
             background: [0.16, 0.18, 0.22],
             sss: Some(crate::sss::SssParams::default()),
@@ -266,6 +270,7 @@ enum Output<'a> {
 
 /// Owns the device, the pipelines and the GPU memory reused from frame to frame.
 pub struct Renderer {
+    adapter: wgpu::Adapter,
     device: wgpu::Device,
     queue: wgpu::Queue,
     info: wgpu::AdapterInfo,
@@ -351,6 +356,7 @@ impl Renderer {
             .contains(wgpu::Features::TIMESTAMP_QUERY)
             .then(|| PassTimer::new(&device, &queue));
         Ok(Self {
+            adapter,
             device,
             queue,
             info,
@@ -391,6 +397,11 @@ impl Renderer {
 
     pub fn queue(&self) -> &wgpu::Queue {
         &self.queue
+    }
+
+    /// What a window's surface offers on this renderer's adapter (formats, usages).
+    pub fn surface_capabilities(&self, surface: &wgpu::Surface<'_>) -> wgpu::SurfaceCapabilities {
+        surface.get_capabilities(&self.adapter)
     }
 
     /// A GPU error reported outside any frame (e.g. device loss, a failed present), once.
@@ -487,6 +498,7 @@ impl Renderer {
         let numbers = [
             ("yaw_deg", params.yaw_deg),
             ("pitch_deg", params.pitch_deg),
+            ("zoom", params.zoom),
             ("marble.vein_softness", m.vein_softness),
             ("marble.vein_lightness", m.vein_lightness),
             ("background[0]", params.background[0]),
@@ -598,7 +610,7 @@ impl Renderer {
         self.queue.write_buffer(&buffers.vertices, 0, vertex_bytes);
         self.queue.write_buffer(&buffers.indices, 0, index_bytes);
 
-        let cam = camera::orbit(bounds, params.yaw_deg, params.pitch_deg, w, h);
+        let cam = camera::orbit(bounds, params.yaw_deg, params.pitch_deg, params.zoom, w, h);
         let v4 = |v: nalgebra::Vector3<f32>, w: f32| [v.x, v.y, v.z, w];
         let frame = FrameUniform {
             // nalgebra stores column-major, as WGSL expects.

@@ -1,0 +1,394 @@
+//! The kiosk's state, free of windows, cameras and GPUs: its configuration (a TOML file), the
+//! visitor's controls, the orbit camera driven by drags, pinches and the wheel, and the ease
+//! back to the default portrait when nobody is there.
+//!
+//! Units: angles in degrees, times in seconds, drags in logical window pixels, face positions
+//! in model millimetres (`[x0, y0, z0, x1, ...]`).
+
+use std::path::{Path, PathBuf};
+
+use crate::render::{Material, RenderParams, ZOOM_RANGE};
+use crate::sss::SssParams;
+
+/// The SSS strength the reset button returns to (red's, as `glyptic render --sss-strength`).
+pub const DEFAULT_SSS_STRENGTH: f32 = 0.48;
+/// Degrees of orbit per pixel dragged.
+pub const DEGREES_PER_PIXEL: f32 = 0.35;
+/// How far the camera may orbit: beyond these the stone's edge or back fills the view.
+pub const MAX_YAW_DEG: f32 = 70.0;
+pub const MAX_PITCH_DEG: f32 = 60.0;
+
+/// Why a configuration file was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("{path}: cannot read: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// TOML syntax, an unknown key or a value of the wrong type (the message names the line).
+    #[error("{path}: {message}")]
+    Parse { path: PathBuf, message: String },
+    #[error("{path}: `{key}` {problem}")]
+    Invalid {
+        path: PathBuf,
+        key: &'static str,
+        problem: String,
+    },
+}
+
+/// The stone a kiosk starts with (TOML: `"marble"` or `"agate"`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Stone {
+    Marble,
+    Agate,
+}
+
+impl From<Stone> for Material {
+    fn from(s: Stone) -> Material {
+        match s {
+            Stone::Marble => Material::Marble,
+            Stone::Agate => Material::Agate,
+        }
+    }
+}
+
+/// How the portrait is cut (TOML: `"profile"` or `"frontal"`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Portrait {
+    Profile,
+    Frontal,
+}
+
+/// Kiosk defaults, read from a TOML file; every key is optional. Command-line options override
+/// the file.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct KioskConfig {
+    /// Webcam index (/dev/videoN); ignored when `video` is set.
+    pub camera: u32,
+    /// Play this video file (looping) instead of a camera.
+    pub video: Option<PathBuf>,
+    pub material: Stone,
+    pub portrait: Portrait,
+    /// Subsurface scattering on at start.
+    pub sss: bool,
+    /// SSS strength at start, 0..=1.
+    pub sss_strength: f32,
+    /// Seconds without a face before the portrait eases back to the default face.
+    pub idle_seconds: f32,
+    /// Seconds the ease back takes.
+    pub ease_seconds: f32,
+    pub fullscreen: bool,
+    /// Window size when not full-screen, logical pixels.
+    pub width: u32,
+    pub height: u32,
+    /// Fraction of the window's pixels (per side) the gem is rendered at, 0.25..=1: on a CPU
+    /// rasteriser a full-screen frame costs about half a second.
+    pub render_scale: f32,
+}
+
+impl Default for KioskConfig {
+    fn default() -> Self {
+        KioskConfig {
+            camera: 0,
+            video: None,
+            material: Stone::Marble,
+            portrait: Portrait::Profile,
+            sss: true,
+            sss_strength: DEFAULT_SSS_STRENGTH,
+            idle_seconds: 8.0,
+            ease_seconds: 2.0,
+            fullscreen: false,
+            width: 800,
+            height: 1000,
+            render_scale: 1.0,
+        }
+    }
+}
+
+impl KioskConfig {
+    /// Reads and checks a configuration file.
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses and checks configuration text (`path` names it in errors).
+    pub fn parse(text: &str, path: &Path) -> Result<Self, ConfigError> {
+        let config: KioskConfig = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: path.to_owned(),
+            message: e.to_string().trim_end().replace('\n', " "),
+        })?;
+        config.check(path)?;
+        Ok(config)
+    }
+
+    /// Every value within its range (finite numbers, a window that fits a screen).
+    pub fn check(&self, path: &Path) -> Result<(), ConfigError> {
+        let invalid = |key, problem: String| {
+            Err(ConfigError::Invalid {
+                path: path.to_owned(),
+                key,
+                problem,
+            })
+        };
+        let within = |v: f32, lo: f32, hi: f32| v.is_finite() && (lo..=hi).contains(&v);
+        if !within(self.sss_strength, 0.0, 1.0) {
+            return invalid(
+                "sss_strength",
+                format!("is {}, not within 0..=1", self.sss_strength),
+            );
+        }
+        if !within(self.idle_seconds, 0.0, 86_400.0) {
+            return invalid(
+                "idle_seconds",
+                format!("is {}, not within 0..=86400", self.idle_seconds),
+            );
+        }
+        if !within(self.ease_seconds, 0.0, 60.0) {
+            return invalid(
+                "ease_seconds",
+                format!("is {}, not within 0..=60", self.ease_seconds),
+            );
+        }
+        if !within(self.render_scale, 0.25, 1.0) {
+            return invalid(
+                "render_scale",
+                format!("is {}, not within 0.25..=1", self.render_scale),
+            );
+        }
+        for (key, v) in [("width", self.width), ("height", self.height)] {
+            if !(64..=8192).contains(&v) {
+                return invalid(key, format!("is {v}, not within 64..=8192 pixels"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What the visitor has chosen with the controls.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Controls {
+    pub material: Material,
+    pub sss: bool,
+    /// Red's strength, 0..=1 (green and blue follow in [`crate::sss::CHANNEL_BALANCE`]).
+    pub sss_strength: f32,
+    /// The portrait stays as it is while frozen (new fits are ignored).
+    pub frozen: bool,
+}
+
+impl Controls {
+    pub fn from_config(c: &KioskConfig) -> Self {
+        Controls {
+            material: c.material.into(),
+            sss: c.sss,
+            sss_strength: c.sss_strength,
+            frozen: false,
+        }
+    }
+
+    /// The SSS toggle's label: the state it is in now (the 2021 kiosk showed the next state,
+    /// which visitors read as the current one).
+    pub fn sss_label(&self) -> &'static str {
+        if self.sss { "Glow: on" } else { "Glow: off" }
+    }
+
+    pub fn freeze_label(&self) -> &'static str {
+        if self.frozen {
+            "Portrait: frozen"
+        } else {
+            "Portrait: live"
+        }
+    }
+
+    pub fn reset_strength(&mut self) {
+        self.sss_strength = DEFAULT_SSS_STRENGTH;
+    }
+
+    /// Render parameters for these choices over `base` (size, background, marble).
+    pub fn apply(&self, base: &RenderParams, orbit: &Orbit) -> RenderParams {
+        let sss = self.sss.then(|| SssParams {
+            strength: SssParams::strength_rgb(self.sss_strength.clamp(0.0, 1.0)),
+            ..SssParams::default()
+        });
+        RenderParams {
+            material: self.material,
+            sss,
+            yaw_deg: orbit.yaw_deg,
+            pitch_deg: orbit.pitch_deg,
+            zoom: orbit.zoom,
+            ..base.clone()
+        }
+    }
+}
+
+/// The orbit camera as the visitor moves it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Orbit {
+    pub yaw_deg: f32,
+    pub pitch_deg: f32,
+    pub zoom: f32,
+}
+
+impl Default for Orbit {
+    fn default() -> Self {
+        Orbit {
+            yaw_deg: 0.0,
+            pitch_deg: 0.0,
+            zoom: 1.0,
+        }
+    }
+}
+
+impl Orbit {
+    /// A drag of (`dx`, `dy`) pixels: right turns the gem to show its right side, down tilts
+    /// it towards the viewer's feet (the camera rises). Non-finite drags are ignored.
+    pub fn drag(&mut self, dx: f32, dy: f32) {
+        if !(dx.is_finite() && dy.is_finite()) {
+            return;
+        }
+        self.yaw_deg = (self.yaw_deg - dx * DEGREES_PER_PIXEL).clamp(-MAX_YAW_DEG, MAX_YAW_DEG);
+        self.pitch_deg =
+            (self.pitch_deg + dy * DEGREES_PER_PIXEL).clamp(-MAX_PITCH_DEG, MAX_PITCH_DEG);
+    }
+
+    /// Multiplies the zoom (a pinch's ratio, or a wheel step's), within [`ZOOM_RANGE`].
+    pub fn zoom_by(&mut self, factor: f32) {
+        if factor.is_finite() && factor > 0.0 {
+            self.zoom = (self.zoom * factor).clamp(ZOOM_RANGE.0, ZOOM_RANGE.1);
+        }
+    }
+}
+
+/// How much of the default portrait to show, `since_face` seconds after a face was last seen:
+/// 0 until `idle` seconds, then easing (smoothstep) to 1 over `ease` seconds.
+pub fn idle_weight(since_face: f32, idle: f32, ease: f32) -> f32 {
+    if !since_face.is_finite() {
+        return 1.0;
+    }
+    if ease <= 0.0 {
+        return if since_face >= idle { 1.0 } else { 0.0 };
+    }
+    let t = ((since_face - idle) / ease).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// The face between the visitor's (`weight` 0) and the default (`weight` 1), vertex by vertex
+/// (both are the same model's meshes). `None` if they do not match.
+pub fn blend_faces(face: &[f32], default: &[f32], weight: f32) -> Option<Vec<f32>> {
+    if face.len() != default.len() || !weight.is_finite() {
+        return None;
+    }
+    let w = weight.clamp(0.0, 1.0);
+    Some(
+        face.iter()
+            .zip(default)
+            .map(|(a, b)| a + (b - a) * w)
+            .collect(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<KioskConfig, ConfigError> {
+        KioskConfig::parse(text, Path::new("kiosk.toml"))
+    }
+
+    #[test]
+    fn config_reads_every_key_and_defaults_the_rest() {
+        let c = parse(
+            "camera = 2\nmaterial = \"agate\"\nsss = false\nsss_strength = 0.3\n\
+             idle_seconds = 5\nfullscreen = true\nportrait = \"frontal\"\nrender_scale = 0.5\n",
+        )
+        .expect("valid");
+        assert_eq!(c.camera, 2);
+        assert_eq!(c.material, Stone::Agate);
+        assert_eq!(c.portrait, Portrait::Frontal);
+        assert!(!c.sss && c.fullscreen);
+        assert_eq!(
+            (c.sss_strength, c.idle_seconds, c.render_scale),
+            (0.3, 5.0, 0.5)
+        );
+        assert_eq!(c.ease_seconds, KioskConfig::default().ease_seconds);
+        assert_eq!(parse("").expect("empty is valid"), KioskConfig::default());
+    }
+
+    #[test]
+    fn bad_config_names_the_key_and_the_problem() {
+        let msg = |text: &str| parse(text).expect_err(text).to_string();
+        let m = msg("sss_strength = 3.0");
+        assert!(m.contains("kiosk.toml") && m.contains("sss_strength") && m.contains("0..=1"));
+        let m = msg("material = \"jade\"");
+        assert!(m.contains("jade") || m.contains("material"), "{m}");
+        let m = msg("idle_secs = 3");
+        assert!(m.contains("idle_secs"), "{m}");
+        let m = msg("width = 10");
+        assert!(m.contains("width") && m.contains("64"), "{m}");
+        let m = msg("render_scale = nan");
+        assert!(m.contains("render_scale"), "{m}");
+        let m = msg("camera = [");
+        assert!(m.contains("kiosk.toml"), "{m}");
+        assert!(matches!(
+            KioskConfig::load(Path::new("/nonexistent/kiosk.toml")),
+            Err(ConfigError::Read { .. })
+        ));
+    }
+
+    #[test]
+    fn sss_label_shows_the_current_state() {
+        let mut c = Controls::from_config(&KioskConfig::default());
+        assert!(c.sss && c.sss_label().ends_with("on"));
+        c.sss = false;
+        assert!(c.sss_label().ends_with("off"));
+        let p = c.apply(&RenderParams::default(), &Orbit::default());
+        assert!(p.sss.is_none());
+        c.sss = true;
+        c.sss_strength = 0.2;
+        let p = c.apply(&RenderParams::default(), &Orbit::default());
+        assert_eq!(p.sss.map(|s| s.strength[0]), Some(0.2));
+        c.reset_strength();
+        assert_eq!(c.sss_strength, DEFAULT_SSS_STRENGTH);
+    }
+
+    #[test]
+    fn orbit_clamps_and_ignores_nonsense() {
+        let mut o = Orbit::default();
+        o.drag(100.0, 0.0);
+        assert!((o.yaw_deg + 35.0).abs() < 1e-4);
+        o.drag(-1e6, 1e6);
+        assert_eq!((o.yaw_deg, o.pitch_deg), (MAX_YAW_DEG, MAX_PITCH_DEG));
+        let before = o;
+        o.drag(f32::NAN, 3.0);
+        o.zoom_by(f32::INFINITY);
+        o.zoom_by(-2.0);
+        assert_eq!(o, before);
+        o.zoom_by(100.0);
+        assert_eq!(o.zoom, ZOOM_RANGE.1);
+        o.zoom_by(1e-6);
+        assert_eq!(o.zoom, ZOOM_RANGE.0);
+    }
+
+    #[test]
+    fn idle_ease_goes_from_the_visitor_to_the_default() {
+        assert_eq!(idle_weight(0.0, 8.0, 2.0), 0.0);
+        assert_eq!(idle_weight(8.0, 8.0, 2.0), 0.0);
+        assert!((idle_weight(9.0, 8.0, 2.0) - 0.5).abs() < 1e-6);
+        assert_eq!(idle_weight(10.0, 8.0, 2.0), 1.0);
+        assert_eq!(idle_weight(f32::INFINITY, 8.0, 2.0), 1.0);
+        assert_eq!(idle_weight(7.9, 8.0, 0.0), 0.0);
+        assert_eq!(idle_weight(8.0, 8.0, 0.0), 1.0);
+        let (a, b) = ([0.0, 2.0, 4.0], [2.0, 2.0, 0.0]);
+        assert_eq!(blend_faces(&a, &b, 0.5), Some(vec![1.0, 2.0, 2.0]));
+        assert_eq!(blend_faces(&a, &b, 0.0), Some(a.to_vec()));
+        assert_eq!(blend_faces(&a, &b, 7.0), Some(b.to_vec()));
+        assert_eq!(blend_faces(&a, &b[..2], 0.5), None);
+    }
+}
