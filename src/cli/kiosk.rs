@@ -452,6 +452,10 @@ struct Running {
     want_screenshot: bool,
     /// A message shown for a few seconds (saved snapshot, errors).
     toast: Option<(String, Instant)>,
+    /// Each control's rectangle in window pixels `[x, y, w, h]`, for scripted runs.
+    control_rects: Vec<(&'static str, [f32; 4])>,
+    /// A fingerprint of the gem shown (changes with its shape).
+    gem_print: u64,
 }
 
 impl Running {
@@ -552,6 +556,8 @@ impl Running {
             last_screen: None,
             want_screenshot: args.screenshot.is_some(),
             toast: None,
+            control_rects: Vec::new(),
+            gem_print: 0,
         })
     }
 
@@ -585,6 +591,7 @@ impl Running {
         if let Ok(Some(message)) = self.gems.out.try_recv() {
             match message {
                 GemMessage::Gem(built) => {
+                    self.gem_print = fingerprint(&built.mesh);
                     self.gem = Some(built.mesh);
                     self.gem_ms = built.ms;
                     self.gem_count += 1;
@@ -666,9 +673,19 @@ impl Running {
                 .map(|(m, _)| m.clone()),
             gem_rect: None,
             snapshot: false,
+            rects: Vec::new(),
         };
         let output = self.egui_ctx.run_ui(raw_input, |ui_root| ui.draw(ui_root));
         let (gem_rect, snapshot) = (ui.gem_rect, ui.snapshot);
+        let ppp_now = self.egui_ctx.pixels_per_point();
+        self.control_rects = ui
+            .rects
+            .iter()
+            .map(|(k, r)| {
+                let p = |v: f32| (v * ppp_now).round();
+                (*k, [p(r.min.x), p(r.min.y), p(r.width()), p(r.height())])
+            })
+            .collect();
         self.snapshot_request |= snapshot;
         if (self.controls.clone(), self.orbit) != before {
             self.dirty = true;
@@ -932,6 +949,8 @@ impl Running {
             "status": self.status_line(),
             "first_frame_s": self.first_frame_s,
             "first_gem_s": self.first_gem_s,
+            "gem_print": format!("{:016x}", self.gem_print),
+            "controls": self.control_rects.iter().map(|(k, r)| (k.to_string(), serde_json::json!(r))).collect::<serde_json::Map<_, _>>(),
         })
     }
 
@@ -953,6 +972,16 @@ impl Running {
         );
         Ok(())
     }
+}
+
+/// FNV-1a over the gem's vertex positions: equal for equal gems, different for any change.
+fn fingerprint(mesh: &Mesh) -> u64 {
+    mesh.vertices
+        .iter()
+        .flat_map(|v| v.position)
+        .fold(0xcbf2_9ce4_8422_2325, |h, x| {
+            (h ^ u64::from(x.to_bits())).wrapping_mul(0x0100_0000_01b3)
+        })
 }
 
 /// Chooses the surface's format (the composite and egui write display values themselves, so a
@@ -1093,8 +1122,14 @@ impl ScreenCopy {
     }
 }
 
-/// Finger-sized controls: 56-point buttons, a thick slider, large text.
+/// Finger-sized controls: 56-point buttons, a thick slider, large text. A press counts as a
+/// tap however long it is held (visitors press slowly, and a CPU-rendered frame can take half
+/// a second) and however much a finger wobbles.
 fn style(ctx: &egui::Context) {
+    ctx.options_mut(|o| {
+        o.input_options.max_click_duration = 5.0;
+        o.input_options.max_click_dist = 12.0;
+    });
     ctx.global_style_mut(|s| {
         s.spacing.interact_size = egui::vec2(56.0, 56.0);
         s.spacing.button_padding = egui::vec2(18.0, 12.0);
@@ -1123,6 +1158,8 @@ struct UiFrame<'a> {
     /// Where the gem is shown (points).
     gem_rect: Option<egui::Rect>,
     snapshot: bool,
+    /// Where each control is (points), for scripted runs.
+    rects: Vec<(&'static str, egui::Rect)>,
 }
 
 impl UiFrame<'_> {
@@ -1132,45 +1169,61 @@ impl UiFrame<'_> {
         });
         egui::Panel::bottom("controls").show(root, |ui| {
             ui.add_space(6.0);
-            ui.horizontal_wrapped(|ui| {
-                for (material, name) in [(Material::Marble, "Marble"), (Material::Agate, "Agate")] {
+            // Three rows: the stone, the glow, the portrait.
+            ui.horizontal(|ui| {
+                for (material, name, key) in [
+                    (Material::Marble, "Marble", "marble"),
+                    (Material::Agate, "Agate", "agate"),
+                ] {
                     let on = self.controls.material == material;
-                    if ui.add(egui::Button::selectable(on, name)).clicked() {
+                    let r = ui.add(egui::Button::selectable(on, name));
+                    if r.clicked() {
                         self.controls.material = material;
                     }
+                    self.rects.push((key, r.rect));
                 }
                 ui.separator();
                 let sss = self.controls.sss;
-                if ui
-                    .add(egui::Button::selectable(sss, self.controls.sss_label()))
-                    .clicked()
-                {
+                let r = ui.add(egui::Button::selectable(sss, self.controls.sss_label()));
+                if r.clicked() {
                     self.controls.sss = !sss;
                 }
-                ui.add_enabled(
+                self.rects.push(("sss", r.rect));
+            });
+            ui.horizontal(|ui| {
+                // The slider takes the row but the reset button's room.
+                ui.spacing_mut().slider_width = (ui.available_width() - 130.0).clamp(120.0, 600.0);
+                let r = ui.add_enabled(
                     self.controls.sss,
                     egui::Slider::new(&mut self.controls.sss_strength, 0.0..=1.0).show_value(false),
                 );
-                if ui.button("Reset").clicked() {
+                self.rects.push(("strength", r.rect));
+                let r = ui.button("Reset");
+                if r.clicked() {
                     self.controls.reset_strength();
                 }
-                ui.separator();
+                self.rects.push(("reset", r.rect));
+            });
+            ui.horizontal(|ui| {
                 let frozen = self.controls.frozen;
-                if ui
-                    .add(egui::Button::selectable(
-                        frozen,
-                        self.controls.freeze_label(),
-                    ))
-                    .clicked()
-                {
+                let r = ui.add(egui::Button::selectable(
+                    frozen,
+                    self.controls.freeze_label(),
+                ));
+                if r.clicked() {
                     self.controls.frozen = !frozen;
                 }
-                if ui.button("Save picture").clicked() {
+                self.rects.push(("freeze", r.rect));
+                let r = ui.button("Save picture");
+                if r.clicked() {
                     self.snapshot = true;
                 }
-                if ui.button("Front view").clicked() {
+                self.rects.push(("save", r.rect));
+                let r = ui.button("Front view");
+                if r.clicked() {
                     *self.orbit = Orbit::default();
                 }
+                self.rects.push(("front", r.rect));
             });
             if let Some(t) = &self.toast {
                 ui.label(t);
@@ -1182,6 +1235,7 @@ impl UiFrame<'_> {
             .show(root, |ui| {
                 let rect = ui.max_rect();
                 self.gem_rect = Some(rect);
+                self.rects.push(("gem", rect));
                 if let Some(id) = self.layer {
                     ui.painter().image(
                         id,
