@@ -280,12 +280,16 @@ pub fn idle_weight(since_face: f32, idle: f32, ease: f32) -> f32 {
 }
 
 /// The face between the visitor's (`weight` 0) and the default (`weight` 1), vertex by vertex
-/// (both are the same model's meshes). `None` if they do not match.
+/// (both are the same model's meshes); at the ends exactly one or the other, so the eased
+/// portrait ends as the very default gem. `None` if they do not match.
 pub fn blend_faces(face: &[f32], default: &[f32], weight: f32) -> Option<Vec<f32>> {
     if face.len() != default.len() || !weight.is_finite() {
         return None;
     }
-    let w = weight.clamp(0.0, 1.0);
+    if weight >= 1.0 {
+        return Some(default.to_vec());
+    }
+    let w = weight.max(0.0);
     Some(
         face.iter()
             .zip(default)
@@ -385,6 +389,9 @@ mod tests {
         assert_eq!(idle_weight(f32::INFINITY, 8.0, 2.0), 1.0);
         assert_eq!(idle_weight(7.9, 8.0, 0.0), 0.0);
         assert_eq!(idle_weight(8.0, 8.0, 0.0), 1.0);
+        // At the end the default itself, bit for bit (a + (b - a) need not be b).
+        let (x, y) = ([0.1f32], [0.3f32]);
+        assert_eq!(blend_faces(&x, &y, 1.0), Some(y.to_vec()));
         let (a, b) = ([0.0, 2.0, 4.0], [2.0, 2.0, 0.0]);
         assert_eq!(blend_faces(&a, &b, 0.5), Some(vec![1.0, 2.0, 2.0]));
         assert_eq!(blend_faces(&a, &b, 0.0), Some(a.to_vec()));

@@ -19,6 +19,7 @@ pub mod render;
 pub mod shapemodel;
 pub mod smooth;
 pub mod sss;
+pub mod stage;
 #[cfg(feature = "face")]
 pub mod stream;
 #[cfg(feature = "face")]

@@ -5,7 +5,6 @@
 
 use std::path::Path;
 use std::sync::Arc;
-use std::time::Instant;
 
 use crate::detect::{DetectError, DetectOptions, Detection, FaceDetector};
 use crate::fit::{Fit, FitError, FitOptions};
@@ -29,30 +28,8 @@ pub enum PipelineError {
     NoFace,
 }
 
-/// One timed stage.
-#[derive(Clone, Debug)]
-pub struct Stage {
-    pub name: &'static str,
-    pub ms: f64,
-    pub detail: String,
-}
+pub use crate::stage::{Stage, timed};
 
-/// Runs `f`, appending its time and a description of its result to `stages`.
-pub fn timed<T, E>(
-    stages: &mut Vec<Stage>,
-    name: &'static str,
-    f: impl FnOnce() -> Result<T, E>,
-    describe: impl FnOnce(&T) -> String,
-) -> Result<T, E> {
-    let t = Instant::now();
-    let out = f()?;
-    stages.push(Stage {
-        name,
-        ms: t.elapsed().as_secs_f64() * 1e3,
-        detail: describe(&out),
-    });
-    Ok(out)
-}
 /// What the pipeline found in a frame.
 #[derive(Clone, Debug)]
 pub struct FaceResult {

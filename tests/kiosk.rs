@@ -361,4 +361,137 @@ fn a_bad_config_is_refused_by_name_and_a_missing_video_is_reported_on_screen() {
         "{}",
         last["status"]
     );
+
+    // No camera at start: said on screen, the default gem stays, the kiosk keeps running.
+    #[cfg(feature = "webcam")]
+    {
+        let run = kiosk(&x)
+            .args([
+                "--camera",
+                "63",
+                "--seconds",
+                "6",
+                "--trace",
+                "--size",
+                "400x600",
+            ])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(run.status.success(), "{stderr}");
+        let lines = trace(&run.stdout);
+        let last = lines.last().expect("frames were presented");
+        assert!(last["gems"].as_u64() >= Some(1), "no default gem: {last}");
+        assert!(
+            last["status"].as_str().unwrap().starts_with("no camera"),
+            "{}",
+            last["status"]
+        );
+    }
+}
+
+#[test]
+fn nobody_there_eases_back_to_the_default_gem() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("idle");
+    // One second of a face, then four of an empty room, looping.
+    let (face, _, _) = common::framed("lenna.png", 320, 240);
+    let empty = image::RgbImage::from_pixel(320, 240, image::Rgb([128, 128, 128]));
+    let mut frames = vec![face; 10];
+    frames.extend(std::iter::repeat_n(empty, 40));
+    let video = dir.join("visit.avi");
+    glyptic::capture::video::write_mjpeg_avi(&video, &frames, 10.0).unwrap();
+    let config = dir.join("kiosk.toml");
+    std::fs::write(&config, "idle_seconds = 1.0\nease_seconds = 0.5\n").unwrap();
+    let run = kiosk(&x)
+        .arg("--config")
+        .arg(&config)
+        .arg("--video")
+        .arg(&video)
+        .args(["--seconds", "12", "--trace", "--size", "400x600"])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let prints: Vec<String> = trace(&run.stdout)
+        .iter()
+        .filter(|l| l["gems"].as_u64() >= Some(1))
+        .map(|l| l["gem_print"].as_str().unwrap().to_string())
+        .collect();
+    let default = &prints[0];
+    let visitor = prints
+        .iter()
+        .position(|p| p != default)
+        .expect("the visitor's gem was shown");
+    assert!(
+        prints[visitor..].contains(default),
+        "the portrait never went back to the default face"
+    );
+}
+
+/// A shortened soak (the full one: scripts/soak-kiosk.sh): a looping video with a moving face
+/// for 40 s; memory stops growing after warm-up and the window never waits for the other
+/// threads.
+#[test]
+fn kiosk_soak_keeps_memory_flat_and_never_waits() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("soak");
+    let (still, _, _) = common::framed("lenna.png", 320, 240);
+    let frames: Vec<image::RgbImage> = (0..60)
+        .map(|i| {
+            let deg = 8.0 * (i as f32 * std::f32::consts::TAU / 60.0).sin();
+            common::with_noise(&common::rotated(&still, [160.0, 110.0], deg), 3.0, i + 1)
+        })
+        .collect();
+    let video = dir.join("sway.avi");
+    glyptic::capture::video::write_mjpeg_avi(&video, &frames, 30.0).unwrap();
+    let run = kiosk(&x)
+        .arg("--video")
+        .arg(&video)
+        .args(["--seconds", "40", "--trace", "--size", "320x480"])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let lines = trace(&run.stdout);
+    let at = |t: f64| {
+        lines
+            .iter()
+            .find(|l| l["t_s"].as_f64().unwrap() >= t)
+            .unwrap_or_else(|| lines.last().unwrap())
+    };
+    let last = lines.last().unwrap();
+    let (warm, end) = (
+        at(15.0)["rss_kb"].as_f64().unwrap(),
+        last["rss_kb"].as_f64().unwrap(),
+    );
+    let growth = end / warm - 1.0;
+    let poll = last["poll_max_ms"].as_f64().unwrap();
+    let frames = last["face_frame"].as_u64().unwrap();
+    let gems = last["gems"].as_u64().unwrap();
+    eprintln!(
+        "soak: {frames} video frames, {gems} gems, {} presented; RSS {warm} -> {end} kB \
+         ({:+.1} %), longest look at the other threads {poll:.2} ms",
+        lines.len(),
+        growth * 100.0
+    );
+    assert!(frames > 600, "only {frames} video frames in 40 s");
+    assert!(gems > 20, "only {gems} gems");
+    assert!(
+        growth < 0.05,
+        "memory grew {:.1} % after warm-up",
+        growth * 100.0
+    );
+    assert!(
+        poll < 250.0,
+        "the window waited {poll} ms for the other threads"
+    );
 }

@@ -259,8 +259,10 @@ mod live {
 
     /// What the face side reports to the window.
     pub enum FaceNews {
-        Face(Vec<f32>),
-        NoFace,
+        /// A fitted face (model mm); every update carries its frame's index in the stream and
+        /// its latency from capture, ms.
+        Face(Vec<f32>, u64, f64),
+        NoFace(u64, f64),
         Status(String),
     }
 
@@ -362,8 +364,8 @@ mod live {
             }
             if let Ok(Some(u)) = stream.updates().try_recv() {
                 news.push(match u.face {
-                    Some(face) => FaceNews::Face(face.mesh),
-                    None => FaceNews::NoFace,
+                    Some(face) => FaceNews::Face(face.mesh, u.frame_index, u.latency_ms),
+                    None => FaceNews::NoFace(u.frame_index, u.latency_ms),
                 });
             }
             news
@@ -456,6 +458,16 @@ struct Running {
     control_rects: Vec<(&'static str, [f32; 4])>,
     /// A fingerprint of the gem shown (changes with its shape).
     gem_print: u64,
+    /// When the first frame showing a gem was presented, seconds from start.
+    first_gem_frame_s: Option<f64>,
+    /// Face updates taken from the face thread, and the newest one's latency from capture.
+    face_updates: u64,
+    face_latency_ms: f64,
+    /// The newest update's frame index: frames the face thread has processed, less one.
+    face_frame: u64,
+    /// The longest the event loop spent taking news from the other threads, ms (it never
+    /// waits for them: this is the cost of a look).
+    poll_max_ms: f64,
 }
 
 impl Running {
@@ -558,6 +570,11 @@ impl Running {
             toast: None,
             control_rects: Vec::new(),
             gem_print: 0,
+            first_gem_frame_s: None,
+            face_updates: 0,
+            face_latency_ms: 0.0,
+            face_frame: 0,
+            poll_max_ms: 0.0,
         })
     }
 
@@ -576,6 +593,13 @@ impl Running {
 
     /// Takes what the gem and face threads have; true if the window should be drawn.
     fn poll(&mut self) -> bool {
+        let t = Instant::now();
+        let changed = self.take_news();
+        self.poll_max_ms = self.poll_max_ms.max(t.elapsed().as_secs_f64() * 1e3);
+        changed
+    }
+
+    fn take_news(&mut self) -> bool {
         let mut changed = false;
         for note in self.gems.notes.try_iter() {
             match note {
@@ -609,8 +633,11 @@ impl Running {
         for news in self.live.poll() {
             use live::FaceNews;
             match news {
-                FaceNews::Face(face) => {
+                FaceNews::Face(face, frame, latency_ms) => {
                     self.face_rate.tick();
+                    self.face_updates += 1;
+                    self.face_frame = frame;
+                    self.face_latency_ms = latency_ms;
                     self.face_status = "face found".into();
                     if !self.controls.frozen {
                         let _ = self.gems.faces.send(face.clone());
@@ -618,8 +645,11 @@ impl Running {
                     }
                     self.last_face = Some((face, Instant::now()));
                 }
-                FaceNews::NoFace => {
+                FaceNews::NoFace(frame, latency_ms) => {
                     self.face_rate.tick();
+                    self.face_updates += 1;
+                    self.face_frame = frame;
+                    self.face_latency_ms = latency_ms;
                     self.face_status = "no face".into();
                 }
                 FaceNews::Status(s) => self.face_status = s,
@@ -840,6 +870,9 @@ impl Running {
         if self.first_frame_s.is_none() {
             self.first_frame_s = Some(self.started.elapsed().as_secs_f64());
         }
+        if rendered_gem && self.first_gem_frame_s.is_none() {
+            self.first_gem_frame_s = Some(self.started.elapsed().as_secs_f64());
+        }
         if args.trace {
             println!("{}", self.trace_line(rendered_gem));
         }
@@ -950,6 +983,12 @@ impl Running {
             "first_frame_s": self.first_frame_s,
             "first_gem_s": self.first_gem_s,
             "gem_print": format!("{:016x}", self.gem_print),
+            "first_gem_frame_s": self.first_gem_frame_s,
+            "face_updates": self.face_updates,
+            "face_latency_ms": self.face_latency_ms,
+            "face_frame": self.face_frame,
+            "poll_max_ms": self.poll_max_ms,
+            "rss_kb": resident_kb(),
             "controls": self.control_rects.iter().map(|(k, r)| (k.to_string(), serde_json::json!(r))).collect::<serde_json::Map<_, _>>(),
         })
     }
@@ -964,14 +1003,25 @@ impl Running {
             super::write_png(image.clone(), path)?;
         }
         eprintln!(
-            "kiosk: {} frames, {} gems; first frame after {:.2} s, first gem after {}",
+            "kiosk: {} frames, {} gems, {} face updates; first frame after {:.2} s, first gem \
+             shown after {}",
             self.frames,
             self.gem_count,
+            self.face_updates,
             self.first_frame_s.unwrap_or(f64::NAN),
-            self.first_gem_s.map_or("-".into(), |s| format!("{s:.2} s")),
+            self.first_gem_frame_s
+                .map_or("-".into(), |s| format!("{s:.2} s")),
         );
         Ok(())
     }
+}
+
+/// Resident memory of this process, kB (Linux; 0 where unknown).
+fn resident_kb() -> u64 {
+    std::fs::read_to_string("/proc/self/statm")
+        .ok()
+        .and_then(|s| s.split_whitespace().nth(1)?.parse::<u64>().ok())
+        .map_or(0, |pages| pages * 4)
 }
 
 /// FNV-1a over the gem's vertex positions: equal for equal gems, different for any change.
@@ -1165,7 +1215,7 @@ struct UiFrame<'a> {
 impl UiFrame<'_> {
     fn draw(&mut self, root: &mut egui::Ui) {
         egui::Panel::top("status").show(root, |ui| {
-            ui.label(egui::RichText::new(&self.status).size(18.0));
+            ui.add(egui::Label::new(egui::RichText::new(&self.status).size(18.0)).truncate());
         });
         egui::Panel::bottom("controls").show(root, |ui| {
             ui.add_space(6.0);

@@ -1,7 +1,9 @@
 //! Sub-commands. Each stage prints one line with its time.
 
+#[cfg(feature = "face")]
 mod batch;
 mod kiosk;
+#[cfg(feature = "face")]
 mod track;
 
 use std::io::Write as _;
@@ -12,8 +14,8 @@ use anyhow::{Context, Result, anyhow, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 
 use glyptic::gem::{self, CameoParams};
-use glyptic::pipeline::{FacePipeline, Stage, timed};
 use glyptic::render::{Material, RenderParams, Renderer};
+use glyptic::stage::{Stage, timed};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -29,16 +31,20 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Makes a gem image from a portrait photo.
+    #[cfg(feature = "face")]
     Photo(PhotoArgs),
     /// Renders the cameo with the Surrey model's mean face (no photo needed).
     Render(RenderArgs),
     /// Fits the face model to a landmark file (iBUG .pts, 1-based) and reports pose and error.
     Fit(FitArgs),
     /// Finds the faces in an image and their 68 iBUG landmarks.
+    #[cfg(feature = "face")]
     Landmarks(LandmarksArgs),
     /// Follows the face through a video, folder, photo or webcam; reports speed per stage.
+    #[cfg(feature = "face")]
     Track(track::TrackArgs),
     /// Makes a gem from every photo in a folder (all cores), with a CSV of status and times.
+    #[cfg(feature = "face")]
     Batch(batch::BatchArgs),
     /// The museum window: the visitor's face as a live cameo, with touch controls.
     Kiosk(kiosk::KioskArgs),
@@ -246,6 +252,7 @@ pub enum PreferArg {
     Central,
 }
 
+#[cfg(feature = "face")]
 impl ChoiceArgs {
     pub fn apply(&self, options: &mut glyptic::detect::DetectOptions) {
         options.prefer = match self.prefer {
@@ -326,6 +333,7 @@ pub struct PhotoArgs {
 }
 
 /// `glyptic landmarks`: detection and 68 landmarks per face, with per-stage times.
+#[cfg(feature = "face")]
 fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
     let path = &args.image;
     let mut stages = Vec::new();
@@ -390,11 +398,15 @@ fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
 
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
+        #[cfg(feature = "face")]
         Command::Photo(args) => photo(&args),
         Command::Render(args) => render_mean(&args),
         Command::Fit(args) => fit_landmarks(&args),
+        #[cfg(feature = "face")]
         Command::Landmarks(args) => find_landmarks(&args),
+        #[cfg(feature = "face")]
         Command::Track(args) => track::track(&args),
+        #[cfg(feature = "face")]
         Command::Batch(args) => batch::batch(&args),
         Command::Kernel(args) => print_kernel(&args),
         Command::Kiosk(args) => kiosk::kiosk(&args),
@@ -517,6 +529,7 @@ fn check_output_dirs<'a>(outputs: impl IntoIterator<Item = &'a PathBuf>) -> Resu
 
 /// Builds the cameo around a face mesh (model mm), as a timed stage.
 /// Decodes a photo as stage "decode" (its size as the detail).
+#[cfg(feature = "face")]
 fn decode(stages: &mut Vec<Stage>, path: &Path) -> Result<image::RgbImage> {
     Ok(timed(
         stages,
@@ -616,6 +629,14 @@ fn encode_png(rgba: image::RgbaImage, output: &Path) -> Result<Vec<u8>> {
 }
 
 fn render_mean(args: &RenderArgs) -> Result<()> {
+    #[cfg(not(feature = "face"))]
+    if let Some(image) = &args.photo {
+        bail!(
+            "{}: this build has no face pipeline (cargo feature `face`): render the mean face or --face FILE.obj",
+            image.display()
+        );
+    }
+    #[cfg(feature = "face")]
     if let Some(image) = &args.photo {
         return photo(&PhotoArgs {
             image: image.clone(),
@@ -757,6 +778,7 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     result.with_context(|| format!("{}: cannot write", path.display()))
 }
 
+#[cfg(feature = "face")]
 fn photo(args: &PhotoArgs) -> Result<()> {
     let start = Instant::now();
     let params = args.view.params()?;
@@ -779,7 +801,7 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     let mut stages = Vec::new();
     let img = decode(&mut stages, image_path)?;
     print_stage(&stages[0]);
-    let mut pipeline = FacePipeline::load_default(&mut stages)?;
+    let mut pipeline = glyptic::pipeline::FacePipeline::load_default(&mut stages)?;
     args.choice.apply(&mut pipeline.faces.detect_options);
     let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
     let mesh = build_gem(
