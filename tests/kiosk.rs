@@ -495,3 +495,67 @@ fn kiosk_soak_keeps_memory_flat_and_never_waits() {
         "the window waited {poll} ms for the other threads"
     );
 }
+
+/// The build without the face pipeline (`scripts/test.sh` builds it as glyptic-noface): the
+/// kiosk shows the default face's gem and says why; the face commands are not there.
+#[test]
+fn the_build_without_the_face_pipeline_shows_the_default_gem() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let bin = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/release/glyptic-noface");
+    assert!(
+        bin.exists(),
+        "{}: missing (scripts/test.sh builds it with --no-default-features)",
+        bin.display()
+    );
+    let x = Xvfb::start();
+    let dir = scratch("noface");
+    let shot = dir.join("noface.png");
+    let run = Command::new(&bin)
+        .args([
+            "kiosk",
+            "--frames",
+            "4",
+            "--trace",
+            "--size",
+            "400x600",
+            "--screenshot",
+        ])
+        .arg(&shot)
+        .env("DISPLAY", &x.display)
+        .env("XDG_RUNTIME_DIR", scratch("xdg"))
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let lines = trace(&run.stdout);
+    let last = lines.last().unwrap();
+    assert!(
+        last["status"]
+            .as_str()
+            .unwrap()
+            .starts_with("this build has no face tracking"),
+        "{}",
+        last["status"]
+    );
+    assert!(last["full_gem_frame_s"].is_number(), "{last}");
+    let img = image::open(&shot).unwrap().to_rgba8();
+    assert!(gold_pixels(&img) > 2000, "no gem in the screenshot");
+    let photo = Command::new(&bin)
+        .args(["photo", "x.jpg", "-o", "y.png"])
+        .output()
+        .unwrap();
+    assert!(!photo.status.success());
+    let render = Command::new(&bin)
+        .args(["render", "--photo", "x.jpg", "-o"])
+        .arg(dir.join("y.png"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&render.stderr);
+    assert!(
+        !render.status.success() && stderr.contains("feature `face`"),
+        "{stderr}"
+    );
+}

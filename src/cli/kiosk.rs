@@ -162,6 +162,9 @@ impl ApplicationHandler for App {
     }
 }
 
+/// The first gem's resolution, of the window's (per side).
+const PREVIEW_SCALE: f32 = 0.5;
+
 enum Continue {
     Yes,
     Quit,
@@ -458,8 +461,10 @@ struct Running {
     control_rects: Vec<(&'static str, [f32; 4])>,
     /// A fingerprint of the gem shown (changes with its shape).
     gem_print: u64,
-    /// When the first frame showing a gem was presented, seconds from start.
+    /// When the first frame showing a gem was presented (a preview at [`PREVIEW_SCALE`]), and
+    /// the first at full resolution, seconds from start.
     first_gem_frame_s: Option<f64>,
+    full_gem_frame_s: Option<f64>,
     /// Face updates taken from the face thread, and the newest one's latency from capture.
     face_updates: u64,
     face_latency_ms: f64,
@@ -571,6 +576,7 @@ impl Running {
             control_rects: Vec::new(),
             gem_print: 0,
             first_gem_frame_s: None,
+            full_gem_frame_s: None,
             face_updates: 0,
             face_latency_ms: 0.0,
             face_frame: 0,
@@ -730,10 +736,13 @@ impl Running {
         self.egui_state
             .handle_platform_output(&self.window, output.platform_output);
 
-        // The gem's texture follows the area it is shown in.
+        // The gem's texture follows the area it is shown in. The very first gem is rendered
+        // at half the resolution, then at full: on a CPU rasteriser that puts it on screen
+        // about twice as soon after start-up.
         let ppp = output.pixels_per_point;
         if let Some(rect) = gem_rect {
-            let scale = ppp * self.render_scale;
+            let preview = self.gem.is_some() && self.first_gem_frame_s.is_none();
+            let scale = ppp * self.render_scale * if preview { PREVIEW_SCALE } else { 1.0 };
             let size = [
                 ((rect.width() * scale).round() as u32).clamp(16, 4096),
                 ((rect.height() * scale).round() as u32).clamp(16, 4096),
@@ -870,8 +879,15 @@ impl Running {
         if self.first_frame_s.is_none() {
             self.first_frame_s = Some(self.started.elapsed().as_secs_f64());
         }
-        if rendered_gem && self.first_gem_frame_s.is_none() {
-            self.first_gem_frame_s = Some(self.started.elapsed().as_secs_f64());
+        if rendered_gem {
+            let now = Some(self.started.elapsed().as_secs_f64());
+            if self.first_gem_frame_s.is_none() {
+                self.first_gem_frame_s = now;
+                // The preview: the full resolution follows on the next frame.
+                self.dirty = true;
+            } else if self.full_gem_frame_s.is_none() {
+                self.full_gem_frame_s = now;
+            }
         }
         if args.trace {
             println!("{}", self.trace_line(rendered_gem));
@@ -984,6 +1000,7 @@ impl Running {
             "first_gem_s": self.first_gem_s,
             "gem_print": format!("{:016x}", self.gem_print),
             "first_gem_frame_s": self.first_gem_frame_s,
+            "full_gem_frame_s": self.full_gem_frame_s,
             "face_updates": self.face_updates,
             "face_latency_ms": self.face_latency_ms,
             "face_frame": self.face_frame,
