@@ -309,8 +309,24 @@ fn injected_pointer_events_drive_the_controls_without_moving_the_camera() {
         "the camera moved"
     );
 
+    // The window resized (and minimised, which leaves no surface to draw on): the gem follows
+    // the new size and frames go on.
+    let before = live.latest().unwrap()["frame"].as_u64().unwrap();
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowminimize --sync %1"),
+    );
+    std::thread::sleep(Duration::from_secs(1));
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowmap --sync %1 windowsize --sync %1 500 700"),
+    );
+    live.wait_for(15, "frames at the new size", |l| {
+        l["frame"].as_u64().unwrap() > before + 2 && l["controls"]["gem"][2] == 500.0
+    });
+
     // A drag on the gem itself orbits.
-    let (gx, gy) = centre(&frame, "gem");
+    let (gx, gy) = centre(&live.latest().unwrap(), "gem");
     drag(&x, (gx, gy), (gx + 120, gy + 40));
     live.wait_for(10, "the orbit to turn", |l| {
         l["yaw_deg"].as_f64().unwrap() < -10.0 && l["pitch_deg"].as_f64().unwrap() > 3.0

@@ -1189,7 +1189,7 @@ impl ScreenCopy {
     }
 }
 
-/// Finger-sized controls: 56-point buttons, a thick slider, large text. A press counts as a
+/// Finger-sized controls: 56-point buttons, a thick slider, large text, a gold pressed state. A press counts as a
 /// tap however long it is held (visitors press slowly, and a CPU-rendered frame can take half
 /// a second) and however much a finger wobbles.
 fn style(ctx: &egui::Context) {
@@ -1203,6 +1203,12 @@ fn style(ctx: &egui::Context) {
         s.spacing.item_spacing = egui::vec2(12.0, 10.0);
         s.spacing.slider_width = 260.0;
         s.spacing.slider_rail_height = 14.0;
+        // Pressed: gold and a little larger, so a finger sees its tap land.
+        let pressed = &mut s.visuals.widgets.active;
+        pressed.bg_fill = egui::Color32::from_rgb(0xc9, 0x9a, 0x2e);
+        pressed.weak_bg_fill = pressed.bg_fill;
+        pressed.fg_stroke = egui::Stroke::new(2.0, egui::Color32::BLACK);
+        pressed.expansion = 4.0;
         for (text_style, size) in [
             (egui::TextStyle::Button, 24.0),
             (egui::TextStyle::Body, 22.0),
