@@ -139,29 +139,15 @@ impl KioskConfig {
             })
         };
         let within = |v: f32, lo: f32, hi: f32| v.is_finite() && (lo..=hi).contains(&v);
-        if !within(self.sss_strength, 0.0, 1.0) {
-            return invalid(
-                "sss_strength",
-                format!("is {}, not within 0..=1", self.sss_strength),
-            );
-        }
-        if !within(self.idle_seconds, 0.0, 86_400.0) {
-            return invalid(
-                "idle_seconds",
-                format!("is {}, not within 0..=86400", self.idle_seconds),
-            );
-        }
-        if !within(self.ease_seconds, 0.0, 60.0) {
-            return invalid(
-                "ease_seconds",
-                format!("is {}, not within 0..=60", self.ease_seconds),
-            );
-        }
-        if !within(self.render_scale, 0.25, 1.0) {
-            return invalid(
-                "render_scale",
-                format!("is {}, not within 0.25..=1", self.render_scale),
-            );
+        for (key, v, lo, hi) in [
+            ("sss_strength", self.sss_strength, 0.0, 1.0),
+            ("idle_seconds", self.idle_seconds, 0.0, 86_400.0),
+            ("ease_seconds", self.ease_seconds, 0.0, 60.0),
+            ("render_scale", self.render_scale, 0.25, 1.0),
+        ] {
+            if !within(v, lo, hi) {
+                return invalid(key, format!("is {v}, not within {lo}..={hi}"));
+            }
         }
         for (key, v) in [("width", self.width), ("height", self.height)] {
             if !(64..=8192).contains(&v) {

@@ -22,5 +22,6 @@ pub mod sss;
 pub mod stage;
 #[cfg(feature = "face")]
 pub mod stream;
+pub mod styles;
 #[cfg(feature = "face")]
 pub mod track;

@@ -80,6 +80,20 @@ fn clip(dir: &Path, face: &str) -> PathBuf {
     path
 }
 
+/// Runs a kiosk to its end; it must succeed and present frames. Returns its trace (one JSON
+/// object per presented frame).
+fn traced(cmd: &mut Command) -> Vec<serde_json::Value> {
+    let run = cmd.output().expect("run the kiosk");
+    assert!(
+        run.status.success(),
+        "{cmd:?} failed: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let lines = trace(&run.stdout);
+    assert!(!lines.is_empty(), "{cmd:?} presented no frame");
+    lines
+}
+
 fn trace(stdout: &[u8]) -> Vec<serde_json::Value> {
     String::from_utf8_lossy(stdout)
         .lines()
@@ -123,23 +137,20 @@ fn kiosk_shows_the_gem_and_follows_the_face_in_a_video() {
     for face in ["lenna.png", "einstein.jpg"] {
         let video = clip(&dir, face);
         let shot = dir.join(format!("{face}.png"));
-        let run = kiosk(&x)
-            .args(["--video"])
-            .arg(&video)
-            .args([
-                "--seconds",
-                "9",
-                "--size",
-                "400x600",
-                "--trace",
-                "--screenshot",
-            ])
-            .arg(&shot)
-            .output()
-            .expect("run the kiosk");
-        let stderr = String::from_utf8_lossy(&run.stderr);
-        assert!(run.status.success(), "kiosk failed: {stderr}");
-        let lines = trace(&run.stdout);
+        let lines = traced(
+            kiosk(&x)
+                .args(["--video"])
+                .arg(&video)
+                .args([
+                    "--seconds",
+                    "9",
+                    "--size",
+                    "400x600",
+                    "--trace",
+                    "--screenshot",
+                ])
+                .arg(&shot),
+        );
         let last = lines.last().expect("frames were presented");
         assert!(
             last["status"].as_str().unwrap().starts_with("face found"),
@@ -331,6 +342,15 @@ fn injected_pointer_events_drive_the_controls_without_moving_the_camera() {
     live.wait_for(10, "the orbit to turn", |l| {
         l["yaw_deg"].as_f64().unwrap() < -10.0 && l["pitch_deg"].as_f64().unwrap() > 3.0
     });
+    // The wheel over the gem zooms.
+    let (gx, gy) = centre(&live.latest().unwrap(), "gem");
+    let wheel = format!(
+        "search --name ^glyptic$ mousemove --window %1 {gx} {gy} sleep 0.3 click --repeat 3 --delay 200 4"
+    );
+    xdotool(&x, &words(&wheel));
+    live.wait_for(10, "the wheel to zoom in", |l| {
+        l["zoom"].as_f64().unwrap() > 1.05
+    });
     let mut child = live.child;
     let _ = child.kill();
     let _ = child.wait();
@@ -353,20 +373,17 @@ fn a_bad_config_is_refused_by_name_and_a_missing_video_is_reported_on_screen() {
     assert!(!stderr.contains("panicked"), "{stderr}");
 
     // No video: the kiosk keeps running with the default face and says why.
-    let run = kiosk(&x)
-        .args([
-            "--video",
-            "/nonexistent/visitor.avi",
-            "--seconds",
-            "6",
-            "--trace",
-        ])
-        .args(["--size", "400x600"])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(run.status.success(), "{stderr}");
-    let lines = trace(&run.stdout);
+    let lines = traced(
+        kiosk(&x)
+            .args([
+                "--video",
+                "/nonexistent/visitor.avi",
+                "--seconds",
+                "6",
+                "--trace",
+            ])
+            .args(["--size", "400x600"]),
+    );
     let last = lines.last().expect("frames were presented");
     assert!(last["gems"].as_u64() >= Some(1), "no default gem: {last}");
     assert!(
@@ -381,21 +398,15 @@ fn a_bad_config_is_refused_by_name_and_a_missing_video_is_reported_on_screen() {
     // No camera at start: said on screen, the default gem stays, the kiosk keeps running.
     #[cfg(feature = "webcam")]
     {
-        let run = kiosk(&x)
-            .args([
-                "--camera",
-                "63",
-                "--seconds",
-                "6",
-                "--trace",
-                "--size",
-                "400x600",
-            ])
-            .output()
-            .unwrap();
-        let stderr = String::from_utf8_lossy(&run.stderr);
-        assert!(run.status.success(), "{stderr}");
-        let lines = trace(&run.stdout);
+        let lines = traced(kiosk(&x).args([
+            "--camera",
+            "63",
+            "--seconds",
+            "6",
+            "--trace",
+            "--size",
+            "400x600",
+        ]));
         let last = lines.last().expect("frames were presented");
         assert!(last["gems"].as_u64() >= Some(1), "no default gem: {last}");
         assert!(
@@ -420,24 +431,18 @@ fn nobody_there_eases_back_to_the_default_gem() {
     glyptic::capture::video::write_mjpeg_avi(&video, &frames, 10.0).unwrap();
     let config = dir.join("kiosk.toml");
     std::fs::write(&config, "idle_seconds = 1.0\nease_seconds = 0.5\n").unwrap();
-    let run = kiosk(&x)
-        .arg("--config")
-        .arg(&config)
-        .arg("--video")
-        .arg(&video)
-        .args(["--seconds", "12", "--trace", "--size", "400x600"])
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    let prints: Vec<String> = trace(&run.stdout)
-        .iter()
-        .filter(|l| l["gems"].as_u64() >= Some(1))
-        .map(|l| l["gem_print"].as_str().unwrap().to_string())
-        .collect();
+    let prints: Vec<String> = traced(
+        kiosk(&x)
+            .arg("--config")
+            .arg(&config)
+            .arg("--video")
+            .arg(&video)
+            .args(["--seconds", "12", "--trace", "--size", "400x600"]),
+    )
+    .iter()
+    .filter(|l| l["gems"].as_u64() >= Some(1))
+    .map(|l| l["gem_print"].as_str().unwrap().to_string())
+    .collect();
     let default = &prints[0];
     let visitor = prints
         .iter()
@@ -466,18 +471,13 @@ fn kiosk_soak_keeps_memory_flat_and_never_waits() {
         .collect();
     let video = dir.join("sway.avi");
     glyptic::capture::video::write_mjpeg_avi(&video, &frames, 30.0).unwrap();
-    let run = kiosk(&x)
-        .arg("--video")
-        .arg(&video)
-        .args(["--seconds", "40", "--trace", "--size", "320x480"])
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    let lines = trace(&run.stdout);
+    let lines = traced(kiosk(&x).arg("--video").arg(&video).args([
+        "--seconds",
+        "40",
+        "--trace",
+        "--size",
+        "320x480",
+    ]));
     let at = |t: f64| {
         lines
             .iter()
@@ -526,27 +526,21 @@ fn the_build_without_the_face_pipeline_shows_the_default_gem() {
     let x = Xvfb::start();
     let dir = scratch("noface");
     let shot = dir.join("noface.png");
-    let run = Command::new(&bin)
-        .args([
-            "kiosk",
-            "--frames",
-            "4",
-            "--trace",
-            "--size",
-            "400x600",
-            "--screenshot",
-        ])
-        .arg(&shot)
-        .env("DISPLAY", &x.display)
-        .env("XDG_RUNTIME_DIR", scratch("xdg"))
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+    let lines = traced(
+        Command::new(&bin)
+            .args([
+                "kiosk",
+                "--frames",
+                "4",
+                "--trace",
+                "--size",
+                "400x600",
+                "--screenshot",
+            ])
+            .arg(&shot)
+            .env("DISPLAY", &x.display)
+            .env("XDG_RUNTIME_DIR", scratch("xdg")),
     );
-    let lines = trace(&run.stdout);
     let last = lines.last().unwrap();
     assert!(
         last["status"]
