@@ -105,6 +105,53 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
+    // Gallery styles: each alone after the 1280x800 marble frame with SSS; a style's cost is
+    // the frame's wall time with it less without it (median of the frames), beside the
+    // scene pass's GPU time.
+    println!(
+        "\n# Gallery styles at 1280x800 (marble, 21-tap SSS)\n\n| style | where | frame ms | style ms | scene ms | style / scene |\n|---|---|---|---|---|---|"
+    );
+    let base = RenderParams {
+        width: 1280,
+        height: 800,
+        ..RenderParams::default()
+    };
+    let timed = |renderer: &mut Renderer,
+                 p: &RenderParams|
+     -> Result<(f64, f64), Box<dyn std::error::Error>> {
+        renderer.render(&mesh, p)?;
+        let (mut wall, mut scene) = (vec![], vec![]);
+        for _ in 0..frames {
+            let t = Instant::now();
+            renderer.render(&mesh, p)?;
+            wall.push(t.elapsed().as_secs_f64() * 1e3);
+            scene.push(renderer.last_pass_times().map_or(f64::NAN, |t| t.scene_ms));
+        }
+        Ok((median(wall), median(scene)))
+    };
+    let (plain, _) = timed(&mut renderer, &base)?;
+    for style in glyptic::styles::Style::ALL {
+        let p = RenderParams {
+            styles: vec![style],
+            ..base.clone()
+        };
+        let (wall, scene) = timed(&mut renderer, &p)?;
+        let cost = wall - plain;
+        let place = if matches!(
+            style,
+            glyptic::styles::Style::Dither | glyptic::styles::Style::Painterly
+        ) {
+            "CPU, after the readback"
+        } else {
+            "GPU pass"
+        };
+        println!(
+            "| {} | {place} | {wall:.1} | {cost:.1} | {scene:.1} | {:.0} % |",
+            style.name(),
+            100.0 * cost / scene
+        );
+    }
+    println!("\nWithout a style the frame took {plain:.1} ms.");
     println!(
         "\nRelief rebuild after a fit (`CameoBuilder::build`: height field + cameo mesh, one thread): mean face {:.2} ms, a varied face {:.2} ms (median of {} builds); the builder itself (head, hair and bezel, once per cameo shape) {builder_ms:.1} ms.",
         rebuild[0], rebuild[1], BUILDS

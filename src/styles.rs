@@ -54,6 +54,26 @@ impl Style {
     }
 }
 
+/// Applies `style` with its default parameters (the chromatic aberration at `time_s`).
+pub fn apply(img: &RgbaImage, style: Style, time_s: f32) -> RgbaImage {
+    match style {
+        Style::Toon => toon(img, &ToonParams::default()),
+        Style::Dither => dither(img, DITHER_LEVELS),
+        Style::Painterly => painterly(img, &PainterlyParams::default()),
+        Style::FishEye => fisheye(img, &FishEyeParams::default()),
+        Style::Chromatic => chromatic(
+            img,
+            &ChromaticParams {
+                time_s,
+                ..ChromaticParams::default()
+            },
+        ),
+    }
+}
+
+/// Levels per channel of the dithering (27 colours), as in the gallery.
+pub const DITHER_LEVELS: u32 = 3;
+
 /// Toon: 6 grey levels, and black where the Sobel gradient of the luminance is an edge.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToonParams {

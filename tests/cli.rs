@@ -532,3 +532,29 @@ fn track_follows_a_clip_and_ends_a_truncated_one_cleanly() {
         "{stdout}"
     );
 }
+
+/// `--style` chains gallery styles after the render; the last one here, dithering, leaves 3
+/// values per channel; an unknown name is refused with the list of names.
+#[test]
+fn render_applies_a_style_chain() {
+    let dir = scratch("style");
+    let out = dir.join("styled.png");
+    succeeds(
+        glyptic()
+            .args(["render", "--size", "80x100", "--style", "toon,dither", "-o"])
+            .arg(&out),
+    );
+    let img = image::open(&out).unwrap().to_rgb8();
+    assert!(
+        img.pixels()
+            .all(|p| p.0.iter().all(|c| [0, 128, 255].contains(c)))
+    );
+    let run = glyptic()
+        .args(["render", "--style", "toon,sepia", "-o"])
+        .arg(dir.join("bad.png"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && stderr.contains("sepia") && stderr.contains("painterly"));
+    assert!(!dir.join("bad.png").exists());
+}

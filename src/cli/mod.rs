@@ -151,6 +151,24 @@ pub struct ViewArgs {
     pub portrait: PortraitArg,
     #[command(flatten)]
     pub sss: SssArgs,
+    /// Gallery styles after the render, in order: toon, dither, painterly, fisheye, chromatic
+    /// (e.g. `--style toon,fisheye`).
+    #[arg(long, value_name = "NAME[,NAME...]")]
+    pub style: Option<StyleChain>,
+    /// The moment (seconds) the moving styles (chromatic) show.
+    #[arg(long, default_value_t = 0.0, value_name = "S")]
+    pub style_time: f32,
+}
+
+/// `--style`'s list.
+#[derive(Clone, Debug)]
+pub struct StyleChain(pub Vec<glyptic::styles::Style>);
+
+impl std::str::FromStr for StyleChain {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        glyptic::styles::Style::parse_chain(s).map(StyleChain)
+    }
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -232,6 +250,8 @@ impl ViewArgs {
                 OnOff::On => Some(self.sss.params()?),
                 OnOff::Off => None,
             },
+            styles: self.style.clone().map_or_else(Vec::new, |c| c.0),
+            style_time_s: self.style_time,
             ..RenderParams::default()
         })
     }

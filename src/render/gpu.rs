@@ -25,6 +25,7 @@ use wgpu::util::DeviceExt;
 
 use super::Vertex;
 use super::shaders;
+use crate::styles::Style;
 
 pub(crate) const DIFFUSE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub(crate) const SPECULAR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -130,7 +131,18 @@ pub(crate) struct Pipelines {
     /// Horizontal and vertical pass uniforms.
     pub sss_uniforms: [wgpu::Buffer; 2],
     pub linear_clamp: wgpu::Sampler,
+    /// Gallery style passes: layout, modules, pipelines by (style, output format) built on
+    /// first use, and one uniform buffer per place in a chain.
+    pub style_layout: wgpu::BindGroupLayout,
+    style_modules: Vec<(Style, wgpu::ShaderModule)>,
+    style_pipelines: Vec<((Style, wgpu::TextureFormat), wgpu::RenderPipeline)>,
+    pub style_uniforms: Vec<wgpu::Buffer>,
 }
+
+/// Styles in one chain on the GPU, at most.
+pub(crate) const MAX_GPU_STYLES: usize = 8;
+/// The ping-pong targets of a style chain (display values, like the output).
+pub(crate) const STYLE_FORMAT: wgpu::TextureFormat = OUTPUT_FORMAT;
 
 fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -361,6 +373,38 @@ impl Pipelines {
             ..Default::default()
         });
 
+        let style_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic style layout"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+                texture_entry(1, false),
+            ],
+        });
+        let style_modules = [
+            (Style::Toon, shaders::TOON),
+            (Style::FishEye, shaders::FISHEYE),
+            (Style::Chromatic, shaders::CHROMATIC),
+        ]
+        .into_iter()
+        .map(|(style, source)| {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(style.name()),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+            (style, module)
+        })
+        .collect();
+        let style_uniforms = (0..MAX_GPU_STYLES)
+            .map(|_| {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("glyptic style uniform"),
+                    size: 32,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+            .collect();
+
         Self {
             samples,
             scene,
@@ -374,6 +418,10 @@ impl Pipelines {
             sss_layout,
             sss_uniforms,
             linear_clamp,
+            style_layout,
+            style_modules,
+            style_pipelines: Vec::new(),
+            style_uniforms,
         }
     }
 }
@@ -391,6 +439,42 @@ impl Pipelines {
             );
             self.composite.push((format, pipeline));
         }
+    }
+
+    /// Builds the pass of `style` writing `format` if there is none yet (false: the style has
+    /// no GPU pass).
+    pub fn ensure_style(
+        &mut self,
+        device: &wgpu::Device,
+        style: Style,
+        format: wgpu::TextureFormat,
+    ) -> bool {
+        if self
+            .style_pipelines
+            .iter()
+            .any(|(k, _)| *k == (style, format))
+        {
+            return true;
+        }
+        let Some((_, module)) = self.style_modules.iter().find(|(s, _)| *s == style) else {
+            return false;
+        };
+        let pipeline =
+            fullscreen_pipeline(device, style.name(), module, &self.style_layout, format);
+        self.style_pipelines.push(((style, format), pipeline));
+        true
+    }
+
+    /// The pass of `style` writing `format` (see [`Pipelines::ensure_style`]).
+    pub fn style(
+        &self,
+        style: Style,
+        format: wgpu::TextureFormat,
+    ) -> Option<&wgpu::RenderPipeline> {
+        self.style_pipelines
+            .iter()
+            .find(|(k, _)| *k == (style, format))
+            .map(|(_, p)| p)
     }
 
     /// The composite pipeline for `format` (see [`Pipelines::ensure_composite`]).
@@ -485,6 +569,92 @@ pub(crate) struct Targets {
     pub sss_bind_groups: [wgpu::BindGroup; 2],
     /// Composite reading the blurred diffuse (SSS on).
     pub composite_sss_bind_group: wgpu::BindGroup,
+}
+
+/// A style pass's uniform (`Style` in style_common.wgsl), or `None` for a style done on the
+/// CPU (dithering is serial; painterly's dabs overwrite in order).
+pub(crate) fn style_uniform(style: Style, time_s: f32) -> Option<[f32; 8]> {
+    use crate::styles::{ChromaticParams, FishEyeParams, ToonParams, chromatic_offsets};
+    match style {
+        Style::Toon => {
+            let t = ToonParams::default();
+            Some([
+                t.levels as f32,
+                t.edge_low,
+                t.edge_high,
+                t.threshold,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+            ])
+        }
+        Style::FishEye => {
+            let f = FishEyeParams::default();
+            Some([f.strength, f.power, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        }
+        Style::Chromatic => {
+            let [r, g, b] = chromatic_offsets(&ChromaticParams {
+                time_s,
+                ..ChromaticParams::default()
+            });
+            Some([r[0], r[1], g[0], g[1], b[0], b[1], 0.0, 0.0])
+        }
+        Style::Dither | Style::Painterly => None,
+    }
+}
+
+/// The two images a style chain passes between (the composite writes the first; pass `i`
+/// reads `views[i % 2]`), and each place's bind group (its uniform, its input).
+pub(crate) struct StyleTargets {
+    pub views: [wgpu::TextureView; 2],
+    pub bind_groups: Vec<wgpu::BindGroup>,
+}
+
+impl StyleTargets {
+    pub fn new(device: &wgpu::Device, pipelines: &Pipelines, width: u32, height: u32) -> Self {
+        let views = [0, 1].map(|_| {
+            device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some("glyptic style image"),
+                    size: wgpu::Extent3d {
+                        width,
+                        height,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: STYLE_FORMAT,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                        | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default())
+        });
+        let bind_groups = pipelines
+            .style_uniforms
+            .iter()
+            .enumerate()
+            .map(|(i, uniform)| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("glyptic style bind group"),
+                    layout: &pipelines.style_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: uniform.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::TextureView(&views[i % 2]),
+                        },
+                    ],
+                })
+            })
+            .collect();
+        StyleTargets { views, bind_groups }
+    }
 }
 
 /// Bytes per readback row: `width` pixels rounded up to wgpu's 256-byte copy alignment.

@@ -130,6 +130,12 @@ pub struct RenderParams {
     pub background: [f32; 3],
     /// Subsurface scattering in the stone (gold never scatters); `None` turns the pass off.
     pub sss: Option<crate::sss::SssParams>,
+    /// Gallery styles applied after the composite, in order. Toon, fish-eye and chromatic
+    /// aberration are GPU passes; dithering and painterly, and whatever follows them, run on
+    /// the CPU after the readback (a window's frame takes GPU styles only).
+    pub styles: Vec<crate::styles::Style>,
+    /// Time for the styles that move (the chromatic aberration), seconds.
+    pub style_time_s: f32,
 }
 
 impl Default for RenderParams {
@@ -144,6 +150,8 @@ impl Default for RenderParams {
             marble: MarbleParams::default(),
             background: [0.16, 0.18, 0.22],
             sss: Some(crate::sss::SssParams::default()),
+            styles: Vec::new(),
+            style_time_s: 0.0,
         }
     }
 }
@@ -259,6 +267,14 @@ impl PassTimer {
     }
 }
 
+/// How many of `styles`, from the first, have a GPU pass.
+fn gpu_style_count(styles: &[crate::styles::Style]) -> usize {
+    styles
+        .iter()
+        .take_while(|&&s| gpu::style_uniform(s, 0.0).is_some())
+        .count()
+}
+
 /// Where a frame's composite goes.
 #[derive(Clone, Copy)]
 enum Output<'a> {
@@ -277,6 +293,8 @@ pub struct Renderer {
     limits: wgpu::Limits,
     pipelines: Pipelines,
     targets: Option<Targets>,
+    /// Images and bind groups of a style chain, made on the first frame that has one.
+    style_targets: Option<gpu::StyleTargets>,
     mesh_buffers: Option<MeshBuffers>,
     /// Errors wgpu reports outside an error scope (e.g. device loss); kept instead of the
     /// default handler, which panics.
@@ -363,6 +381,7 @@ impl Renderer {
             limits,
             pipelines,
             targets: None,
+            style_targets: None,
             mesh_buffers: None,
             uncaptured,
             timer,
@@ -462,6 +481,7 @@ impl Renderer {
         if let Some(error) = errors.into_iter().flatten().next() {
             // The cached objects may be the culprits (e.g. a failed allocation): start afresh.
             self.targets = None;
+            self.style_targets = None;
             self.mesh_buffers = None;
             return Err(RenderError::Gpu(error.to_string()));
         }
@@ -472,7 +492,13 @@ impl Renderer {
             self.targets = None;
         }
         self.last_pass_times = self.read_pass_times();
-        image
+        // The styles from the first one done on the CPU on, in order.
+        let cpu_styles = &params.styles[gpu_style_count(&params.styles)..];
+        image.map(|img| {
+            cpu_styles.iter().fold(img, |img, &style| {
+                crate::styles::apply(&img, style, params.style_time_s)
+            })
+        })
     }
 
     fn check_params(&self, params: &RenderParams) -> Result<(), RenderError> {
@@ -590,6 +616,7 @@ impl Renderer {
         {
             // Drop the old targets first so both sets are never alive at once.
             self.targets = None;
+            self.style_targets = None;
             self.targets = Some(Targets::new(&self.device, &self.pipelines, w, h));
         }
         let vertex_bytes: &[u8] = bytemuck::cast_slice(&mesh.vertices);
@@ -603,6 +630,38 @@ impl Renderer {
                 ib,
                 self.limits.max_buffer_size,
             ));
+        }
+        // The styles the GPU does: those before the first done on the CPU.
+        let gpu_styles = &params.styles[..gpu_style_count(&params.styles)];
+        if matches!(output, Output::View(..)) && gpu_styles.len() < params.styles.len() {
+            return Err(RenderError::InvalidParams(
+                "dithering and painterly run on the CPU after a readback: a window's frame takes \
+                 toon, fisheye and chromatic only"
+                    .into(),
+            ));
+        }
+        if gpu_styles.len() > gpu::MAX_GPU_STYLES {
+            return Err(RenderError::InvalidParams(format!(
+                "{} GPU styles in a row; at most {}",
+                gpu_styles.len(),
+                gpu::MAX_GPU_STYLES
+            )));
+        }
+        if !gpu_styles.is_empty() && self.style_targets.is_none() {
+            self.style_targets = Some(gpu::StyleTargets::new(&self.device, &self.pipelines, w, h));
+        }
+        for (i, &style) in gpu_styles.iter().enumerate() {
+            let last = i + 1 == gpu_styles.len();
+            let target_format = if last { format } else { gpu::STYLE_FORMAT };
+            self.pipelines
+                .ensure_style(&self.device, style, target_format);
+            if let Some(u) = gpu::style_uniform(style, params.style_time_s) {
+                self.queue.write_buffer(
+                    &self.pipelines.style_uniforms[i],
+                    0,
+                    bytemuck::cast_slice(&u),
+                );
+            }
         }
         let (Some(targets), Some(buffers)) = (&self.targets, &self.mesh_buffers) else {
             return Err(RenderError::Gpu("frame resources missing".into()));
@@ -734,11 +793,17 @@ impl Renderer {
             .pipelines
             .composite(format)
             .ok_or_else(|| RenderError::Gpu(format!("no composite pipeline for {format:?}")))?;
+        let final_view = match output {
+            Output::Image => &targets.output_view,
+            Output::View(view, _) => view,
+        };
+        let style_targets = self
+            .style_targets
+            .as_ref()
+            .filter(|_| !gpu_styles.is_empty());
         {
-            let view = match output {
-                Output::Image => &targets.output_view,
-                Output::View(view, _) => view,
-            };
+            // With styles the composite writes the chain's first image.
+            let view = style_targets.map_or(final_view, |st| &st.views[0]);
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("glyptic composite pass"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -764,6 +829,35 @@ impl Renderer {
             };
             pass.set_bind_group(0, group, &[]);
             pass.draw(0..3, 0..1);
+        }
+        if let Some(st) = style_targets {
+            for (i, &style) in gpu_styles.iter().enumerate() {
+                let last = i + 1 == gpu_styles.len();
+                let (view, target_format) = if last {
+                    (final_view, format)
+                } else {
+                    (&st.views[(i + 1) % 2], gpu::STYLE_FORMAT)
+                };
+                let pipeline = self.pipelines.style(style, target_format).ok_or_else(|| {
+                    RenderError::Gpu(format!("no {} pass for {target_format:?}", style.name()))
+                })?;
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("glyptic style pass"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    ..Default::default()
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &st.bind_groups[i], &[]);
+                pass.draw(0..3, 0..1);
+            }
         }
         self.sss_ran = sss_kernel.is_some();
         Ok(())

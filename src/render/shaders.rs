@@ -32,13 +32,38 @@ pub const SSS: &str = concat!(
     include_str!("../../shaders/sss.wgsl")
 );
 
+/// What the gallery style passes share: their uniform, input and bilinear read.
+pub const STYLE_COMMON: &str = include_str!("../../shaders/style_common.wgsl");
+
+/// A style pass's module: the full-screen vertex stage, the shared part, the style.
+macro_rules! style_module {
+    ($file:literal) => {
+        concat!(
+            include_str!("../../shaders/fullscreen.wgsl"),
+            "\n",
+            include_str!("../../shaders/style_common.wgsl"),
+            "\n",
+            include_str!(concat!("../../shaders/", $file))
+        )
+    };
+}
+
+/// Gallery style passes (`vs_main`, `fs_main`).
+pub const TOON: &str = style_module!("toon.wgsl");
+pub const FISHEYE: &str = style_module!("fisheye.wgsl");
+pub const CHROMATIC: &str = style_module!("chromatic.wgsl");
+
 /// Every module the renderer compiles, by name, exactly as it hands them to wgpu.
-pub fn modules() -> [(&'static str, &'static str); 5] {
+pub fn modules() -> [(&'static str, &'static str); 9] {
     [
         ("noise", NOISE),
         ("fullscreen", FULLSCREEN),
         ("scene", SCENE),
         ("composite", COMPOSITE),
         ("sss", SSS),
+        ("style_common", STYLE_COMMON),
+        ("toon", TOON),
+        ("fisheye", FISHEYE),
+        ("chromatic", CHROMATIC),
     ]
 }

@@ -1,0 +1,99 @@
+//! The gallery styles' GPU passes against their CPU references (`glyptic::styles`), on the
+//! cameo with the Surrey mean face: each pass alone, a GPU chain, and a chain that continues on
+//! the CPU after dithering. One test function, one device.
+
+use glyptic::gem::{self, CameoParams};
+use glyptic::render::{Material, RenderParams, Renderer};
+use glyptic::styles::{self, Style};
+
+/// Pixels whose channels differ by more than one level, and the largest difference.
+fn compare(a: &image::RgbaImage, b: &image::RgbaImage) -> (usize, u8) {
+    assert_eq!(a.dimensions(), b.dimensions());
+    let mut off = 0;
+    let mut worst = 0u8;
+    for (p, q) in a.pixels().zip(b.pixels()) {
+        let d = (0..4).map(|c| p[c].abs_diff(q[c])).max().unwrap_or(0);
+        worst = worst.max(d);
+        off += usize::from(d > 1);
+    }
+    (off, worst)
+}
+
+#[test]
+fn gpu_style_passes_match_the_cpu_references() {
+    let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir())
+        .expect("the Surrey model (scripts/setup.sh)");
+    let mesh = gem::build_cameo(
+        &model.instance(&[], &[]),
+        &model.shape.triangles,
+        &CameoParams::default(),
+    )
+    .unwrap();
+    let mut renderer = Renderer::new_headless().expect("a device");
+    let base = RenderParams {
+        width: 160,
+        height: 200,
+        material: Material::Agate,
+        yaw_deg: -15.0,
+        style_time_s: 1.3,
+        ..RenderParams::default()
+    };
+    let plain = renderer.render(&mesh, &base).unwrap();
+    let out = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/test-out");
+    std::fs::create_dir_all(&out).unwrap();
+
+    let chains: [&[Style]; 6] = [
+        &[Style::Toon],
+        &[Style::FishEye],
+        &[Style::Chromatic],
+        &[Style::Toon, Style::FishEye, Style::Chromatic],
+        // Dithering is done on the CPU, and so is whatever follows it.
+        &[Style::FishEye, Style::Dither, Style::Chromatic],
+        &[Style::Painterly],
+    ];
+    for chain in chains {
+        let name: Vec<&str> = chain.iter().map(|s| s.name()).collect();
+        let name = name.join("+");
+        let params = RenderParams {
+            styles: chain.to_vec(),
+            ..base.clone()
+        };
+        let gpu = renderer.render(&mesh, &params).unwrap();
+        gpu.save(out.join(format!("style-{name}.png"))).unwrap();
+        // The GPU part (the styles before the first CPU one) against the CPU references:
+        // float rounding may tip a handful of pixels (a toon edge, a level boundary).
+        let split = chain
+            .iter()
+            .position(|s| matches!(s, Style::Dither | Style::Painterly))
+            .unwrap_or(chain.len());
+        let prefix = renderer
+            .render(
+                &mesh,
+                &RenderParams {
+                    styles: chain[..split].to_vec(),
+                    ..base.clone()
+                },
+            )
+            .unwrap();
+        let cpu = chain[..split].iter().fold(plain.clone(), |img, &s| {
+            styles::apply(&img, s, base.style_time_s)
+        });
+        let (off, worst) = compare(&prefix, &cpu);
+        let allowed = gpu.pixels().len() / 200;
+        assert!(
+            off <= allowed,
+            "{name}: {off} pixels differ from the CPU reference (worst {worst} levels; allowed {allowed})"
+        );
+        // The rest runs on the CPU after the readback, exactly (dithering would amplify any
+        // difference in its input, so it is checked on the GPU's own image).
+        let rest = chain[split..]
+            .iter()
+            .fold(prefix, |img, &s| styles::apply(&img, s, base.style_time_s));
+        assert!(rest == gpu, "{name}: the CPU part differs");
+        // And the style did something.
+        let (changed, _) = compare(&gpu, &plain);
+        assert!(changed > 500, "{name}: only {changed} pixels changed");
+    }
+    // The mean face was a face: the plain render is not uniform.
+    assert!(compare(&plain, &styles::apply(&plain, Style::Toon, 0.0)).0 > 500);
+}
