@@ -571,6 +571,40 @@ pub(crate) struct Targets {
     pub composite_sss_bind_group: wgpu::BindGroup,
 }
 
+/// An image one full-screen pass writes and the next reads (single sample).
+fn pass_image(
+    device: &wgpu::Device,
+    label: &str,
+    format: wgpu::TextureFormat,
+    size: wgpu::Extent3d,
+) -> wgpu::TextureView {
+    device
+        .create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        })
+        .create_view(&Default::default())
+}
+
+/// The attachment of a full-screen pass that writes every pixel of `view`.
+pub(crate) fn overwrite(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+            store: wgpu::StoreOp::Store,
+        },
+    })
+}
+
 /// A style pass's uniform (`Style` in style_common.wgsl), or `None` for a style done on the
 /// CPU (dithering is serial; painterly's dabs overwrite in order).
 pub(crate) fn style_uniform(style: Style, time_s: f32) -> Option<[f32; 8]> {
@@ -613,25 +647,12 @@ pub(crate) struct StyleTargets {
 
 impl StyleTargets {
     pub fn new(device: &wgpu::Device, pipelines: &Pipelines, width: u32, height: u32) -> Self {
-        let views = [0, 1].map(|_| {
-            device
-                .create_texture(&wgpu::TextureDescriptor {
-                    label: Some("glyptic style image"),
-                    size: wgpu::Extent3d {
-                        width,
-                        height,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: STYLE_FORMAT,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                        | wgpu::TextureUsages::TEXTURE_BINDING,
-                    view_formats: &[],
-                })
-                .create_view(&Default::default())
-        });
+        let size = wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        };
+        let views = [0, 1].map(|_| pass_image(device, "glyptic style image", STYLE_FORMAT, size));
         let bind_groups = pipelines
             .style_uniforms
             .iter()
@@ -733,23 +754,8 @@ impl Targets {
             })
         };
         let composite_bind_group = composite_group("glyptic composite bind group", &diffuse.view);
-        let sss_target = |label| {
-            device
-                .create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size,
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format: SSS_FORMAT,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                        | wgpu::TextureUsages::TEXTURE_BINDING,
-                    view_formats: &[],
-                })
-                .create_view(&Default::default())
-        };
-        let sss_temp = sss_target("glyptic sss temp");
-        let sss_out = sss_target("glyptic sss out");
+        let sss_temp = pass_image(device, "glyptic sss temp", SSS_FORMAT, size);
+        let sss_out = pass_image(device, "glyptic sss out", SSS_FORMAT, size);
         let sss_group = |label, uniform: &wgpu::Buffer, colour: &wgpu::TextureView| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(label),

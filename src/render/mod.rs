@@ -806,16 +806,7 @@ impl Renderer {
             let view = style_targets.map_or(final_view, |st| &st.views[0]);
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("glyptic composite pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        // Every pixel is written by the full-screen triangle.
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
+                color_attachments: &[gpu::overwrite(view)],
                 // Queries are resolved as one run from 0 (the resolve offset must be aligned),
                 // so the composite takes the slot after the last pass that ran.
                 timestamp_writes: timer.map(|t| t.writes(if sss_kernel.is_some() { 3 } else { 1 })),
@@ -843,15 +834,7 @@ impl Renderer {
                 })?;
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("glyptic style pass"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
+                    color_attachments: &[gpu::overwrite(view)],
                     ..Default::default()
                 });
                 pass.set_pipeline(pipeline);
