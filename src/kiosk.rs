@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use crate::render::{Material, RenderParams, ZOOM_RANGE};
 use crate::sss::SssParams;
+use crate::styles::Style;
 
 /// The SSS strength the reset button returns to (red's, as `glyptic render --sss-strength`).
 pub const DEFAULT_SSS_STRENGTH: f32 = 0.48;
@@ -167,7 +168,12 @@ pub struct Controls {
     pub sss_strength: f32,
     /// The portrait stays as it is while frozen (new fits are ignored).
     pub frozen: bool,
+    /// A gallery style over the gem (the GPU ones: a window's frame is not read back).
+    pub style: Option<Style>,
 }
+
+/// The styles the kiosk's style button steps through, after none.
+pub const KIOSK_STYLES: [Style; 3] = [Style::Toon, Style::FishEye, Style::Chromatic];
 
 impl Controls {
     pub fn from_config(c: &KioskConfig) -> Self {
@@ -176,6 +182,7 @@ impl Controls {
             sss: c.sss,
             sss_strength: c.sss_strength,
             frozen: false,
+            style: None,
         }
     }
 
@@ -191,6 +198,22 @@ impl Controls {
         } else {
             "Portrait: live"
         }
+    }
+
+    /// The style button's label: the style shown now.
+    pub fn style_label(&self) -> String {
+        format!("Style: {}", self.style.map_or("none", |s| s.name()))
+    }
+
+    /// The next style: none, then each of [`KIOSK_STYLES`], then none again.
+    pub fn next_style(&mut self) {
+        self.style = match self.style {
+            None => Some(KIOSK_STYLES[0]),
+            Some(s) => KIOSK_STYLES
+                .iter()
+                .position(|&k| k == s)
+                .and_then(|i| KIOSK_STYLES.get(i + 1).copied()),
+        };
     }
 
     pub fn reset_strength(&mut self) {
@@ -209,6 +232,7 @@ impl Controls {
             yaw_deg: orbit.yaw_deg,
             pitch_deg: orbit.pitch_deg,
             zoom: orbit.zoom,
+            styles: self.style.into_iter().collect(),
             ..base.clone()
         }
     }
@@ -346,6 +370,29 @@ mod tests {
         assert_eq!(p.sss.map(|s| s.strength[0]), Some(0.2));
         c.reset_strength();
         assert_eq!(c.sss_strength, DEFAULT_SSS_STRENGTH);
+    }
+
+    #[test]
+    fn the_style_button_steps_through_the_gpu_styles_and_back() {
+        let mut c = Controls::from_config(&KioskConfig::default());
+        assert_eq!(c.style_label(), "Style: none");
+        let mut seen = Vec::new();
+        for _ in 0..4 {
+            c.next_style();
+            seen.push(c.style_label());
+        }
+        assert_eq!(
+            seen,
+            [
+                "Style: toon",
+                "Style: fisheye",
+                "Style: chromatic",
+                "Style: none"
+            ]
+        );
+        c.style = Some(Style::Toon);
+        let p = c.apply(&RenderParams::default(), &Orbit::default());
+        assert_eq!(p.styles, vec![Style::Toon]);
     }
 
     #[test]

@@ -315,6 +315,8 @@ fn injected_pointer_events_drive_the_controls_without_moving_the_camera() {
     });
     click(&x, centre(&frame, "agate"));
     live.wait_for(10, "agate", |l| l["material"] == "agate");
+    click(&x, centre(&frame, "style"));
+    live.wait_for(10, "the toon style", |l| l["style"] == "toon");
     assert!(
         live.lines.lock().unwrap().iter().all(still),
         "the camera moved"

@@ -990,6 +990,7 @@ impl Running {
             "material": match self.controls.material { Material::Marble => "marble", Material::Agate => "agate" },
             "sss": self.controls.sss,
             "sss_label": self.controls.sss_label(),
+            "style": self.controls.style.map_or("none", |s| s.name()),
             "sss_strength": self.controls.sss_strength,
             "frozen": self.controls.frozen,
             "yaw_deg": self.orbit.yaw_deg,
@@ -1297,6 +1298,16 @@ impl UiFrame<'_> {
                     *self.orbit = Orbit::default();
                 }
                 self.rects.push(("front", r.rect));
+            });
+            ui.horizontal(|ui| {
+                let r = ui.add(egui::Button::selectable(
+                    self.controls.style.is_some(),
+                    self.controls.style_label(),
+                ));
+                if r.clicked() {
+                    self.controls.next_style();
+                }
+                self.rects.push(("style", r.rect));
             });
             if let Some(t) = &self.toast {
                 ui.label(t);
