@@ -137,10 +137,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let (wall, scene) = timed(&mut renderer, &p)?;
         let cost = wall - plain;
-        let place = if matches!(
-            style,
-            glyptic::styles::Style::Dither | glyptic::styles::Style::Painterly
-        ) {
+        let place = if style.is_serial() {
             "CPU, after the readback"
         } else {
             "GPU pass"

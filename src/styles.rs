@@ -27,6 +27,12 @@ impl Style {
         Style::Chromatic,
     ];
 
+    /// Whether the style is serial: each pixel depends on those done before it (dithering's
+    /// error diffusion, painterly's overlapping dabs), so it is done on the CPU, in order.
+    pub fn is_serial(self) -> bool {
+        matches!(self, Style::Dither | Style::Painterly)
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Style::Toon => "toon",

@@ -64,7 +64,7 @@ fn gpu_style_passes_match_the_cpu_references() {
         // float rounding may tip a handful of pixels (a toon edge, a level boundary).
         let split = chain
             .iter()
-            .position(|s| matches!(s, Style::Dither | Style::Painterly))
+            .position(|s| s.is_serial())
             .unwrap_or(chain.len());
         let prefix = renderer
             .render(

@@ -288,6 +288,9 @@ pub const NO_CELL: [i32; 2] = [i32::MIN, i32::MIN];
 /// one of the same class its own nearest.
 pub fn nearest_other(mask: &[bool], cols: usize, rows: usize) -> Vec<[i32; 2]> {
     let mut seed = vec![NO_CELL; mask.len()];
+    let dist2 = |x: usize, y: usize, s: [i32; 2]| {
+        (x as i64 - i64::from(s[0])).pow(2) + (y as i64 - i64::from(s[1])).pow(2)
+    };
     // Offers cell (x, y) the nearest of neighbour (jx, jy), keeping the nearer (ties keep what
     // it has: the earlier neighbour).
     let offer = |seed: &[[i32; 2]],
@@ -303,7 +306,7 @@ pub fn nearest_other(mask: &[bool], cols: usize, rows: usize) -> Vec<[i32; 2]> {
             seed[j]
         };
         if s != NO_CELL {
-            let d = (x as i64 - i64::from(s[0])).pow(2) + (y as i64 - i64::from(s[1])).pow(2);
+            let d = dist2(x, y, s);
             if d < best.1 {
                 *best = (s, d);
             }
@@ -314,7 +317,7 @@ pub fn nearest_other(mask: &[bool], cols: usize, rows: usize) -> Vec<[i32; 2]> {
         let d = if s == NO_CELL {
             i64::MAX
         } else {
-            (x as i64 - i64::from(s[0])).pow(2) + (y as i64 - i64::from(s[1])).pow(2)
+            dist2(x, y, s)
         };
         (s, d)
     };

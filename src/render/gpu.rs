@@ -502,17 +502,7 @@ impl ColorTarget {
         size: wgpu::Extent3d,
         samples: u32,
     ) -> Self {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(label),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
-        let view = texture.create_view(&Default::default());
+        let view = pass_image(device, label, format, size);
         let msaa = (samples > 1).then(|| {
             device
                 .create_texture(&wgpu::TextureDescriptor {
@@ -571,7 +561,8 @@ pub(crate) struct Targets {
     pub composite_sss_bind_group: wgpu::BindGroup,
 }
 
-/// An image one full-screen pass writes and the next reads (single sample).
+/// An image one pass writes and the next reads (single sample): the scene pass's resolved
+/// targets, the SSS images, a style chain's images.
 fn pass_image(
     device: &wgpu::Device,
     label: &str,
@@ -605,8 +596,8 @@ pub(crate) fn overwrite(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColo
     })
 }
 
-/// A style pass's uniform (`Style` in style_common.wgsl), or `None` for a style done on the
-/// CPU (dithering is serial; painterly's dabs overwrite in order).
+/// A style pass's uniform (`Style` in style_common.wgsl), or `None` for a serial style (done
+/// on the CPU: [`Style::is_serial`]).
 pub(crate) fn style_uniform(style: Style, time_s: f32) -> Option<[f32; 8]> {
     use crate::styles::{ChromaticParams, FishEyeParams, ToonParams, chromatic_offsets};
     match style {

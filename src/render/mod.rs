@@ -267,12 +267,9 @@ impl PassTimer {
     }
 }
 
-/// How many of `styles`, from the first, have a GPU pass.
+/// How many of `styles`, from the first, have a GPU pass (those before the first serial one).
 fn gpu_style_count(styles: &[crate::styles::Style]) -> usize {
-    styles
-        .iter()
-        .take_while(|&&s| gpu::style_uniform(s, 0.0).is_some())
-        .count()
+    styles.iter().take_while(|s| !s.is_serial()).count()
 }
 
 /// Where a frame's composite goes.
