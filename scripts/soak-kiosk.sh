@@ -24,7 +24,9 @@ xvfb-run -a -s "-screen 0 1024x1280x24" ./target/release/glyptic kiosk --video "
   || { cat "$tmp/soak.err" >&2; exit 1; }
 mkdir -p bench/results
 out=bench/results/kiosk-soak.md
-python3 - "$tmp/soak.jsonl" "$frames" > "$out.tmp" <<'PY'
+# The verdict is the analysis's exit code; the report is written either way.
+status=0
+python3 - "$tmp/soak.jsonl" "$frames" > "$out.tmp" <<'PY' || status=$?
 import json, statistics, sys
 lines = [json.loads(l) for l in open(sys.argv[1])]
 want = int(sys.argv[2])
@@ -44,7 +46,6 @@ print(f"* face latency (capture to fit) of the updates the window took: median {
 print(f"* verdict: {'pass' if ok else 'FAIL'}")
 sys.exit(0 if ok else 1)
 PY
-status=$?
 echo >> "$out.tmp"
 echo "Command: \`scripts/soak-kiosk.sh $frames\` (glyptic $(git rev-parse --short HEAD), $(date -u '+%F %H:%M UTC'), $(nproc) cores, load average $(cut -d' ' -f1-3 /proc/loadavg))." >> "$out.tmp"
 mv "$out.tmp" "$out"

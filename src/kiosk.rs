@@ -63,6 +63,16 @@ pub enum Portrait {
     Frontal,
 }
 
+impl Portrait {
+    /// The cameo cut this way.
+    pub fn cameo(self) -> crate::gem::CameoParams {
+        match self {
+            Portrait::Profile => crate::gem::CameoParams::default(),
+            Portrait::Frontal => crate::gem::CameoParams::frontal(),
+        }
+    }
+}
+
 /// Kiosk defaults, read from a TOML file; every key is optional. Command-line options override
 /// the file.
 #[derive(Clone, Debug, PartialEq, serde::Deserialize)]

@@ -21,7 +21,7 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Fullscreen, Window, WindowId};
 
 use glyptic::capture::latest::{LatestReceiver, LatestSender, latest};
-use glyptic::gem::{CameoBuilder, CameoParams};
+use glyptic::gem::CameoBuilder;
 use glyptic::kiosk::{Controls, KioskConfig, Orbit, Portrait, blend_faces, idle_weight};
 use glyptic::render::{Material, Mesh, RenderParams, Renderer};
 
@@ -112,7 +112,7 @@ impl ApplicationHandler for App {
         if self.running.is_some() {
             return;
         }
-        match Running::new(event_loop, &self.args, &self.config, self.started) {
+        match Running::new(event_loop, &self.config, self.started) {
             Ok(r) => self.running = Some(r),
             Err(e) => {
                 self.error = Some(e);
@@ -176,37 +176,33 @@ struct BuiltGem {
     ms: f64,
 }
 
-/// What the gem thread says.
-enum GemMessage {
+/// What the gem thread says once, beside its cameos.
+enum GemNote {
     /// The model is loaded: the default face (model mm) for easing back.
-    Ready {
-        default_face: Arc<Vec<f32>>,
-    },
-    Gem(BuiltGem),
-    Error(String),
+    Ready { default_face: Arc<Vec<f32>> },
+    /// The model or the builder could not be made: no cameo will come.
+    Failed(String),
 }
 
 /// The gem thread: builds a cameo for each face mesh it is given (the newest wins) and starts
 /// with the model's mean face.
 struct GemThread {
     faces: LatestSender<Vec<f32>>,
-    out: LatestReceiver<GemMessage>,
-    /// Ready and errors, which the newest gem must not replace.
-    notes: crossbeam_channel::Receiver<GemMessage>,
+    /// Each cameo built, or why a face made none (newest wins).
+    out: LatestReceiver<Result<BuiltGem, String>>,
+    /// Notes that the newest cameo must not replace.
+    notes: crossbeam_channel::Receiver<GemNote>,
 }
 
 impl GemThread {
-    fn spawn(portrait: Portrait) -> Self {
+    fn spawn(portrait: Portrait) -> Result<Self> {
         let (faces, jobs) = latest::<Vec<f32>>();
-        let (send, out) = latest::<GemMessage>();
+        let (send, out) = latest::<Result<BuiltGem, String>>();
         let (note_tx, notes) = crossbeam_channel::bounded(4);
         std::thread::Builder::new()
             .name("gem".into())
             .spawn(move || {
-                let params = match portrait {
-                    Portrait::Profile => CameoParams::default(),
-                    Portrait::Frontal => CameoParams::frontal(),
-                };
+                let params = portrait.cameo();
                 let setup = (|| -> Result<_> {
                     let dir = glyptic::assets::sfm_dir();
                     let model = glyptic::shapemodel::SurreyModel::load_dir(&dir)
@@ -221,24 +217,24 @@ impl GemThread {
                 let (mean, triangles, builder) = match setup {
                     Ok(s) => s,
                     Err(e) => {
-                        let _ = note_tx.try_send(GemMessage::Error(format!("{e:#}")));
+                        let _ = note_tx.try_send(GemNote::Failed(format!("{e:#}")));
                         return;
                     }
                 };
-                let _ = note_tx.try_send(GemMessage::Ready {
+                let _ = note_tx.try_send(GemNote::Ready {
                     default_face: Arc::new(mean.clone()),
                 });
                 let mut face = mean;
                 loop {
                     let t = Instant::now();
-                    let message = match builder.build(&face, &triangles) {
-                        Ok(mesh) => GemMessage::Gem(BuiltGem {
+                    let built = builder
+                        .build(&face, &triangles)
+                        .map(|mesh| BuiltGem {
                             mesh: Arc::new(mesh),
                             ms: t.elapsed().as_secs_f64() * 1e3,
-                        }),
-                        Err(e) => GemMessage::Error(format!("cameo: {e}")),
-                    };
-                    if send.send(message).is_err() {
+                        })
+                        .map_err(|e| format!("cameo: {e}"));
+                    if send.send(built).is_err() {
                         return;
                     }
                     match jobs.recv() {
@@ -247,8 +243,8 @@ impl GemThread {
                     }
                 }
             })
-            .expect("spawning the gem thread");
-        GemThread { faces, out, notes }
+            .context("starting the gem thread")?;
+        Ok(GemThread { faces, out, notes })
     }
 }
 
@@ -262,10 +258,13 @@ mod live {
 
     /// What the face side reports to the window.
     pub enum FaceNews {
-        /// A fitted face (model mm); every update carries its frame's index in the stream and
-        /// its latency from capture, ms.
-        Face(Vec<f32>, u64, f64),
-        NoFace(u64, f64),
+        /// A processed frame: the fitted face (model mm) if there was one, the frame's index in
+        /// the stream and its latency from capture, ms.
+        Update {
+            face: Option<Vec<f32>>,
+            frame: u64,
+            latency_ms: f64,
+        },
         Status(String),
     }
 
@@ -297,32 +296,33 @@ mod live {
     }
 
     impl Live {
-        pub fn start(config: &KioskConfig) -> Self {
+        pub fn start(config: &KioskConfig) -> Result<Self> {
             let (tx, rx) = crossbeam_channel::bounded(1);
             let config = config.clone();
             std::thread::Builder::new()
                 .name("face setup".into())
                 .spawn(move || {
                     let started = (|| -> Result<FaceStream> {
-                        let mut stages = Vec::new();
-                        let pipeline = glyptic::pipeline::FacePipeline::load_default(&mut stages)?;
-                        let tracker = Tracker::new(pipeline, TrackOptions::default());
+                        // A missing video is said before the models load (a second).
                         if let Some(path) = &config.video
                             && !path.exists()
                         {
                             anyhow::bail!("{}: video not found", path.display());
                         }
+                        let mut stages = Vec::new();
+                        let pipeline = glyptic::pipeline::FacePipeline::load_default(&mut stages)?;
+                        let tracker = Tracker::new(pipeline, TrackOptions::default());
                         let capture =
                             Capture::spawn(move || open_source(&config), CaptureOptions::default());
                         Ok(FaceStream::spawn(capture, tracker))
                     })();
                     let _ = tx.send(started.map_err(|e| format!("{e:#}")));
                 })
-                .expect("spawning the face set-up thread");
-            Live {
+                .context("starting the face set-up thread")?;
+            Ok(Live {
                 stream: None,
                 starting: Some(rx),
-            }
+            })
         }
 
         /// News since the last call, newest face last.
@@ -366,9 +366,10 @@ mod live {
                 }));
             }
             if let Ok(Some(u)) = stream.updates().try_recv() {
-                news.push(match u.face {
-                    Some(face) => FaceNews::Face(face.mesh, u.frame_index, u.latency_ms),
-                    None => FaceNews::NoFace(u.frame_index, u.latency_ms),
+                news.push(FaceNews::Update {
+                    face: u.face.map(|f| f.mesh),
+                    frame: u.frame_index,
+                    latency_ms: u.latency_ms,
                 });
             }
             news
@@ -454,7 +455,6 @@ struct Running {
     first_gem_s: Option<f64>,
     snapshot_request: bool,
     last_screen: Option<image::RgbaImage>,
-    want_screenshot: bool,
     /// A message shown for a few seconds (saved snapshot, errors).
     toast: Option<(String, Instant)>,
     /// Each control's rectangle in window pixels `[x, y, w, h]`, for scripted runs.
@@ -476,12 +476,7 @@ struct Running {
 }
 
 impl Running {
-    fn new(
-        event_loop: &ActiveEventLoop,
-        args: &KioskArgs,
-        config: &KioskConfig,
-        started: Instant,
-    ) -> Result<Self> {
+    fn new(event_loop: &ActiveEventLoop, config: &KioskConfig, started: Instant) -> Result<Self> {
         let mut attributes = Window::default_attributes()
             .with_title("glyptic")
             .with_inner_size(winit::dpi::LogicalSize::new(config.width, config.height));
@@ -493,9 +488,9 @@ impl Running {
                 .create_window(attributes)
                 .context("creating the window")?,
         );
-        let gems = GemThread::spawn(config.portrait);
+        let gems = GemThread::spawn(config.portrait)?;
         #[cfg(feature = "face")]
-        let live = live::Live::start(config);
+        let live = live::Live::start(config)?;
 
         let display = event_loop.owned_display_handle();
         let instance = wgpu::Instance::new(
@@ -571,7 +566,6 @@ impl Running {
             first_gem_s: None,
             snapshot_request: false,
             last_screen: None,
-            want_screenshot: args.screenshot.is_some(),
             toast: None,
             control_rects: Vec::new(),
             gem_print: 0,
@@ -609,18 +603,17 @@ impl Running {
         let mut changed = false;
         for note in self.gems.notes.try_iter() {
             match note {
-                GemMessage::Ready { default_face } => {
+                GemNote::Ready { default_face } => {
                     self.default_face = Some(default_face);
                     self.status = "ready".into();
                 }
-                GemMessage::Error(e) => self.status = e,
-                GemMessage::Gem(_) => {}
+                GemNote::Failed(e) => self.status = e,
             }
             changed = true;
         }
-        if let Ok(Some(message)) = self.gems.out.try_recv() {
-            match message {
-                GemMessage::Gem(built) => {
+        if let Ok(Some(built)) = self.gems.out.try_recv() {
+            match built {
+                Ok(built) => {
                     self.gem_print = fingerprint(&built.mesh);
                     self.gem = Some(built.mesh);
                     self.gem_ms = built.ms;
@@ -630,8 +623,7 @@ impl Running {
                         self.first_gem_s = Some(self.started.elapsed().as_secs_f64());
                     }
                 }
-                GemMessage::Error(e) => self.status = e,
-                GemMessage::Ready { default_face } => self.default_face = Some(default_face),
+                Err(e) => self.status = e,
             }
             changed = true;
         }
@@ -639,24 +631,28 @@ impl Running {
         for news in self.live.poll() {
             use live::FaceNews;
             match news {
-                FaceNews::Face(face, frame, latency_ms) => {
+                FaceNews::Update {
+                    face,
+                    frame,
+                    latency_ms,
+                } => {
                     self.face_rate.tick();
                     self.face_updates += 1;
                     self.face_frame = frame;
                     self.face_latency_ms = latency_ms;
-                    self.face_status = "face found".into();
-                    if !self.controls.frozen {
-                        let _ = self.gems.faces.send(face.clone());
-                        self.sent_weight = 0.0;
+                    self.face_status = if face.is_some() {
+                        "face found"
+                    } else {
+                        "no face"
                     }
-                    self.last_face = Some((face, Instant::now()));
-                }
-                FaceNews::NoFace(frame, latency_ms) => {
-                    self.face_rate.tick();
-                    self.face_updates += 1;
-                    self.face_frame = frame;
-                    self.face_latency_ms = latency_ms;
-                    self.face_status = "no face".into();
+                    .into();
+                    if let Some(face) = face {
+                        if !self.controls.frozen {
+                            let _ = self.gems.faces.send(face.clone());
+                            self.sent_weight = 0.0;
+                        }
+                        self.last_face = Some((face, Instant::now()));
+                    }
                 }
                 FaceNews::Status(s) => self.face_status = s,
             }
@@ -713,12 +709,12 @@ impl Running {
         };
         let output = self.egui_ctx.run_ui(raw_input, |ui_root| ui.draw(ui_root));
         let (gem_rect, snapshot) = (ui.gem_rect, ui.snapshot);
-        let ppp_now = self.egui_ctx.pixels_per_point();
+        let ppp = output.pixels_per_point;
         self.control_rects = ui
             .rects
             .iter()
             .map(|(k, r)| {
-                let p = |v: f32| (v * ppp_now).round();
+                let p = |v: f32| (v * ppp).round();
                 (*k, [p(r.min.x), p(r.min.y), p(r.width()), p(r.height())])
             })
             .collect();
@@ -739,7 +735,6 @@ impl Running {
         // The gem's texture follows the area it is shown in. The very first gem is rendered
         // at half the resolution, then at full: on a CPU rasteriser that puts it on screen
         // about twice as soon after start-up.
-        let ppp = output.pixels_per_point;
         if let Some(rect) = gem_rect {
             let preview = self.gem.is_some() && self.first_gem_frame_s.is_none();
             let scale = ppp * self.render_scale * if preview { PREVIEW_SCALE } else { 1.0 };
@@ -752,21 +747,38 @@ impl Running {
             }
         }
 
+        // egui's texture changes (the font atlas among them) are kept even when no surface
+        // texture comes this frame: egui sends each change once.
+        for (id, deltas) in &output.textures_delta.set {
+            for delta in deltas {
+                self.egui_renderer.update_texture(
+                    self.renderer.device(),
+                    self.renderer.queue(),
+                    *id,
+                    delta,
+                );
+            }
+        }
         let frame = match self.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(f)
-            | wgpu::CurrentSurfaceTexture::Suboptimal(f) => f,
+            | wgpu::CurrentSurfaceTexture::Suboptimal(f) => Some(f),
             wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
                 // Reconfigure and try on the next frame.
                 self.surface
                     .configure(self.renderer.device(), &self.surface_config);
-                self.window.request_redraw();
-                return Ok(Continue::Yes);
+                None
             }
             other => {
                 self.toast = Some((format!("window surface: {other:?}"), Instant::now()));
-                self.window.request_redraw();
-                return Ok(Continue::Yes);
+                None
             }
+        };
+        let Some(frame) = frame else {
+            for id in &output.textures_delta.free {
+                self.egui_renderer.free_texture(id);
+            }
+            self.window.request_redraw();
+            return Ok(Continue::Yes);
         };
         let view = frame.texture.create_view(&wgpu::TextureViewDescriptor {
             format: Some(self.view_format),
@@ -804,12 +816,6 @@ impl Running {
                 }
             }
         }
-        for (id, deltas) in &output.textures_delta.set {
-            for delta in deltas {
-                self.egui_renderer
-                    .update_texture(&device, &queue, *id, delta);
-            }
-        }
         let screen = egui_wgpu::ScreenDescriptor {
             size_in_pixels: [self.surface_config.width, self.surface_config.height],
             pixels_per_point: ppp,
@@ -845,11 +851,12 @@ impl Running {
             .surface_config
             .usage
             .contains(wgpu::TextureUsages::COPY_SRC);
-        if (self.snapshot_request || self.want_screenshot) && !can_copy {
+        let want_copy = self.snapshot_request || args.screenshot.is_some();
+        if want_copy && !can_copy {
             self.toast = Some(("this window cannot be copied".into(), Instant::now()));
             self.snapshot_request = false;
         }
-        let capture = (can_copy && (self.snapshot_request || self.want_screenshot))
+        let capture = (can_copy && want_copy)
             .then(|| ScreenCopy::encode(&device, &mut encoder, &frame.texture));
         queue.submit(extra.into_iter().chain([encoder.finish()]));
         if rendered_gem {

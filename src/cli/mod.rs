@@ -180,9 +180,10 @@ pub enum PortraitArg {
 impl PortraitArg {
     pub fn cameo(self) -> CameoParams {
         match self {
-            PortraitArg::Profile => CameoParams::default(),
-            PortraitArg::Frontal => CameoParams::frontal(),
+            PortraitArg::Profile => glyptic::kiosk::Portrait::Profile,
+            PortraitArg::Frontal => glyptic::kiosk::Portrait::Frontal,
         }
+        .cameo()
     }
 }
 
