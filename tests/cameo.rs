@@ -10,6 +10,9 @@ use glyptic::gem::{self, CameoBuilder, CameoParams};
 use glyptic::render::{Material, Mesh, Region, RenderParams, Renderer};
 use glyptic::shapemodel::SurreyModel;
 
+mod common;
+use common::{GOLDEN_MEAN, check_golden, flip_mean};
+
 /// A backdrop no stone or gold colour comes near: hue magenta.
 const BACKDROP: [f32; 3] = [0.9, 0.0, 0.9];
 
@@ -125,20 +128,6 @@ fn assert_height_field(mesh: &Mesh, name: &str) {
     );
 }
 
-fn flip_mean(reference: &image::RgbaImage, test: &image::RgbaImage) -> (f32, f32) {
-    let rgb = |i: &image::RgbaImage| {
-        let data: Vec<u8> = i.pixels().flat_map(|p| [p[0], p[1], p[2]]).collect();
-        nv_flip::FlipImageRgb8::with_data(i.width(), i.height(), &data)
-    };
-    let map = nv_flip::flip(
-        rgb(reference),
-        rgb(test),
-        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
-    );
-    let mut pool = nv_flip::FlipPool::from_image(&map);
-    (pool.mean(), pool.get_percentile(0.99, false))
-}
-
 #[test]
 fn cameo_has_no_holes_and_matches_its_golden_images() {
     let model =
@@ -249,8 +238,6 @@ fn cameo_has_no_holes_and_matches_its_golden_images() {
     assert!(holes > 20, "the hole detector missed a 6 mm hole ({holes})");
 
     // --- Golden images.
-    let golden_dir = glyptic::assets::root().join("tests").join("golden");
-    let bless = std::env::var_os("GLYPTIC_BLESS").is_some();
     let mean = gem::build_cameo(&faces[0].1, &model.shape.triangles, &CameoParams::default())
         .expect("mean cameo");
     let mut renders = Vec::new();
@@ -266,34 +253,13 @@ fn cameo_has_no_holes_and_matches_its_golden_images() {
                 ..RenderParams::default()
             };
             let img = renderer.render(&mean, &p).expect("golden render");
-            let path = golden_dir.join(format!("cameo-{mname}-{sname}.png"));
-            if bless {
-                std::fs::create_dir_all(&golden_dir).expect("golden dir");
-                img.save(&path).expect("save golden");
-            }
-            let golden = image::open(&path)
-                .unwrap_or_else(|e| panic!("{}: {e} (GLYPTIC_BLESS=1 writes it)", path.display()))
-                .to_rgba8();
-            let (mean_err, p99) = flip_mean(&golden, &img);
-            println!(
-                "golden {mname} {sname}: FLIP mean {mean_err:.4}, 99th percentile {p99:.3} ({})",
-                renderer.adapter_info()
-            );
-            if mean_err > GOLDEN_MEAN || p99 > GOLDEN_P99 {
-                let out = glyptic::assets::root()
-                    .join("target")
-                    .join("test-out")
-                    .join(format!("cameo-{mname}-{sname}.png"));
-                let _ = std::fs::create_dir_all(out.parent().expect("parent"));
-                let _ = img.save(&out);
-                failures.push(format!(
-                    "{mname} {sname}: FLIP mean {mean_err:.4} (max {GOLDEN_MEAN}), 99th percentile {p99:.3} (max {GOLDEN_P99}); image in {}",
-                    out.display()
-                ));
+            if let Err(e) = check_golden(&img, &format!("cameo-{mname}-{sname}")) {
+                failures.push(e);
             }
             renders.push(((mname, sname), img));
         }
     }
+    println!("golden renders on {}", renderer.adapter_info());
     // The tolerance is tight enough to see the changes that matter: SSS on against off, and
     // one stone against the other.
     let find = |m: &str, s: &str| {
@@ -316,9 +282,3 @@ fn cameo_has_no_holes_and_matches_its_golden_images() {
         failures.join("\n")
     );
 }
-
-/// FLIP tolerances for the golden images: mean error and 99th percentile per image. Vulkan
-/// (lavapipe) and GL (llvmpipe) renders of the goldens differ by a FLIP mean below 0.0001 on
-/// this machine; turning SSS off moves the mean by 0.0076, another stone by 0.28.
-const GOLDEN_MEAN: f32 = 0.002;
-const GOLDEN_P99: f32 = 0.05;

@@ -1,10 +1,14 @@
 //! The gallery styles' GPU passes against their CPU references (`glyptic::styles`), on the
 //! cameo with the Surrey mean face: each pass alone, a GPU chain, and a chain that continues on
-//! the CPU after dithering. One test function, one device.
+//! the CPU after dithering; golden images of each style alone (`GLYPTIC_BLESS=1` rewrites them).
+//! One test function, one device.
 
 use glyptic::gem::{self, CameoParams};
 use glyptic::render::{Material, RenderParams, Renderer};
 use glyptic::styles::{self, Style};
+
+mod common;
+use common::{GOLDEN_MEAN, check_golden, flip_mean};
 
 /// Pixels whose channels differ by more than one level, and the largest difference.
 fn compare(a: &image::RgbaImage, b: &image::RgbaImage) -> (usize, u8) {
@@ -94,6 +98,34 @@ fn gpu_style_passes_match_the_cpu_references() {
         let (changed, _) = compare(&gpu, &plain);
         assert!(changed > 500, "{name}: only {changed} pixels changed");
     }
+    // Golden images of each style alone (what a look change would show).
+    let mut failures = Vec::new();
+    for style in Style::ALL {
+        let img = renderer
+            .render(
+                &mesh,
+                &RenderParams {
+                    styles: vec![style],
+                    ..base.clone()
+                },
+            )
+            .unwrap();
+        if let Err(e) = check_golden(&img, &format!("style-{}", style.name())) {
+            failures.push(e);
+        }
+        // The tolerance sees the style: the plain render is far from its golden.
+        let (from_plain, _) = flip_mean(&img, &plain);
+        assert!(
+            from_plain > 5.0 * GOLDEN_MEAN,
+            "{}: FLIP mean {from_plain} from the plain render",
+            style.name()
+        );
+    }
+    assert!(
+        failures.is_empty(),
+        "golden images differ:\n{}",
+        failures.join("\n")
+    );
     // The mean face was a face: the plain render is not uniform.
     assert!(compare(&plain, &styles::apply(&plain, Style::Toon, 0.0)).0 > 500);
 }
