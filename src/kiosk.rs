@@ -178,12 +178,22 @@ pub struct Controls {
     pub sss_strength: f32,
     /// The portrait stays as it is while frozen (new fits are ignored).
     pub frozen: bool,
-    /// A gallery style over the gem (the GPU ones: a window's frame is not read back).
+    /// A gallery style over the gem.
     pub style: Option<Style>,
 }
 
-/// The styles the kiosk's style button steps through, after none.
-pub const KIOSK_STYLES: [Style; 3] = [Style::Toon, Style::FishEye, Style::Chromatic];
+/// The longest gem frame, ms, at which a moving style is animated (30 frames a second).
+pub const ANIMATION_BUDGET_MS: f64 = 33.0;
+
+/// The styles the kiosk's style button steps through, after none: the GPU passes first
+/// (they cost nothing to switch to), then the CPU ones.
+pub const KIOSK_STYLES: [Style; 5] = [
+    Style::Toon,
+    Style::FishEye,
+    Style::Chromatic,
+    Style::Dither,
+    Style::Painterly,
+];
 
 impl Controls {
     pub fn from_config(c: &KioskConfig) -> Self {
@@ -224,6 +234,13 @@ impl Controls {
                 .position(|&k| k == s)
                 .and_then(|i| KIOSK_STYLES.get(i + 1).copied()),
         };
+    }
+
+    /// Whether the gem is redrawn every frame to animate its style: only for a moving style,
+    /// and only when the last gem frame took at most [`ANIMATION_BUDGET_MS`] (a real GPU; on a
+    /// CPU rasteriser the style stays still rather than make the controls sluggish).
+    pub fn animates(&self, last_gem_ms: f64) -> bool {
+        self.style.is_some_and(Style::is_animated) && last_gem_ms <= ANIMATION_BUDGET_MS
     }
 
     pub fn reset_strength(&mut self) {
@@ -383,11 +400,11 @@ mod tests {
     }
 
     #[test]
-    fn the_style_button_steps_through_the_gpu_styles_and_back() {
+    fn the_style_button_steps_through_the_styles_and_back() {
         let mut c = Controls::from_config(&KioskConfig::default());
         assert_eq!(c.style_label(), "Style: none");
         let mut seen = Vec::new();
-        for _ in 0..4 {
+        for _ in 0..6 {
             c.next_style();
             seen.push(c.style_label());
         }
@@ -397,12 +414,19 @@ mod tests {
                 "Style: toon",
                 "Style: fisheye",
                 "Style: chromatic",
+                "Style: dither",
+                "Style: painterly",
                 "Style: none"
             ]
         );
         c.style = Some(Style::Toon);
         let p = c.apply(&RenderParams::default(), &Orbit::default());
         assert_eq!(p.styles, vec![Style::Toon]);
+        // Only a moving style on a fast enough device is redrawn every frame.
+        assert!(!c.animates(1.0));
+        c.style = Some(Style::Chromatic);
+        assert!(c.animates(ANIMATION_BUDGET_MS));
+        assert!(!c.animates(400.0));
     }
 
     #[test]

@@ -33,6 +33,11 @@ impl Style {
         matches!(self, Style::Dither | Style::Painterly)
     }
 
+    /// Whether the style moves with time (its `time_s`): chromatic aberration's periodic shift.
+    pub fn is_animated(self) -> bool {
+        matches!(self, Style::Chromatic)
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Style::Toon => "toon",

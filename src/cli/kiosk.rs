@@ -379,7 +379,7 @@ mod live {
 
 /// The gem's own texture, drawn by egui as the window's background.
 struct GemLayer {
-    _texture: wgpu::Texture,
+    texture: wgpu::Texture,
     view: wgpu::TextureView,
     id: egui::TextureId,
     size: [u32; 2],
@@ -797,15 +797,34 @@ impl Running {
             let params = RenderParams {
                 width: layer.size[0],
                 height: layer.size[1],
+                style_time_s: self.started.elapsed().as_secs_f32(),
                 ..self.controls.apply(&self.base, &self.orbit)
             };
-            match self.renderer.render_to_view(
-                &mut encoder,
-                gem,
-                &params,
-                &layer.view,
-                wgpu::TextureFormat::Rgba8Unorm,
-            ) {
+            let drawn = if params.styles.iter().any(|s| s.is_serial()) {
+                // Dithering and painterly run on the CPU: read the gem back, style it, and
+                // upload it to the layer (only when the gem changes: they are still).
+                self.renderer.render(gem, &params).map(|image| {
+                    queue.write_texture(
+                        layer.texture.as_image_copy(),
+                        &image,
+                        wgpu::TexelCopyBufferLayout {
+                            offset: 0,
+                            bytes_per_row: Some(4 * image.width()),
+                            rows_per_image: None,
+                        },
+                        layer.texture.size(),
+                    );
+                })
+            } else {
+                self.renderer.render_to_view(
+                    &mut encoder,
+                    gem,
+                    &params,
+                    &layer.view,
+                    wgpu::TextureFormat::Rgba8Unorm,
+                )
+            };
+            match drawn {
                 Ok(()) => {
                     self.dirty = false;
                     rendered_gem = true;
@@ -864,6 +883,9 @@ impl Running {
             let _ = device.poll(wgpu::PollType::wait_indefinitely());
             self.render_ms = t.elapsed().as_secs_f64() * 1e3;
             self.render_rate.tick();
+            if self.controls.animates(self.render_ms) {
+                self.dirty = true;
+            }
         }
         if let Some(copy) = capture {
             match copy.read(&device, self.view_format) {
@@ -930,7 +952,9 @@ impl Running {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: wgpu::TextureFormat::Rgba8Unorm,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_DST,
             view_formats: &[],
         });
         let view = texture.create_view(&Default::default());
@@ -950,7 +974,7 @@ impl Running {
             }
         };
         self.layer = Some(GemLayer {
-            _texture: texture,
+            texture,
             view,
             id,
             size,
