@@ -400,7 +400,7 @@ fn renderer_end_to_end() {
     });
     let marble_strong = renderer.render(&mesh, &strong).expect("sss strong");
     // Pass times (timestamp queries; lavapipe has them, other devices may not).
-    if let Some(t) = renderer.last_pass_times() {
+    if let Some(t) = renderer.last_pass_times().cloned() {
         println!("pass times with SSS: {t:?}");
         assert!(t.scene_ms > 0.0 && t.composite_ms > 0.0 && t.sss_ms.is_some_and(|s| s > 0.0));
         renderer.render(&mesh, &off).expect("sss off again");

@@ -126,6 +126,24 @@ fn gpu_style_passes_match_the_cpu_references() {
         "golden images differ:\n{}",
         failures.join("\n")
     );
+    // Each style is timed, in the chain's order: GPU passes by timestamps, the rest on the CPU.
+    let chain = vec![Style::Toon, Style::Chromatic, Style::Dither, Style::FishEye];
+    renderer
+        .render(
+            &mesh,
+            &RenderParams {
+                styles: chain.clone(),
+                ..base.clone()
+            },
+        )
+        .unwrap();
+    if let Some(times) = renderer.last_pass_times() {
+        println!("pass times with a style chain: {times:?}");
+        let timed: Vec<Style> = times.styles_ms.iter().map(|&(s, _)| s).collect();
+        assert_eq!(timed, chain);
+        assert!(times.styles_ms.iter().all(|&(_, ms)| ms > 0.0 && ms < 1e4));
+        assert!(times.scene_ms > 0.0 && times.composite_ms > 0.0);
+    }
     // The mean face was a face: the plain render is not uniform.
     assert!(compare(&plain, &styles::apply(&plain, Style::Toon, 0.0)).0 > 500);
 }

@@ -211,15 +211,27 @@ const TEXTURE_SCALE: f32 = 1.0 / 75.0;
 const COMPOSITE_PARAMS: [f32; 4] = [1.0, 0.45, 0.35, 1.0];
 
 /// GPU time of each pass of the last frame, from timestamp queries (where the device has them).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct PassTimes {
     pub scene_ms: f64,
     /// Both blur directions; `None` with SSS off.
     pub sss_ms: Option<f64>,
     pub composite_ms: f64,
+    /// Each style of the chain, in order: its pass's GPU time, or for those done on the CPU
+    /// after the readback (from the first serial one on) their wall time.
+    pub styles_ms: Vec<(crate::styles::Style, f64)>,
 }
 
-/// Timestamp queries around each pass: scene, SSS horizontal, SSS vertical, composite.
+/// A pass with timestamp queries, in the order the frame ran them (its query slots).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum TimedPass {
+    Scene,
+    Sss,
+    Composite,
+    Style(crate::styles::Style),
+}
+
+/// Timestamp queries around each pass: scene, the SSS passes, composite, the GPU styles.
 struct PassTimer {
     queries: wgpu::QuerySet,
     resolve: wgpu::Buffer,
@@ -228,8 +240,8 @@ struct PassTimer {
     period_ns: f64,
 }
 
-/// Begin and end query of each timed pass.
-const TIMED_PASSES: u32 = 4;
+/// The most passes a frame times: scene, two SSS, composite and the GPU styles.
+const TIMED_PASSES: u32 = 4 + gpu::MAX_GPU_STYLES as u32;
 
 impl PassTimer {
     fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
@@ -257,8 +269,15 @@ impl PassTimer {
         }
     }
 
-    /// The timestamp writes of pass `index` (0 scene, 1-2 SSS, then the composite).
-    fn writes(&self, index: u32) -> wgpu::RenderPassTimestampWrites<'_> {
+    /// The timestamp writes of the next pass, recorded in `passes` (its slot is its place
+    /// there: the queries are resolved as one run from 0, so none may be skipped).
+    fn writes(
+        &self,
+        passes: &mut Vec<TimedPass>,
+        pass: TimedPass,
+    ) -> wgpu::RenderPassTimestampWrites<'_> {
+        let index = passes.len() as u32;
+        passes.push(pass);
         wgpu::RenderPassTimestampWrites {
             query_set: &self.queries,
             beginning_of_pass_write_index: Some(2 * index),
@@ -298,8 +317,8 @@ pub struct Renderer {
     uncaptured: Arc<Mutex<Option<String>>>,
     timer: Option<PassTimer>,
     last_pass_times: Option<PassTimes>,
-    /// Whether the last frame ran the SSS passes (their timestamps were written).
-    sss_ran: bool,
+    /// The passes the last frame timed, in query-slot order.
+    timed_passes: Vec<TimedPass>,
 }
 
 impl Renderer {
@@ -383,7 +402,7 @@ impl Renderer {
             uncaptured,
             timer,
             last_pass_times: None,
-            sss_ran: false,
+            timed_passes: Vec::new(),
         })
     }
 
@@ -397,8 +416,8 @@ impl Renderer {
     }
 
     /// GPU time per pass of the last frame rendered, if the device has timestamp queries.
-    pub fn last_pass_times(&self) -> Option<PassTimes> {
-        self.last_pass_times
+    pub fn last_pass_times(&self) -> Option<&PassTimes> {
+        self.last_pass_times.as_ref()
     }
 
     /// MSAA samples per pixel in the scene pass (4, or 1 where the device cannot resolve them).
@@ -488,14 +507,23 @@ impl Renderer {
             // The readback buffer may be left in a mapping state: rebuild it next time.
             self.targets = None;
         }
-        self.last_pass_times = self.read_pass_times();
+        let mut times = self.read_pass_times();
         // The styles from the first one done on the CPU on, in order.
         let cpu_styles = &params.styles[gpu_style_count(&params.styles)..];
-        image.map(|img| {
+        let image = image.map(|img| {
             cpu_styles.iter().fold(img, |img, &style| {
-                crate::styles::apply(&img, style, params.style_time_s)
+                let t = std::time::Instant::now();
+                let img = crate::styles::apply(&img, style, params.style_time_s);
+                if let Some(times) = &mut times {
+                    times
+                        .styles_ms
+                        .push((style, t.elapsed().as_secs_f64() * 1e3));
+                }
+                img
             })
-        })
+        });
+        self.last_pass_times = times;
+        image
     }
 
     fn check_params(&self, params: &RenderParams) -> Result<(), RenderError> {
@@ -578,7 +606,7 @@ impl Renderer {
         );
         if let Some(t) = &self.timer {
             // Resolve only what was written: unwritten queries are an error on some backends.
-            let n = 2 * if self.sss_ran { TIMED_PASSES } else { 2 };
+            let n = 2 * self.timed_passes.len() as u32;
             encoder.resolve_query_set(&t.queries, 0..n, &t.resolve, 0);
             encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, u64::from(n) * 8);
         }
@@ -606,6 +634,7 @@ impl Renderer {
             Output::Image => self.timer.as_ref(),
             Output::View(..) => None,
         };
+        let mut timed = Vec::new();
         if self
             .targets
             .as_ref()
@@ -753,7 +782,7 @@ impl Renderer {
                     }),
                     stencil_ops: None,
                 }),
-                timestamp_writes: timer.map(|t| t.writes(0)),
+                timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Scene)),
                 ..Default::default()
             });
             pass.set_pipeline(&self.pipelines.scene);
@@ -766,7 +795,7 @@ impl Renderer {
         }
         if sss_kernel.is_some() {
             let outputs = [&targets.sss_temp, &targets.sss_out];
-            for ((group, output), index) in targets.sss_bind_groups.iter().zip(outputs).zip(1..) {
+            for (group, output) in targets.sss_bind_groups.iter().zip(outputs) {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("glyptic sss pass"),
                     color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -778,7 +807,7 @@ impl Renderer {
                             store: wgpu::StoreOp::Store,
                         },
                     })],
-                    timestamp_writes: timer.map(|t| t.writes(index)),
+                    timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Sss)),
                     ..Default::default()
                 });
                 pass.set_pipeline(&self.pipelines.sss);
@@ -804,9 +833,7 @@ impl Renderer {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("glyptic composite pass"),
                 color_attachments: &[gpu::overwrite(view)],
-                // Queries are resolved as one run from 0 (the resolve offset must be aligned),
-                // so the composite takes the slot after the last pass that ran.
-                timestamp_writes: timer.map(|t| t.writes(if sss_kernel.is_some() { 3 } else { 1 })),
+                timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Composite)),
                 ..Default::default()
             });
             pass.set_pipeline(composite);
@@ -832,6 +859,7 @@ impl Renderer {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("glyptic style pass"),
                     color_attachments: &[gpu::overwrite(view)],
+                    timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Style(style))),
                     ..Default::default()
                 });
                 pass.set_pipeline(pipeline);
@@ -839,7 +867,7 @@ impl Renderer {
                 pass.draw(0..3, 0..1);
             }
         }
-        self.sss_ran = sss_kernel.is_some();
+        self.timed_passes = timed;
         Ok(())
     }
 
@@ -864,15 +892,18 @@ impl Renderer {
             .flatten();
         t.read.unmap();
         let ticks = ticks?;
-        let ms = |pass: usize| {
-            let (a, b) = (ticks[2 * pass], ticks[2 * pass + 1]);
-            b.saturating_sub(a) as f64 * t.period_ns / 1e6
-        };
-        Some(PassTimes {
-            scene_ms: ms(0),
-            sss_ms: self.sss_ran.then(|| ms(1) + ms(2)),
-            composite_ms: ms(if self.sss_ran { 3 } else { 1 }),
-        })
+        let mut times = PassTimes::default();
+        for (slot, pass) in self.timed_passes.iter().enumerate() {
+            let (a, b) = (*ticks.get(2 * slot)?, *ticks.get(2 * slot + 1)?);
+            let ms = b.saturating_sub(a) as f64 * t.period_ns / 1e6;
+            match *pass {
+                TimedPass::Scene => times.scene_ms += ms,
+                TimedPass::Sss => *times.sss_ms.get_or_insert(0.0) += ms,
+                TimedPass::Composite => times.composite_ms += ms,
+                TimedPass::Style(style) => times.styles_ms.push((style, ms)),
+            }
+        }
+        Some(times)
     }
 
     /// Waits for the frame and copies the padded rows into an image.
