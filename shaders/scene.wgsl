@@ -29,9 +29,26 @@ struct Frame {
     depth: vec4<f32>,
     // x: material (0 marble, 1 agate).
     material: vec4<u32>,
+    // The engraving's planar frame: centre x, y and half extents x, y (mm) of the mesh's box.
+    planar: vec4<f32>,
+    // x: engraving on (1), y: groove depth (mm), z-w: the band's insets with a margin (mm).
+    engraving: vec4<f32>,
+    // xyz: lamp position (mm), w: its intensity at the gem's centre (0: no lamp).
+    lamp: vec4<f32>,
+    // x: shadow far plane (mm), y: depth bias (mm), z: PCF radius (mm), w: lamp-centre distance.
+    shadow: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
+
+// Group 1, surface detail: the engraving's height (r: 1 the ground, 0 a groove's bottom) and
+// tangent-space normal maps over the planar frame, and the lamp's shadow cube (distance to the
+// lamp over the far plane).
+@group(1) @binding(0) var engraving_height: texture_2d<f32>;
+@group(1) @binding(1) var engraving_normal: texture_2d<f32>;
+@group(1) @binding(2) var engraving_sampler: sampler;
+@group(1) @binding(3) var shadow_cube: texture_depth_cube;
+@group(1) @binding(4) var shadow_sampler: sampler_comparison;
 
 struct VsIn {
     @location(0) position: vec3<f32>,
@@ -39,6 +56,8 @@ struct VsIn {
     @location(2) relief: f32,
     @location(3) region: u32,
     @location(4) hair: f32,
+    // Tangent along +u (planar frame) and handedness; w = 0: no usable frame here.
+    @location(5) tangent: vec4<f32>,
 }
 
 struct VsOut {
@@ -50,6 +69,7 @@ struct VsOut {
     // triangles instead of following their edges.
     @location(3) hair: f32,
     @location(4) gold: f32,
+    @location(5) tangent: vec4<f32>,
 }
 
 const REGION_GOLD: u32 = 3u;
@@ -63,6 +83,7 @@ fn vs_main(in: VsIn) -> VsOut {
     out.relief = in.relief;
     out.hair = clamp(in.hair, 0.0, 1.0);
     out.gold = select(0.0, 1.0, in.region == REGION_GOLD);
+    out.tangent = in.tangent;
     return out;
 }
 
@@ -146,6 +167,69 @@ fn agate_albedo(p: vec3<f32>, relief: f32, hair: f32) -> vec3<f32> {
     return mix(col, brown, hair_w);
 }
 
+// Distance inside the planar frame's ellipse (the gem's outline), mm, to first order: as
+// `engraving_heights` in surface.rs measures the band.
+fn inset_mm(p: vec3<f32>) -> f32 {
+    let ab = frame.planar.zw;
+    let q = (p.xy - frame.planar.xy) / ab;
+    let rho = length(q);
+    let grad = length(q / ab) / max(rho, 1e-6);
+    return (1.0 - rho) / max(grad, 1e-6);
+}
+
+fn engraving_depth(uv: vec2<f32>, dx: vec2<f32>, dy: vec2<f32>) -> f32 {
+    return 1.0 - textureSampleGrad(engraving_height, engraving_sampler, uv, dx, dy).r;
+}
+
+// Parallax occlusion mapping (the seed's: step along the view ray through depth layers until
+// it passes under the height map, then interpolate between the last two steps). `view_ts` is
+// the unit direction to the eye in the tangent frame (x along +u, y along +v); the result is
+// the texture coordinate the eye sees.
+fn parallax(uv: vec2<f32>, view_ts: vec3<f32>, dx: vec2<f32>, dy: vec2<f32>) -> vec2<f32> {
+    let layers = mix(32.0, 8.0, abs(view_ts.z));
+    let layer_depth = 1.0 / layers;
+    // The whole groove depth's shift, mm along the tangent frame, as texture coordinates.
+    let shift_mm = view_ts.xy / max(view_ts.z, 0.05) * frame.engraving.y;
+    let delta = shift_mm / (2.0 * frame.planar.zw) / layers;
+    var cur_uv = uv;
+    var cur_layer = 0.0;
+    var cur_depth = engraving_depth(cur_uv, dx, dy);
+    for (var i = 0; i < 32; i = i + 1) {
+        if cur_layer >= cur_depth {
+            break;
+        }
+        cur_uv = cur_uv - delta;
+        cur_depth = engraving_depth(cur_uv, dx, dy);
+        cur_layer = cur_layer + layer_depth;
+    }
+    let prev_uv = cur_uv + delta;
+    let after = cur_depth - cur_layer;
+    let before = engraving_depth(prev_uv, dx, dy) - cur_layer + layer_depth;
+    let weight = after / min(after - before, -1e-6);
+    return mix(cur_uv, prev_uv, clamp(weight, 0.0, 1.0));
+}
+
+// How much of the lamp reaches `p` (0 in shadow, 1 lit): the shadow cube compared at nine
+// points across the direction (percentage-closer filtering), with a bias that grows at grazing
+// angles (`ndl`, the lamp's cosine there).
+fn lamp_visibility(p: vec3<f32>, ndl: f32) -> f32 {
+    let to_p = p - frame.lamp.xyz;
+    let dist = length(to_p);
+    let dir = to_p / max(dist, 1e-6);
+    let bias = frame.shadow.y * (1.0 + 3.0 * (1.0 - ndl));
+    let reference = (dist - bias) / frame.shadow.x;
+    let helper = select(vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(1.0, 0.0, 0.0), abs(dir.y) > 0.9);
+    let s = normalize(cross(dir, helper));
+    let t = cross(dir, s);
+    var lit = textureSampleCompareLevel(shadow_cube, shadow_sampler, to_p, reference);
+    for (var k = 0; k < 8; k = k + 1) {
+        let a = f32(k) * 0.7853982;
+        let o = (s * cos(a) + t * sin(a)) * frame.shadow.z;
+        lit = lit + textureSampleCompareLevel(shadow_cube, shadow_sampler, to_p + o, reference);
+    }
+    return lit / 9.0;
+}
+
 // Gold's reflectance at normal incidence (linear).
 const GOLD_F0: vec3<f32> = vec3<f32>(1.0, 0.71, 0.29);
 
@@ -154,19 +238,73 @@ fn fs_main(in: VsOut) -> FsOut {
     let v = normalize(frame.eye.xyz - in.world);
     // The mesh normal, or the facet normal where the data gives none; flipped towards the
     // viewer, so the lighting does not depend on the triangles' winding.
-    let facet = cross(dpdx(in.world), dpdy(in.world));
+    let world_dx = dpdx(in.world);
+    let world_dy = dpdy(in.world);
+    let facet = cross(world_dx, world_dy);
     var n = in.normal;
     if dot(n, n) < 1e-12 {
         n = facet;
     }
     n = normalize(n);
+    var flipped = false;
     if dot(n, v) < 0.0 {
         n = -n;
+        flipped = true;
     }
+    // The planar texture coordinates and their screen derivatives (taken here, in uniform
+    // control flow, for the mip level of the engraving's maps).
+    let uv_scale = vec2<f32>(0.5, -0.5) / frame.planar.zw;
+    let uv = (in.world.xy - frame.planar.xy) * uv_scale + vec2<f32>(0.5);
+    let uv_dx = world_dx.xy * uv_scale;
+    let uv_dy = world_dy.xy * uv_scale;
+
+    // The engraved border: on the stone's ground only (the portrait cuts through it), where the
+    // vertex has a tangent frame, and within the band (elsewhere the map is flat anyway).
+    var p = in.world;
+    var occlusion = 1.0;
+    let ground_w = 1.0 - smoothstep(0.02, 0.08, in.relief);
+    let inset = inset_mm(in.world);
+    if frame.engraving.x > 0.5 && in.gold < 0.5 && ground_w > 0.0 && !flipped
+        && abs(in.tangent.w) > 0.5 && inset > frame.engraving.z && inset < frame.engraving.w {
+        let t_raw = in.tangent.xyz - n * dot(n, in.tangent.xyz);
+        if dot(t_raw, t_raw) > 1e-8 {
+            let t = normalize(t_raw);
+            let b = cross(n, t) * sign(in.tangent.w);
+            let view_ts = vec3<f32>(dot(v, t), dot(v, b), dot(v, n));
+            let seen = parallax(uv, view_ts, uv_dx, uv_dy);
+            let depth = engraving_depth(seen, uv_dx, uv_dy);
+            let nm = textureSampleGrad(engraving_normal, engraving_sampler, seen, uv_dx, uv_dy).xyz * 2.0 - 1.0;
+            let mapped = normalize(t * nm.x + b * nm.y + n * nm.z);
+            n = normalize(mix(n, mapped, ground_w));
+            // The point seen, for the procedural stone: moved along the ground and down into
+            // the groove.
+            let shift_mm = (seen - uv) * 2.0 * frame.planar.zw;
+            p = in.world + ground_w * (t * shift_mm.x + b * shift_mm.y - n * depth * frame.engraving.y);
+            // Grooves hold shadow: the ambient and diffuse light reaching a groove's bottom.
+            occlusion = 1.0 - ground_w * 0.45 * depth;
+        }
+    }
+
     let l = frame.light_dir.xyz;
-    let light = frame.light_dir.w;
-    let ambient = frame.marble.w;
+    let ambient = frame.marble.w * occlusion;
     let ndl = max(dot(n, l), 0.0);
+    // The key light, and the lamp where it has one (falling off with the square of the
+    // distance, 1 at the gem's centre, and shadowed).
+    var light = frame.light_dir.w * occlusion;
+    var lamp = 0.0;
+    var lamp_l = vec3<f32>(0.0, 0.0, 1.0);
+    if frame.lamp.w > 0.0 {
+        let to_lamp = frame.lamp.xyz - in.world;
+        let dist = length(to_lamp);
+        lamp_l = to_lamp / max(dist, 1e-6);
+        let cos_l = max(dot(n, lamp_l), 0.0);
+        let falloff = pow(frame.shadow.w / max(dist, 1e-3), 2.0);
+        if cos_l > 0.0 {
+            lamp = frame.lamp.w * falloff * occlusion * lamp_visibility(in.world, cos_l);
+        }
+    }
+    let ndl_lamp = max(dot(n, lamp_l), 0.0);
+    let lit = ambient + ndl * light + ndl_lamp * lamp;
 
     var diffuse: vec3<f32>;
     var specular = vec3<f32>(0.0);
@@ -179,21 +317,24 @@ fn fs_main(in: VsOut) -> FsOut {
         let ripple = vec3<f32>(snoise3(q), snoise3(q + vec3<f32>(17.0, 3.0, 5.0)), snoise3(q - vec3<f32>(7.0, 11.0, 2.0)));
         n = normalize(n + 0.035 * ripple);
         let r = reflect(-v, n);
-        diffuse = GOLD_F0 * 0.12 * (ambient + ndl * light);
+        diffuse = GOLD_F0 * 0.12 * (ambient + max(dot(n, l), 0.0) * light + max(dot(n, lamp_l), 0.0) * lamp);
         let ndv = max(dot(n, v), 0.0);
         let fresnel = GOLD_F0 + (1.0 - GOLD_F0) * pow(1.0 - ndv, 5.0);
         let h = normalize(l + v);
-        let highlight = pow(max(dot(n, h), 0.0), 120.0) * 3.0 * light;
+        let h_lamp = normalize(lamp_l + v);
+        let highlight = (pow(max(dot(n, h), 0.0), 120.0) * light
+            + pow(max(dot(n, h_lamp), 0.0), 120.0) * lamp) * 3.0;
         specular = fresnel * (0.8 * environment(r) + highlight);
         sss = 0.0;
     } else if frame.material.x == 0u {
-        diffuse = marble_albedo(in.world) * (ambient + ndl * light);
+        diffuse = marble_albedo(p) * lit;
     } else {
-        diffuse = agate_albedo(in.world, in.relief, in.hair) * (ambient + ndl * light);
+        diffuse = agate_albedo(p, in.relief, in.hair) * lit;
         // Phong, exponent 500 (the 2021 agate), plus a faint Fresnel reflection of the studio
         // for the polish.
         let r = reflect(-v, n);
-        let phong = pow(max(dot(r, l), 0.0), 500.0) * 0.9 * light;
+        let phong = (pow(max(dot(r, l), 0.0), 500.0) * light
+            + pow(max(dot(r, lamp_l), 0.0), 500.0) * lamp) * 0.9;
         let ndv = max(dot(n, v), 0.0);
         let fresnel = 0.04 + 0.96 * pow(1.0 - ndv, 5.0);
         specular = vec3<f32>(phong) + 0.5 * fresnel * environment(r);

@@ -8,7 +8,8 @@
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use glyptic::render::{Material, Mesh, Region, RenderError, RenderParams, Renderer, Vertex};
+use glyptic::render::surface::EngravingParams;
+use glyptic::render::{Lamp, Material, Mesh, Region, RenderError, RenderParams, Renderer, Vertex};
 use glyptic::sss::SssParams;
 
 /// Semi-axes of the ground field (mm); the bezel adds `BEZEL_WIDTH` all round: 44 x 56 overall.
@@ -144,6 +145,44 @@ fn cameo(rings: u32, segments: u32) -> Mesh {
             .extend_from_slice(&[centre, first + (s + 1) % segments, first + s]);
     }
     b.mesh
+}
+
+/// A 40 x 40 mm square of ground with a 6 x 6 mm gold plate floating 8 mm above it at
+/// (`x`, `y`): the plate's shadow under a lamp, and nothing else, moves with it.
+fn plate_scene(x: f32, y: f32) -> Mesh {
+    let mut b = Builder {
+        mesh: Mesh::default(),
+    };
+    let n = 21;
+    for j in 0..n {
+        for i in 0..n {
+            let (gx, gy) = (
+                -20.0 + 40.0 * i as f32 / 20.0,
+                -20.0 + 40.0 * j as f32 / 20.0,
+            );
+            b.vertex([gx, gy, 0.0], [0.0, 0.0, 1.0], 0.0, Region::Ground);
+        }
+    }
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let a = j * n + i;
+            b.mesh
+                .indices
+                .extend_from_slice(&[a, a + 1, a + n + 1, a, a + n + 1, a + n]);
+        }
+    }
+    let first = b.mesh.vertices.len() as u32;
+    for (dx, dy) in [(-3.0, -3.0), (3.0, -3.0), (3.0, 3.0), (-3.0, 3.0)] {
+        b.vertex([x + dx, y + dy, 8.0], [0.0, 0.0, 1.0], 8.0, Region::Gold);
+    }
+    b.mesh
+        .indices
+        .extend_from_slice(&[first, first + 1, first + 2, first, first + 2, first + 3]);
+    b.mesh
+}
+
+fn luma(p: &image::Rgba<u8>) -> f32 {
+    0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2])
 }
 
 fn params(width: u32, height: u32, material: Material) -> RenderParams {
@@ -567,6 +606,182 @@ fn renderer_end_to_end() {
         .render(&mesh, &params(w, h, Material::Agate))
         .expect("still usable");
     assert!(after.as_raw() == agate.as_raw());
+
+    // --- Surface effects. The lamp's shadow: a plate floating over the ground at the centre
+    // against the same plate moved to a corner (same bounds, so the same camera). With the
+    // lamp at the left, the only pixels the centre plate darkens are its shadow's, to the
+    // right of it.
+    let lamp = Lamp {
+        offset_mm: [-30.0, 0.0, 44.0],
+        ..Lamp::default()
+    };
+    let lit = RenderParams {
+        lamp: Some(lamp),
+        sss: None,
+        ..params(240, 240, Material::Marble)
+    };
+    let centre_plate = renderer
+        .render(&plate_scene(0.0, 0.0), &lit)
+        .expect("plate");
+    let corner_plate = renderer
+        .render(&plate_scene(-14.0, -14.0), &lit)
+        .expect("corner plate");
+    save(&centre_plate, "lamp_plate.png");
+    let times = renderer.last_pass_times().cloned();
+    let mut shadow_cols = Vec::new();
+    for (k, (a, b)) in centre_plate.pixels().zip(corner_plate.pixels()).enumerate() {
+        let gold = |p: &image::Rgba<u8>| is_gold([p[0], p[1], p[2]]);
+        if !gold(a) && !gold(b) && luma(a) < luma(b) - 25.0 {
+            shadow_cols.push((k % 240) as f32);
+        }
+    }
+    let gold_px = centre_plate
+        .pixels()
+        .filter(|p| is_gold([p[0], p[1], p[2]]))
+        .count();
+    let mean_col = shadow_cols.iter().sum::<f32>() / shadow_cols.len().max(1) as f32;
+    let left = shadow_cols.iter().filter(|&&c| c < 110.0).count();
+    println!(
+        "lamp: {} shadow pixels, mean column {mean_col:.0} of 240, {left} left of the centre; plate {gold_px} gold pixels; times {times:?}",
+        shadow_cols.len()
+    );
+    assert!(
+        gold_px > 200,
+        "the plate is not seen as gold ({gold_px} pixels)"
+    );
+    assert!(
+        shadow_cols.len() > 300 && mean_col > 130.0 && left * 50 < shadow_cols.len(),
+        "no shadow to the right of the plate: {} pixels, mean column {mean_col}, {left} on the left",
+        shadow_cols.len()
+    );
+    if let Some(t) = times {
+        assert!(t.shadow_ms.is_some_and(|ms| ms > 0.0), "{t:?}");
+    }
+    // Without the lamp there is no shadow at all.
+    let unlit = params(240, 240, Material::Marble);
+    let a = renderer
+        .render(
+            &plate_scene(0.0, 0.0),
+            &RenderParams {
+                sss: None,
+                ..unlit.clone()
+            },
+        )
+        .expect("plate");
+    assert!(
+        renderer
+            .last_pass_times()
+            .is_none_or(|t| t.shadow_ms.is_none())
+    );
+    let b = renderer
+        .render(
+            &plate_scene(-14.0, -14.0),
+            &RenderParams { sss: None, ..unlit },
+        )
+        .expect("corner");
+    let darker = a
+        .pixels()
+        .zip(b.pixels())
+        .filter(|(p, q)| {
+            !is_gold([p[0], p[1], p[2]]) && !is_gold([q[0], q[1], q[2]]) && luma(p) < luma(q) - 25.0
+        })
+        .count();
+    assert!(darker < 20, "{darker} pixels darkened without a lamp");
+
+    // The engraving: a border round the ground, nowhere else (not on the relief in the middle,
+    // not on the gold), and no NaN from the relief's walls at a steep angle.
+    let plain = params(320, 400, Material::Marble);
+    let engraved_params = RenderParams {
+        engraving: Some(EngravingParams::default()),
+        ..plain.clone()
+    };
+    let flat = renderer.render(&mesh, &plain).expect("plain");
+    let engraved = renderer.render(&mesh, &engraved_params).expect("engraved");
+    save(&engraved, "marble_engraved_320x400.png");
+    let (mut changed, mut middle, mut on_gold) = (0, 0, 0);
+    for (k, (p, q)) in engraved.pixels().zip(flat.pixels()).enumerate() {
+        if channel_diff(p, q) <= 6 {
+            continue;
+        }
+        changed += 1;
+        let (x, y) = (
+            (k % 320) as f32 / 320.0 - 0.5,
+            (k / 320) as f32 / 400.0 - 0.5,
+        );
+        middle += usize::from(x.abs() < 0.15 && y.abs() < 0.15);
+        on_gold += usize::from(is_gold([q[0], q[1], q[2]]) && is_gold([p[0], p[1], p[2]]));
+    }
+    println!("engraving: {changed} pixels changed, {middle} in the middle, {on_gold} on gold");
+    assert!(changed > 1000 && middle == 0 && on_gold < changed / 100);
+    for yaw in [-70.0, 65.0] {
+        let steep = renderer
+            .render(
+                &mesh,
+                &RenderParams {
+                    yaw_deg: yaw,
+                    pitch_deg: 30.0,
+                    ..engraved_params.clone()
+                },
+            )
+            .expect("steep engraving");
+        let plain_steep = renderer
+            .render(
+                &mesh,
+                &RenderParams {
+                    yaw_deg: yaw,
+                    pitch_deg: 30.0,
+                    ..plain.clone()
+                },
+            )
+            .expect("steep plain");
+        // A NaN normal or texture coordinate would show as black (or garbage) pixels.
+        let black = steep
+            .pixels()
+            .zip(plain_steep.pixels())
+            .filter(|(p, q)| luma(p) < 8.0 && luma(q) > 40.0)
+            .count();
+        assert_eq!(
+            black, 0,
+            "yaw {yaw}: {black} black pixels with the engraving"
+        );
+    }
+    // Bad surface parameters are refused by name.
+    for bad in [
+        RenderParams {
+            engraving: Some(EngravingParams {
+                depth_mm: f32::NAN,
+                ..EngravingParams::default()
+            }),
+            ..plain.clone()
+        },
+        RenderParams {
+            engraving: Some(EngravingParams {
+                inset_mm: [6.0, 2.0],
+                ..EngravingParams::default()
+            }),
+            ..plain.clone()
+        },
+        RenderParams {
+            lamp: Some(Lamp {
+                offset_mm: [0.0, f32::INFINITY, 0.0],
+                ..Lamp::default()
+            }),
+            ..plain.clone()
+        },
+        RenderParams {
+            lamp: Some(Lamp {
+                intensity: -1.0,
+                ..Lamp::default()
+            }),
+            ..plain.clone()
+        },
+    ] {
+        let err = renderer.render(&mesh, &bad);
+        assert!(
+            matches!(&err, Err(RenderError::InvalidParams(m)) if m.contains("engraving") || m.contains("lamp")),
+            "{err:?}"
+        );
+    }
 
     // --- Frame times (mesh upload, both passes, readback).
     for (tw, th) in [(640, 400), (1280, 800)] {

@@ -158,6 +158,12 @@ pub struct ViewArgs {
     /// The moment (seconds) the moving styles (chromatic) show.
     #[arg(long, default_value_t = 0.0, value_name = "S")]
     pub style_time: f32,
+    /// An engraved Greek-key border round the ground (parallax occlusion mapping).
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    pub engraving: OnOff,
+    /// A raking lamp at the upper left whose shadows the relief casts on the ground.
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    pub lamp: OnOff,
 }
 
 /// `--style`'s list.
@@ -253,6 +259,9 @@ impl ViewArgs {
             },
             styles: self.style.clone().map_or_else(Vec::new, |c| c.0),
             style_time_s: self.style_time,
+            engraving: (self.engraving == OnOff::On)
+                .then(glyptic::render::surface::EngravingParams::default),
+            lamp: (self.lamp == OnOff::On).then(glyptic::render::Lamp::default),
             ..RenderParams::default()
         })
     }

@@ -111,6 +111,39 @@ pub(crate) fn orbit(
     }
 }
 
+/// View-projection of face `face` (0..6: +X, -X, +Y, -Y, +Z, -Z) of a shadow cube at `lamp`,
+/// 90 degrees square, depth [0, 1] over `near`..`far` (mm). Laid out so that a direction `d`
+/// from the lamp lands where a cube texture lookup with `d` reads (the cube-map face and
+/// (s, t) rules of the Vulkan and GL specs, with wgpu's rows running down as NDC y falls).
+pub(crate) fn cube_face_view_proj(
+    lamp: Vector3<f32>,
+    face: usize,
+    near: f32,
+    far: f32,
+) -> Matrix4<f32> {
+    // The classic GL table (target, up); GL's rows run up with NDC y, wgpu's down, so y is
+    // negated after projecting.
+    let (target, up) = match face {
+        0 => (Vector3::x(), -Vector3::y()),
+        1 => (-Vector3::x(), -Vector3::y()),
+        2 => (Vector3::y(), Vector3::z()),
+        3 => (-Vector3::y(), -Vector3::z()),
+        4 => (Vector3::z(), -Vector3::y()),
+        _ => (-Vector3::z(), -Vector3::y()),
+    };
+    let eye = nalgebra::Point3::from(lamp);
+    let view = Matrix4::look_at_rh(&eye, &(eye + target), &up);
+    let (n, f) = (near, far);
+    #[rustfmt::skip]
+    let proj = Matrix4::new(
+        1.0, 0.0, 0.0, 0.0,
+        0.0, -1.0, 0.0, 0.0,
+        0.0, 0.0, f / (n - f), n * f / (n - f),
+        0.0, 0.0, -1.0, 0.0,
+    );
+    proj * view
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -141,6 +174,56 @@ mod tests {
         assert!(project(&c, [0.0, 10.0, 2.5])[1] > 0.0);
         // Light from the upper left front.
         assert!(c.light.x < 0.0 && c.light.y > 0.0 && c.light.z > 0.0);
+    }
+
+    /// The cube lookup of the specs: face index and (s, t) in [0, 1] for a direction.
+    fn cube_lookup(d: [f32; 3]) -> (usize, f32, f32) {
+        let [x, y, z] = d;
+        let (face, sc, tc, ma) = if x.abs() >= y.abs() && x.abs() >= z.abs() {
+            if x > 0.0 {
+                (0, -z, -y, x)
+            } else {
+                (1, z, -y, -x)
+            }
+        } else if y.abs() >= z.abs() {
+            if y > 0.0 {
+                (2, x, z, y)
+            } else {
+                (3, x, -z, -y)
+            }
+        } else if z > 0.0 {
+            (4, x, -y, z)
+        } else {
+            (5, -x, -y, -z)
+        };
+        (face, 0.5 * (sc / ma + 1.0), 0.5 * (tc / ma + 1.0))
+    }
+
+    #[test]
+    fn shadow_cube_faces_land_where_the_lookup_reads() {
+        let lamp = Vector3::new(-50.0, 60.0, 40.0);
+        let dirs = [
+            [1.0, 0.2, -0.3],
+            [-1.0, 0.4, 0.1],
+            [0.3, 1.0, -0.6],
+            [-0.2, -1.0, 0.5],
+            [0.7, -0.1, 1.0],
+            [-0.4, 0.6, -1.0],
+        ];
+        for d in dirs {
+            let (face, s, t) = cube_lookup(d);
+            let m = cube_face_view_proj(lamp, face, 1.0, 300.0);
+            let p = lamp + Vector3::from(d) * 37.0;
+            let h = m * Vector4::new(p.x, p.y, p.z, 1.0);
+            let (x, y, z) = (h.x / h.w, h.y / h.w, h.z / h.w);
+            // wgpu: column = (x + 1) / 2, row = (1 - y) / 2.
+            let (col, row) = (0.5 * (x + 1.0), 0.5 * (1.0 - y));
+            assert!(
+                (col - s).abs() < 1e-5 && (row - t).abs() < 1e-5,
+                "{d:?}: face {face} ({col}, {row}) vs ({s}, {t})"
+            );
+            assert!(z > 0.0 && z < 1.0);
+        }
     }
 
     #[test]

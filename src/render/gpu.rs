@@ -48,6 +48,24 @@ pub(crate) struct FrameUniform {
     pub marble: [f32; 4],
     pub depth: [f32; 4],
     pub material: [u32; 4],
+    /// The engraving: planar frame (centre x, y, half x, half y; mm).
+    pub planar: [f32; 4],
+    /// The engraving: x on (1) or off (0), y groove depth (mm), z-w the band's outer and inner
+    /// inset (mm, with a margin): where the parallax search runs.
+    pub engraving: [f32; 4],
+    /// The lamp: xyz position (mm), w intensity (0: no lamp).
+    pub lamp: [f32; 4],
+    /// The lamp's shadow: x far plane (mm), y depth bias (mm), z PCF radius (mm), w on (1).
+    pub shadow: [f32; 4],
+}
+
+/// Uniforms of one shadow-cube face; mirrors `Face` in `shadow.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct ShadowFaceUniform {
+    pub view_proj: [[f32; 4]; 4],
+    /// xyz lamp position (mm), w 1 / far (1/mm).
+    pub lamp: [f32; 4],
 }
 
 /// Uniforms of the composite pass; mirrors `Composite` in `composite.wgsl`.
@@ -121,6 +139,16 @@ pub(crate) struct Pipelines {
     pub scene: wgpu::RenderPipeline,
     pub frame_uniform: wgpu::Buffer,
     pub scene_bind_group: wgpu::BindGroup,
+    /// Group 1 of the scene pass: the engraving's maps and the lamp's shadow cube.
+    pub surface_layout: wgpu::BindGroupLayout,
+    /// Mipmapped, repeating: the engraving's maps.
+    pub linear_mipmap: wgpu::Sampler,
+    /// Depth comparison (less-equal) for the shadow cube, filtered (2x2 PCF where supported).
+    pub shadow_sampler: wgpu::Sampler,
+    /// The shadow pass: depth only, one draw per cube face, each with its own uniform.
+    pub shadow: wgpu::RenderPipeline,
+    pub shadow_uniforms: Vec<wgpu::Buffer>,
+    pub shadow_bind_groups: Vec<wgpu::BindGroup>,
     /// Composite pipelines by output format (the image's, a window's), built on first use.
     composite: Vec<(wgpu::TextureFormat, wgpu::RenderPipeline)>,
     composite_module: wgpu::ShaderModule,
@@ -245,10 +273,56 @@ impl Pipelines {
                 resource: frame_uniform.as_entire_binding(),
             }],
         });
+        let fragment = wgpu::ShaderStages::FRAGMENT;
+        let surface_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic surface layout"),
+            entries: &[
+                texture_entry(0, true),
+                texture_entry(1, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: fragment,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: fragment,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::Cube,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 4,
+                    visibility: fragment,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                    count: None,
+                },
+            ],
+        });
+        let linear_mipmap = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("glyptic linear mipmap"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("glyptic shadow"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            ..Default::default()
+        });
         let scene_pipeline_layout =
             device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
                 label: Some("glyptic scene pipeline layout"),
-                bind_group_layouts: &[Some(&scene_layout)],
+                bind_group_layouts: &[Some(&scene_layout), Some(&surface_layout)],
                 immediate_size: 0,
             });
         let attributes = wgpu::vertex_attr_array![
@@ -265,11 +339,20 @@ impl Pipelines {
                 module: &scene_module,
                 entry_point: Some("vs_main"),
                 compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: size_of::<Vertex>() as wgpu::BufferAddress,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &attributes,
-                })],
+                buffers: &[
+                    Some(wgpu::VertexBufferLayout {
+                        array_stride: size_of::<Vertex>() as wgpu::BufferAddress,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &attributes,
+                    }),
+                    // Tangent frames (surface::tangents), a buffer of their own: only frames
+                    // with the engraving compute them.
+                    Some(wgpu::VertexBufferLayout {
+                        array_stride: 16,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: &wgpu::vertex_attr_array![5 => Float32x4],
+                    }),
+                ],
             },
             primitive: wgpu::PrimitiveState {
                 topology: wgpu::PrimitiveTopology::TriangleList,
@@ -298,6 +381,79 @@ impl Pipelines {
                     color_target(SPECULAR_FORMAT),
                     color_target(DEPTH_MASK_FORMAT),
                 ],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+
+        let shadow_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("glyptic shadow"),
+            source: wgpu::ShaderSource::Wgsl(shaders::SHADOW.into()),
+        });
+        let shadow_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic shadow layout"),
+            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+        });
+        let shadow_uniforms: Vec<wgpu::Buffer> = (0..6)
+            .map(|_| {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("glyptic shadow face uniform"),
+                    size: size_of::<ShadowFaceUniform>() as u64,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+            .collect();
+        let shadow_bind_groups = shadow_uniforms
+            .iter()
+            .map(|buffer| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("glyptic shadow face"),
+                    layout: &shadow_layout,
+                    entries: &[wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: buffer.as_entire_binding(),
+                    }],
+                })
+            })
+            .collect();
+        let shadow_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glyptic shadow pipeline layout"),
+                bind_group_layouts: &[Some(&shadow_layout)],
+                immediate_size: 0,
+            });
+        let shadow = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("glyptic shadow pipeline"),
+            layout: Some(&shadow_pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &shadow_module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: size_of::<Vertex>() as wgpu::BufferAddress,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: SHADOW_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &shadow_module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[],
             }),
             multiview_mask: None,
             cache: None,
@@ -410,6 +566,12 @@ impl Pipelines {
             scene,
             frame_uniform,
             scene_bind_group,
+            surface_layout,
+            linear_mipmap,
+            shadow_sampler,
+            shadow,
+            shadow_uniforms,
+            shadow_bind_groups,
             composite,
             composite_module,
             composite_layout,
@@ -801,7 +963,14 @@ impl Targets {
 /// Vertex and index buffers that keep their capacity between frames.
 pub(crate) struct MeshBuffers {
     pub vertices: wgpu::Buffer,
+    /// One tangent frame ([f32; 4]) per vertex.
+    pub tangents: wgpu::Buffer,
     pub indices: wgpu::Buffer,
+}
+
+/// Bytes of the tangent frames of a mesh with `vertex_bytes` of vertices.
+pub(crate) fn tangent_bytes(vertex_bytes: u64) -> u64 {
+    vertex_bytes / size_of::<Vertex>() as u64 * 16
 }
 
 /// Smallest buffer allocated, so small meshes do not reallocate as they grow a little.
@@ -829,11 +998,230 @@ impl MeshBuffers {
         };
         Self {
             vertices: buffer("glyptic vertices", vertex_bytes, wgpu::BufferUsages::VERTEX),
+            tangents: buffer(
+                "glyptic tangents",
+                tangent_bytes(vertex_bytes),
+                wgpu::BufferUsages::VERTEX,
+            ),
             indices: buffer("glyptic indices", index_bytes, wgpu::BufferUsages::INDEX),
         }
     }
 
     pub fn fits(&self, vertex_bytes: u64, index_bytes: u64) -> bool {
-        self.vertices.size() >= vertex_bytes && self.indices.size() >= index_bytes
+        self.vertices.size() >= vertex_bytes
+            && self.tangents.size() >= tangent_bytes(vertex_bytes)
+            && self.indices.size() >= index_bytes
+    }
+}
+
+/// Side of each face of the lamp's shadow cube, texels.
+pub(crate) const SHADOW_SIZE: u32 = 1024;
+pub(crate) const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// The scene pass's group 1: the engraving's height and normal maps and the lamp's shadow
+/// cube. Each starts as a one-texel placeholder and is made for real by the first frame that
+/// needs it (the engraving again when the mesh's planar frame changes).
+pub(crate) struct SurfaceMaps {
+    height: wgpu::TextureView,
+    normal: wgpu::TextureView,
+    shadow: wgpu::TextureView,
+    /// The shadow cube's faces (+x, -x, +y, -y, +z, -z) as render targets; empty until made.
+    pub shadow_faces: Vec<wgpu::TextureView>,
+    /// The frame and parameters the engraving was made for, if it was.
+    pub engraving_key: Option<(super::surface::PlanarFrame, super::surface::EngravingParams)>,
+    pub bind_group: wgpu::BindGroup,
+}
+
+fn map_texture(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    label: &str,
+    format: wgpu::TextureFormat,
+    size: u32,
+    levels: &[&[u8]],
+) -> wgpu::TextureView {
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d {
+            width: size,
+            height: size,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: levels.len().max(1) as u32,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    let bytes_per_texel = format.block_copy_size(None).unwrap_or(4);
+    for (level, data) in levels.iter().enumerate() {
+        let side = (size >> level).max(1);
+        queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: level as u32,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            data,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(side * bytes_per_texel),
+                rows_per_image: None,
+            },
+            wgpu::Extent3d {
+                width: side,
+                height: side,
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+    texture.create_view(&Default::default())
+}
+
+fn shadow_cube(device: &wgpu::Device, size: u32) -> (wgpu::Texture, wgpu::TextureView) {
+    let texture = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("glyptic shadow cube"),
+        size: wgpu::Extent3d {
+            width: size,
+            height: size,
+            depth_or_array_layers: 6,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: SHADOW_FORMAT,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::RENDER_ATTACHMENT,
+        view_formats: &[],
+    });
+    let view = texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(wgpu::TextureViewDimension::Cube),
+        ..Default::default()
+    });
+    (texture, view)
+}
+
+impl SurfaceMaps {
+    /// Placeholders: a flat one-texel engraving and a one-texel shadow cube (never sampled: the
+    /// shader is told there is no engraving and no lamp).
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, pipelines: &Pipelines) -> Self {
+        let height = map_texture(
+            device,
+            queue,
+            "glyptic no engraving",
+            wgpu::TextureFormat::R8Unorm,
+            1,
+            &[&[255]],
+        );
+        let normal = map_texture(
+            device,
+            queue,
+            "glyptic no engraving normals",
+            wgpu::TextureFormat::Rgba8Unorm,
+            1,
+            &[&[128, 128, 255, 255]],
+        );
+        let (_, shadow) = shadow_cube(device, 1);
+        let bind_group = Self::bind(device, pipelines, &height, &normal, &shadow);
+        SurfaceMaps {
+            height,
+            normal,
+            shadow,
+            shadow_faces: Vec::new(),
+            engraving_key: None,
+            bind_group,
+        }
+    }
+
+    fn bind(
+        device: &wgpu::Device,
+        pipelines: &Pipelines,
+        height: &wgpu::TextureView,
+        normal: &wgpu::TextureView,
+        shadow: &wgpu::TextureView,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("glyptic surface bind group"),
+            layout: &pipelines.surface_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(height),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(normal),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::Sampler(&pipelines.linear_mipmap),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::TextureView(shadow),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::Sampler(&pipelines.shadow_sampler),
+                },
+            ],
+        })
+    }
+
+    /// Uploads the engraving made for `frame` (and its mip chains).
+    pub fn set_engraving(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        pipelines: &Pipelines,
+        key: (super::surface::PlanarFrame, super::surface::EngravingParams),
+        engraving: &super::surface::Engraving,
+    ) {
+        let heights: Vec<&[u8]> = engraving.height.iter().map(|l| &l[..]).collect();
+        let normals: Vec<&[u8]> = engraving
+            .normal
+            .iter()
+            .map(|l| bytemuck::cast_slice::<[u8; 4], u8>(l))
+            .collect();
+        self.height = map_texture(
+            device,
+            queue,
+            "glyptic engraving",
+            wgpu::TextureFormat::R8Unorm,
+            engraving.size,
+            &heights,
+        );
+        self.normal = map_texture(
+            device,
+            queue,
+            "glyptic engraving normals",
+            wgpu::TextureFormat::Rgba8Unorm,
+            engraving.size,
+            &normals,
+        );
+        self.engraving_key = Some(key);
+        self.bind_group = Self::bind(device, pipelines, &self.height, &self.normal, &self.shadow);
+    }
+
+    /// Makes the full-size shadow cube (once).
+    pub fn ensure_shadow(&mut self, device: &wgpu::Device, pipelines: &Pipelines) {
+        if !self.shadow_faces.is_empty() {
+            return;
+        }
+        let (texture, view) = shadow_cube(device, SHADOW_SIZE);
+        self.shadow_faces = (0..6)
+            .map(|face| {
+                texture.create_view(&wgpu::TextureViewDescriptor {
+                    label: Some("glyptic shadow face"),
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: face,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect();
+        self.shadow = view;
+        self.bind_group = Self::bind(device, pipelines, &self.height, &self.normal, &self.shadow);
     }
 }

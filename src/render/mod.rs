@@ -14,7 +14,10 @@
 //! * There is no GPU: the device is lavapipe (Vulkan) or llvmpipe (GL), chosen by wgpu;
 //!   `WGPU_BACKEND=vulkan|gl` and `WGPU_ADAPTER_NAME` override the choice.
 //!
-//! A frame is up to four passes (the targets are described in `gpu.rs`):
+//! A frame is these passes (the targets are described in `gpu.rs`):
+//! 0. **shadow** (when [`RenderParams::lamp`] is set): the mesh's distance from the lamp into
+//!    the six faces of a cube depth map, which the scene pass compares against (with a
+//!    nine-tap percentage-closer filter);
 //! 1. **scene**: lit diffuse (linear Rgba16Float), specular (Rgba16Float) and linear depth with a
 //!    subsurface-scattering mask, 4x MSAA where the device allows, resolved;
 //! 2. **subsurface scattering** (when [`RenderParams::sss`] is set): the resolved diffuse alone is
@@ -22,6 +25,13 @@
 //!    found that blurring the highlights too made the stone look hazy);
 //! 3. **composite**: diffuse (blurred or not) + specular over the backdrop, highlight shoulder,
 //!    sRGB encoding. With SSS off the composite reads the scene pass's diffuse directly.
+//! 4. **styles** ([`RenderParams::styles`]): the gallery styles on the GPU, in order; the serial
+//!    ones (and whatever follows them) on the CPU after the readback.
+//!
+//! With [`RenderParams::engraving`] the scene pass also engraves a border into the ground:
+//! parallax occlusion mapping over a height map and normal mapping in tangent space, both from
+//! [`surface`] (planar texture coordinates over the mesh's XY box; per-vertex tangents with a
+//! guard against the degenerate ones on the relief's walls).
 //!
 //! Matrix maths uses `nalgebra` (already a dependency of the crate).
 
@@ -29,6 +39,7 @@ mod camera;
 mod gpu;
 mod mesh;
 pub mod shaders;
+pub mod surface;
 
 use std::sync::{Arc, Mutex};
 
@@ -136,6 +147,36 @@ pub struct RenderParams {
     pub styles: Vec<crate::styles::Style>,
     /// Time for the styles that move (the chromatic aberration), seconds.
     pub style_time_s: f32,
+    /// An engraved border on the ground (parallax occlusion and normal mapping); `None`: a
+    /// plain polished ground.
+    pub engraving: Option<surface::EngravingParams>,
+    /// A point lamp casting shadows (a cube depth map); `None`: the key light alone.
+    pub lamp: Option<Lamp>,
+}
+
+/// A point lamp fixed to the gem (it stays put while the camera orbits, so its shadows turn
+/// with the stone), casting shadows through a cube depth map.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lamp {
+    /// Position from the mesh's bounding-box centre, mm.
+    pub offset_mm: [f32; 3],
+    /// Brightness at the bounding-box centre, relative to the key light alone.
+    pub intensity: f32,
+    /// The key light's strength while the lamp is on (1: unchanged): dimmed so that the lamp
+    /// leads and its shadows read.
+    pub key_light: f32,
+}
+
+impl Default for Lamp {
+    /// Upper left, raking at about 25 degrees over the ground: the relief's cast shadows fall
+    /// to the lower right, the way a cameo is photographed.
+    fn default() -> Self {
+        Lamp {
+            offset_mm: [-60.0, 55.0, 38.0],
+            intensity: 0.85,
+            key_light: 0.55,
+        }
+    }
 }
 
 impl Default for RenderParams {
@@ -152,6 +193,8 @@ impl Default for RenderParams {
             sss: Some(crate::sss::SssParams::default()),
             styles: Vec::new(),
             style_time_s: 0.0,
+            engraving: None,
+            lamp: None,
         }
     }
 }
@@ -207,6 +250,11 @@ const LIGHT_INTENSITY: f32 = 1.0;
 /// Texture-space units per mm. The 2021 shader used position / 500 on a base about 370 units
 /// wide; this keeps the same number of veins across a 44 x 56 mm cameo.
 const TEXTURE_SCALE: f32 = 1.0 / 75.0;
+/// The shadow cube's near plane, mm.
+const LAMP_NEAR_MM: f32 = 0.1;
+/// Shadow comparison: constant depth bias and the percentage-closer filter's radius, mm.
+const SHADOW_BIAS_MM: f32 = 0.12;
+const SHADOW_PCF_MM: f32 = 0.35;
 /// Composite: exposure, vignette strength, vertical gradient strength, dither (8-bit steps).
 const COMPOSITE_PARAMS: [f32; 4] = [1.0, 0.45, 0.35, 1.0];
 
@@ -217,6 +265,8 @@ pub struct PassTimes {
     /// Both blur directions; `None` with SSS off.
     pub sss_ms: Option<f64>,
     pub composite_ms: f64,
+    /// The lamp's six shadow-cube faces; `None` without a lamp.
+    pub shadow_ms: Option<f64>,
     /// Each style of the chain, in order: its pass's GPU time, or for those done on the CPU
     /// after the readback (from the first serial one on) their wall time.
     pub styles_ms: Vec<(crate::styles::Style, f64)>,
@@ -225,6 +275,7 @@ pub struct PassTimes {
 /// A pass with timestamp queries, in the order the frame ran them (its query slots).
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum TimedPass {
+    Shadow,
     Scene,
     Sss,
     Composite,
@@ -240,8 +291,9 @@ struct PassTimer {
     period_ns: f64,
 }
 
-/// The most passes a frame times: scene, two SSS, composite and the GPU styles.
-const TIMED_PASSES: u32 = 4 + gpu::MAX_GPU_STYLES as u32;
+/// The most passes a frame times: six shadow faces, scene, two SSS, composite and the GPU
+/// styles.
+const TIMED_PASSES: u32 = 10 + gpu::MAX_GPU_STYLES as u32;
 
 impl PassTimer {
     fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
@@ -312,6 +364,8 @@ pub struct Renderer {
     /// Images and bind groups of a style chain, made on the first frame that has one.
     style_targets: Option<gpu::StyleTargets>,
     mesh_buffers: Option<MeshBuffers>,
+    /// The engraving's maps and the shadow cube (placeholders until a frame needs them).
+    surface: gpu::SurfaceMaps,
     /// Errors wgpu reports outside an error scope (e.g. device loss); kept instead of the
     /// default handler, which panics.
     uncaptured: Arc<Mutex<Option<String>>>,
@@ -383,6 +437,7 @@ impl Renderer {
         };
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let pipelines = Pipelines::new(&device, samples);
+        let surface = gpu::SurfaceMaps::new(&device, &queue, &pipelines);
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!("building the pipelines: {error}")));
         }
@@ -399,6 +454,7 @@ impl Renderer {
             targets: None,
             style_targets: None,
             mesh_buffers: None,
+            surface,
             uncaptured,
             timer,
             last_pass_times: None,
@@ -563,6 +619,36 @@ impl Renderer {
             sss.validate()
                 .map_err(|e| RenderError::InvalidParams(format!("subsurface scattering: {e}")))?;
         }
+        if let Some(e) = &params.engraving {
+            let [i0, i1] = e.inset_mm;
+            let ok = i0.is_finite()
+                && i1.is_finite()
+                && 0.0 <= i0
+                && i0 < i1
+                && i1 <= 50.0
+                && e.depth_mm.is_finite()
+                && 0.0 < e.depth_mm
+                && e.depth_mm <= 5.0
+                && e.groove > 0.0
+                && e.groove <= 1.0
+                && (16..=4096).contains(&e.size);
+            if !ok {
+                return Err(RenderError::InvalidParams(format!(
+                    "engraving: insets 0 <= outer < inner <= 50 mm, depth in (0, 5] mm, groove in (0, 1], size 16..=4096 texels; got {e:?}"
+                )));
+            }
+        }
+        if let Some(l) = &params.lamp {
+            let ok = l.offset_mm.iter().all(|c| c.is_finite())
+                && l.offset_mm.iter().map(|c| c * c).sum::<f32>() > 1.0
+                && (0.0..=100.0).contains(&l.intensity)
+                && (0.0..=1.0).contains(&l.key_light);
+            if !ok {
+                return Err(RenderError::InvalidParams(format!(
+                    "lamp: a finite offset more than 1 mm from the centre, an intensity in 0..=100 and a key light in 0..=1; got {l:?}"
+                )));
+            }
+        }
         Ok(())
     }
 
@@ -689,11 +775,51 @@ impl Renderer {
                 );
             }
         }
+        // Surface detail, made only when a frame asks for it: the engraving's maps (again only
+        // when the mesh's planar frame or the parameters change) and the shadow cube.
+        let planar = surface::PlanarFrame {
+            centre: [bounds.center[0], bounds.center[1]],
+            half: [
+                (0.5 * (bounds.max[0] - bounds.min[0])).max(1e-3),
+                (0.5 * (bounds.max[1] - bounds.min[1])).max(1e-3),
+            ],
+        };
+        if let Some(e) = &params.engraving {
+            let key = (planar, e.clone());
+            if self.surface.engraving_key.as_ref() != Some(&key) {
+                let maps = surface::engraving(&planar, e);
+                self.surface
+                    .set_engraving(&self.device, &self.queue, &self.pipelines, key, &maps);
+            }
+        }
+        // The lamp: position (mm) and the shadow cube's far plane (mm).
+        let lamp = params.lamp.map(|l| {
+            let offset = nalgebra::Vector3::from(l.offset_mm);
+            let position = nalgebra::Vector3::from(bounds.center) + offset;
+            (l, position, offset.norm() + 1.05 * bounds.radius + 1.0)
+        });
+        if let Some((_, position, far)) = lamp {
+            self.surface.ensure_shadow(&self.device, &self.pipelines);
+            for (face, buffer) in self.pipelines.shadow_uniforms.iter().enumerate() {
+                let u = gpu::ShadowFaceUniform {
+                    view_proj: camera::cube_face_view_proj(position, face, LAMP_NEAR_MM, far)
+                        .into(),
+                    lamp: [position.x, position.y, position.z, 1.0 / far],
+                };
+                self.queue.write_buffer(buffer, 0, bytemuck::bytes_of(&u));
+            }
+        }
         let (Some(targets), Some(buffers)) = (&self.targets, &self.mesh_buffers) else {
             return Err(RenderError::Gpu("frame resources missing".into()));
         };
         self.queue.write_buffer(&buffers.vertices, 0, vertex_bytes);
         self.queue.write_buffer(&buffers.indices, 0, index_bytes);
+        let tb = gpu::tangent_bytes(vb);
+        if params.engraving.is_some() {
+            let frames = surface::tangents(&mesh.vertices, &mesh.indices, |p| planar.uv(p));
+            self.queue
+                .write_buffer(&buffers.tangents, 0, bytemuck::cast_slice(&frames));
+        }
 
         let cam = camera::orbit(bounds, params.yaw_deg, params.pitch_deg, params.zoom, w, h);
         let v4 = |v: nalgebra::Vector3<f32>, w: f32| [v.x, v.y, v.z, w];
@@ -701,7 +827,10 @@ impl Renderer {
             // nalgebra stores column-major, as WGSL expects.
             view_proj: cam.view_proj.into(),
             eye: v4(cam.eye, 1.0),
-            light_dir: v4(cam.light, LIGHT_INTENSITY),
+            light_dir: v4(
+                cam.light,
+                LIGHT_INTENSITY * params.lamp.map_or(1.0, |l| l.key_light),
+            ),
             cam_right: v4(cam.right, 0.0),
             cam_up: v4(cam.up, 0.0),
             cam_fwd: v4(cam.forward, 0.0),
@@ -721,6 +850,27 @@ impl Renderer {
                 0,
                 0,
             ],
+            planar: [
+                planar.centre[0],
+                planar.centre[1],
+                planar.half[0],
+                planar.half[1],
+            ],
+            engraving: params.engraving.as_ref().map_or([0.0; 4], |e| {
+                // The parallax search runs a groove's width beyond the band each side.
+                let margin = 0.5 * (e.inset_mm[1] - e.inset_mm[0]) / surface::BAND_UNITS;
+                [
+                    1.0,
+                    e.depth_mm,
+                    e.inset_mm[0] - margin,
+                    e.inset_mm[1] + margin,
+                ]
+            }),
+            lamp: lamp.map_or([0.0; 4], |(l, p, _)| [p.x, p.y, p.z, l.intensity]),
+            shadow: lamp.map_or([0.0; 4], |(l, _, far)| {
+                let centre_mm = l.offset_mm.iter().map(|c| c * c).sum::<f32>().sqrt();
+                [far, SHADOW_BIAS_MM, SHADOW_PCF_MM, centre_mm]
+            }),
         };
         self.queue
             .write_buffer(&self.pipelines.frame_uniform, 0, bytemuck::bytes_of(&frame));
@@ -766,6 +916,31 @@ impl Renderer {
             }
         }
 
+        // validate() has checked that the count fits in u32.
+        let count = u32::try_from(mesh.indices.len()).unwrap_or(0);
+        if lamp.is_some() {
+            for (face, view) in self.surface.shadow_faces.iter().enumerate() {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("glyptic shadow pass"),
+                    color_attachments: &[],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view,
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(1.0),
+                            store: wgpu::StoreOp::Store,
+                        }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Shadow)),
+                    ..Default::default()
+                });
+                pass.set_pipeline(&self.pipelines.shadow);
+                pass.set_bind_group(0, &self.pipelines.shadow_bind_groups[face], &[]);
+                pass.set_vertex_buffer(0, buffers.vertices.slice(..vb));
+                pass.set_index_buffer(buffers.indices.slice(..ib), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..count, 0, 0..1);
+            }
+        }
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("glyptic scene pass"),
@@ -787,10 +962,10 @@ impl Renderer {
             });
             pass.set_pipeline(&self.pipelines.scene);
             pass.set_bind_group(0, &self.pipelines.scene_bind_group, &[]);
+            pass.set_bind_group(1, &self.surface.bind_group, &[]);
             pass.set_vertex_buffer(0, buffers.vertices.slice(..vb));
+            pass.set_vertex_buffer(1, buffers.tangents.slice(..tb));
             pass.set_index_buffer(buffers.indices.slice(..ib), wgpu::IndexFormat::Uint32);
-            // validate() has checked that the count fits in u32.
-            let count = u32::try_from(mesh.indices.len()).unwrap_or(0);
             pass.draw_indexed(0..count, 0, 0..1);
         }
         if sss_kernel.is_some() {
@@ -897,6 +1072,7 @@ impl Renderer {
             let (a, b) = (*ticks.get(2 * slot)?, *ticks.get(2 * slot + 1)?);
             let ms = b.saturating_sub(a) as f64 * t.period_ns / 1e6;
             match *pass {
+                TimedPass::Shadow => *times.shadow_ms.get_or_insert(0.0) += ms,
                 TimedPass::Scene => times.scene_ms += ms,
                 TimedPass::Sss => *times.sss_ms.get_or_insert(0.0) += ms,
                 TimedPass::Composite => times.composite_ms += ms,

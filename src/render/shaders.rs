@@ -15,6 +15,9 @@ pub const SCENE: &str = concat!(
     include_str!("../../shaders/scene.wgsl")
 );
 
+/// One face of the lamp's shadow cube (`vs_main`, `fs_main`): distance to the lamp as depth.
+pub const SHADOW: &str = include_str!("../../shaders/shadow.wgsl");
+
 /// The full-screen triangle's vertex stage, shared by the composite and SSS passes.
 pub const FULLSCREEN: &str = include_str!("../../shaders/fullscreen.wgsl");
 
@@ -54,8 +57,9 @@ pub const FISHEYE: &str = style_module!("fisheye.wgsl");
 pub const CHROMATIC: &str = style_module!("chromatic.wgsl");
 
 /// Every module the renderer compiles, by name, exactly as it hands them to wgpu.
-pub fn modules() -> [(&'static str, &'static str); 9] {
+pub fn modules() -> [(&'static str, &'static str); 10] {
     [
+        ("shadow", SHADOW),
         ("noise", NOISE),
         ("fullscreen", FULLSCREEN),
         ("scene", SCENE),
