@@ -155,6 +155,71 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     println!("\nWithout a style the frame took {plain:.1} ms.");
+
+    // Surface effects: the engraving (its maps are made once per cameo shape; the tangent
+    // frames per mesh) and the lamp (six shadow-cube faces per frame), at 1280x800.
+    println!(
+        "\n# Surface effects at 1280x800 (marble, 21-tap SSS)\n\n| effects | shadow pass ms | scene pass ms | scene / plain scene | frame ms |\n|---|---|---|---|---|"
+    );
+    let lamp = Some(glyptic::render::Lamp::default());
+    let engraving = Some(glyptic::render::surface::EngravingParams::default());
+    let mut plain_scene = f64::NAN;
+    for (name, engraving, lamp) in [
+        ("none", None, None),
+        ("engraving", engraving.clone(), None),
+        ("lamp", None, lamp),
+        ("engraving + lamp", engraving.clone(), lamp),
+    ] {
+        let p = RenderParams {
+            engraving,
+            lamp,
+            ..base.clone()
+        };
+        renderer.render(&mesh, &p)?;
+        let (mut wall, mut scene, mut shadow) = (vec![], vec![], vec![]);
+        for _ in 0..frames {
+            let t = Instant::now();
+            renderer.render(&mesh, &p)?;
+            wall.push(t.elapsed().as_secs_f64() * 1e3);
+            let times = renderer
+                .last_pass_times()
+                .ok_or("this device has no timestamp queries")?;
+            scene.push(times.scene_ms);
+            shadow.push(times.shadow_ms.unwrap_or(0.0));
+        }
+        let (scene, shadow, wall) = (median(scene), median(shadow), median(wall));
+        if name == "none" {
+            plain_scene = scene;
+        }
+        println!(
+            "| {name} | {shadow:.1} | {scene:.1} | {:.2} | {wall:.1} |",
+            scene / plain_scene
+        );
+    }
+    let planar = glyptic::render::surface::PlanarFrame {
+        centre: [0.0, 0.0],
+        half: [23.6, 29.6],
+    };
+    let t = Instant::now();
+    let maps = glyptic::render::surface::engraving(&planar, &Default::default());
+    let maps_ms = t.elapsed().as_secs_f64() * 1e3;
+    let tangent_ms = median(
+        (0..BUILDS)
+            .map(|_| {
+                let t = Instant::now();
+                std::hint::black_box(glyptic::render::surface::tangents(
+                    &mesh.vertices,
+                    &mesh.indices,
+                    |p| planar.uv(p),
+                ));
+                t.elapsed().as_secs_f64() * 1e3
+            })
+            .collect(),
+    );
+    println!(
+        "\nOn the CPU: the engraving's maps ({0} x {0} and mip chains, once per cameo shape) {maps_ms:.1} ms; the mesh's tangent frames (per mesh, median of {BUILDS}) {tangent_ms:.2} ms.",
+        maps.size
+    );
     println!(
         "\nRelief rebuild after a fit (`CameoBuilder::build`: height field + cameo mesh, one thread): mean face {:.2} ms, a varied face {:.2} ms (median of {} builds); the builder itself (head, hair and bezel, once per cameo shape) {builder_ms:.1} ms.",
         rebuild[0], rebuild[1], BUILDS

@@ -259,6 +259,37 @@ fn cameo_has_no_holes_and_matches_its_golden_images() {
             renders.push(((mname, sname), img));
         }
     }
+    // The surface effects (engraved border, lamp with shadows) at twice the size: the border's
+    // grooves are a fraction of a millimetre.
+    let surface = RenderParams {
+        width: 320,
+        height: 400,
+        material: Material::Marble,
+        yaw_deg: -15.0,
+        engraving: Some(glyptic::render::surface::EngravingParams::default()),
+        lamp: Some(glyptic::render::Lamp::default()),
+        ..RenderParams::default()
+    };
+    let with_effects = renderer.render(&mean, &surface).expect("surface golden");
+    if let Err(e) = check_golden(&with_effects, "cameo-marble-engraving-lamp") {
+        failures.push(e);
+    }
+    let without = renderer
+        .render(
+            &mean,
+            &RenderParams {
+                engraving: None,
+                lamp: None,
+                ..surface.clone()
+            },
+        )
+        .expect("surface golden's plain twin");
+    let (effects, _) = flip_mean(&without, &with_effects);
+    println!("FLIP mean, engraving and lamp on vs off {effects:.4}");
+    assert!(
+        effects > 2.0 * GOLDEN_MEAN,
+        "the golden tolerance would not notice the surface effects ({effects})"
+    );
     println!("golden renders on {}", renderer.adapter_info());
     // The tolerance is tight enough to see the changes that matter: SSS on against off, and
     // one stone against the other.
