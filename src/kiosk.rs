@@ -93,6 +93,10 @@ pub struct KioskConfig {
     /// Seconds the ease back takes.
     pub ease_seconds: f32,
     pub fullscreen: bool,
+    /// The engraved border on the ground at start.
+    pub engraving: bool,
+    /// The raking lamp and its shadows at start.
+    pub lamp: bool,
     /// Window size when not full-screen, logical pixels.
     pub width: u32,
     pub height: u32,
@@ -113,6 +117,8 @@ impl Default for KioskConfig {
             idle_seconds: 8.0,
             ease_seconds: 2.0,
             fullscreen: false,
+            engraving: false,
+            lamp: false,
             width: 800,
             height: 1000,
             render_scale: 1.0,
@@ -180,6 +186,10 @@ pub struct Controls {
     pub frozen: bool,
     /// A gallery style over the gem.
     pub style: Option<Style>,
+    /// The engraved border on the ground.
+    pub engraving: bool,
+    /// The raking lamp and its shadows.
+    pub lamp: bool,
 }
 
 /// The longest gem frame, ms, at which a moving style is animated (30 frames a second).
@@ -203,6 +213,8 @@ impl Controls {
             sss_strength: c.sss_strength,
             frozen: false,
             style: None,
+            engraving: c.engraving,
+            lamp: c.lamp,
         }
     }
 
@@ -218,6 +230,20 @@ impl Controls {
         } else {
             "Portrait: live"
         }
+    }
+
+    /// The border button's label: its state now.
+    pub fn engraving_label(&self) -> &'static str {
+        if self.engraving {
+            "Border: on"
+        } else {
+            "Border: off"
+        }
+    }
+
+    /// The lamp button's label: its state now.
+    pub fn lamp_label(&self) -> &'static str {
+        if self.lamp { "Lamp: on" } else { "Lamp: off" }
     }
 
     /// The style button's label: the style shown now.
@@ -260,6 +286,10 @@ impl Controls {
             pitch_deg: orbit.pitch_deg,
             zoom: orbit.zoom,
             styles: self.style.into_iter().collect(),
+            engraving: self
+                .engraving
+                .then(crate::render::surface::EngravingParams::default),
+            lamp: self.lamp.then(crate::render::Lamp::default),
             ..base.clone()
         }
     }
@@ -347,9 +377,19 @@ mod tests {
     fn config_reads_every_key_and_defaults_the_rest() {
         let c = parse(
             "camera = 2\nmaterial = \"agate\"\nsss = false\nsss_strength = 0.3\n\
-             idle_seconds = 5\nfullscreen = true\nportrait = \"frontal\"\nrender_scale = 0.5\n",
+             idle_seconds = 5\nfullscreen = true\nportrait = \"frontal\"\nrender_scale = 0.5\n\
+             lamp = true\n",
         )
         .expect("valid");
+        // The lamp reaches the controls and the render; the border stays off.
+        let controls = Controls::from_config(&c);
+        assert!(controls.lamp && !controls.engraving);
+        assert_eq!(
+            (controls.lamp_label(), controls.engraving_label()),
+            ("Lamp: on", "Border: off")
+        );
+        let p = controls.apply(&RenderParams::default(), &Orbit::default());
+        assert!(p.lamp.is_some() && p.engraving.is_none());
         assert_eq!(c.camera, 2);
         assert_eq!(c.material, Stone::Agate);
         assert_eq!(c.portrait, Portrait::Frontal);

@@ -325,6 +325,14 @@ fn injected_pointer_events_drive_the_controls_without_moving_the_camera() {
     live.wait_for(20, "a dithered gem", |l| {
         l["style"] == "dither" && l["gem_rendered"] == true
     });
+    // The border and the lamp say their state and the gem is drawn with them.
+    assert_eq!(live.latest().unwrap()["engraving"], false);
+    click(&x, centre(&frame, "border"));
+    live.wait_for(10, "the border", |l| l["engraving"] == true);
+    click(&x, centre(&frame, "lamp"));
+    live.wait_for(20, "a gem with the border and the lamp", |l| {
+        l["engraving"] == true && l["lamp"] == true && l["gem_rendered"] == true
+    });
     assert!(
         live.lines.lock().unwrap().iter().all(still),
         "the camera moved"

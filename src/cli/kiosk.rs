@@ -1022,6 +1022,8 @@ impl Running {
             "sss": self.controls.sss,
             "sss_label": self.controls.sss_label(),
             "style": self.controls.style.map_or("none", |s| s.name()),
+            "engraving": self.controls.engraving,
+            "lamp": self.controls.lamp,
             "sss_strength": self.controls.sss_strength,
             "frozen": self.controls.frozen,
             "yaw_deg": self.orbit.yaw_deg,
@@ -1339,6 +1341,21 @@ impl UiFrame<'_> {
                     self.controls.next_style();
                 }
                 self.rects.push(("style", r.rect));
+                let engraving = self.controls.engraving;
+                let r = ui.add(egui::Button::selectable(
+                    engraving,
+                    self.controls.engraving_label(),
+                ));
+                if r.clicked() {
+                    self.controls.engraving = !engraving;
+                }
+                self.rects.push(("border", r.rect));
+                let lamp = self.controls.lamp;
+                let r = ui.add(egui::Button::selectable(lamp, self.controls.lamp_label()));
+                if r.clicked() {
+                    self.controls.lamp = !lamp;
+                }
+                self.rects.push(("lamp", r.rect));
             });
             if let Some(t) = &self.toast {
                 ui.label(t);
