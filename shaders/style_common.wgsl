@@ -4,9 +4,9 @@
 
 struct Style {
     // Per style: toon (levels, edge low, edge high, threshold); fish-eye (strength, power);
-    // chromatic (red offset x, y, green offset x, y).
+    // chromatic (red offset x, y, green offset x, y); painterly (radii, jitter).
     p: vec4<f32>,
-    // Chromatic: blue offset x, y.
+    // Chromatic: blue offset x, y. Painterly: 1 / difference, seed high, layers, seed low.
     q: vec4<f32>,
 }
 

@@ -195,14 +195,14 @@ pub struct Controls {
 /// The longest gem frame, ms, at which a moving style is animated (30 frames a second).
 pub const ANIMATION_BUDGET_MS: f64 = 33.0;
 
-/// The styles the kiosk's style button steps through, after none: the GPU passes first
-/// (they cost nothing to switch to), then the CPU ones.
+/// The styles the kiosk's style button steps through, after none: the GPU passes first,
+/// then dithering (on the CPU, after a readback of the gem).
 pub const KIOSK_STYLES: [Style; 5] = [
     Style::Toon,
+    Style::Painterly,
     Style::FishEye,
     Style::Chromatic,
     Style::Dither,
-    Style::Painterly,
 ];
 
 impl Controls {
@@ -452,10 +452,10 @@ mod tests {
             seen,
             [
                 "Style: toon",
+                "Style: painterly",
                 "Style: fisheye",
                 "Style: chromatic",
                 "Style: dither",
-                "Style: painterly",
                 "Style: none"
             ]
         );

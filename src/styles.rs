@@ -28,9 +28,11 @@ impl Style {
     ];
 
     /// Whether the style is serial: each pixel depends on those done before it (dithering's
-    /// error diffusion, painterly's overlapping dabs), so it is done on the CPU, in order.
+    /// error diffusion), so it is done on the CPU, in order. (Painterly's dabs overlap, but
+    /// each reads the original picture: a pixel is the last dab over it, which a GPU pass
+    /// gathers.)
     pub fn is_serial(self) -> bool {
-        matches!(self, Style::Dither | Style::Painterly)
+        matches!(self, Style::Dither)
     }
 
     /// Whether the style moves with time (its `time_s`): chromatic aberration's periodic shift.
@@ -300,7 +302,7 @@ pub struct PainterlyParams {
     pub jitter: f32,
     /// Colour difference (0..1, mean over channels) at which a brush shrinks to its smallest.
     pub difference: f32,
-    pub seed: u64,
+    pub seed: u32,
 }
 
 impl Default for PainterlyParams {
@@ -314,35 +316,54 @@ impl Default for PainterlyParams {
     }
 }
 
-/// A small, well-mixed hash (SplitMix64's finaliser).
-fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
+/// A small, well-mixed 32-bit hash (Wellons's lowbias32), so the GPU pass can reproduce it.
+pub fn hash32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^ (x >> 16)
 }
 
 /// The jitter's seed: from the picture itself (a sparse sample of its pixels) and `base`, so
 /// the same picture paints the same and a moved view repaints.
-pub fn painting_seed(img: &RgbaImage, base: u64) -> u64 {
+pub fn painting_seed(img: &RgbaImage, base: u32) -> u32 {
     let (w, h) = img.dimensions();
     let mut seed = base;
     for k in 0..16u32 {
         let px = img.get_pixel((k * 7919) % w.max(1), (k * 104_729) % h.max(1));
-        seed = mix(seed ^ u64::from(u32::from_le_bytes(px.0)));
+        seed = hash32(seed ^ u32::from_le_bytes(px.0));
     }
     seed
 }
 
+/// A cell's random bits: from the painting's seed, the layer and the cell.
+pub fn cell_bits(seed: u32, layer: u32, gx: u32, gy: u32) -> u32 {
+    hash32(hash32(hash32(seed ^ layer) ^ gy) ^ gx)
+}
+
+/// Jitter in [-0.5, 0.5] from 16 bits (a multiplication, not a division: the GPU pass
+/// computes it the same way, to the bit).
+fn unit(bits: u32) -> f32 {
+    (bits & 0xffff) as f32 * (1.0 / 65535.0) - 0.5
+}
+
+/// Painterly: each layer's dabs are painted in grid order over the picture, coarse layers
+/// first; a dab is the colour under its jittered centre, its radius shrinking where the colour
+/// changes within a brush radius. A pixel ends as the last dab that covers it, so the GPU pass
+/// gathers the same result (the dabs read the original picture, never the painting).
 pub fn painterly(img: &RgbaImage, p: &PainterlyParams) -> RgbaImage {
     let (w, h) = img.dimensions();
     let seed = painting_seed(img, p.seed);
+    // Rounding half up (floor(x + 0.5)), as the GPU pass does (WGSL's round is half-even).
     let colour = |x: f32, y: f32| {
         let p = img.get_pixel(
-            (x.round().max(0.0) as u32).min(w - 1),
-            (y.round().max(0.0) as u32).min(h - 1),
+            ((x + 0.5).floor().max(0.0) as u32).min(w - 1),
+            ((y + 0.5).floor().max(0.0) as u32).min(h - 1),
         );
         [0, 1, 2].map(|c| f32::from(p[c]) / 255.0)
     };
+    let inv_difference = 1.0 / p.difference;
     let mut out = img.clone();
     for (layer, &radius) in p.radii.iter().enumerate() {
         let step = radius.max(1.0);
@@ -352,8 +373,7 @@ pub fn painterly(img: &RgbaImage, p: &PainterlyParams) -> RgbaImage {
         );
         for gy in 0..ny {
             for gx in 0..nx {
-                let r = mix(seed ^ ((layer as u64) << 48) ^ (u64::from(gy) << 24) ^ u64::from(gx));
-                let unit = |bits: u64| (bits & 0xffff) as f32 / 65535.0 - 0.5;
+                let r = cell_bits(seed, layer as u32, gx, gy);
                 let cx = (gx as f32 + 0.5 + p.jitter * unit(r)) * step;
                 let cy = (gy as f32 + 0.5 + p.jitter * unit(r >> 16)) * step;
                 let c = colour(cx, cy);
@@ -362,10 +382,11 @@ pub fn painterly(img: &RgbaImage, p: &PainterlyParams) -> RgbaImage {
                     .iter()
                     .map(|(dx, dy)| {
                         let o = colour(cx + dx * radius, cy + dy * radius);
-                        (0..3).map(|k| (o[k] - c[k]).abs()).sum::<f32>() / 3.0
+                        ((o[0] - c[0]).abs() + (o[1] - c[1]).abs() + (o[2] - c[2]).abs())
+                            * (1.0 / 3.0)
                     })
                     .fold(0.0f32, f32::max);
-                let brush = radius * (1.0 - 0.6 * (change / p.difference).min(1.0));
+                let brush = radius * (1.0 - 0.6 * (change * inv_difference).min(1.0));
                 let b2 = brush * brush;
                 let (x0, x1) = (
                     (cx - brush).floor().max(0.0) as u32,

@@ -317,8 +317,8 @@ fn injected_pointer_events_drive_the_controls_without_moving_the_camera() {
     live.wait_for(10, "agate", |l| l["material"] == "agate");
     click(&x, centre(&frame, "style"));
     live.wait_for(10, "the toon style", |l| l["style"] == "toon");
-    // Dithering (three presses on) runs on the CPU after a readback of the gem layer.
-    for next in ["fisheye", "chromatic", "dither"] {
+    // Dithering (four presses on) runs on the CPU after a readback of the gem layer.
+    for next in ["painterly", "fisheye", "chromatic", "dither"] {
         click(&x, centre(&frame, "style"));
         live.wait_for(10, next, |l| l["style"] == next);
     }

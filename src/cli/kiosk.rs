@@ -801,8 +801,8 @@ impl Running {
                 ..self.controls.apply(&self.base, &self.orbit)
             };
             let drawn = if params.styles.iter().any(|s| s.is_serial()) {
-                // Dithering and painterly run on the CPU: read the gem back, style it, and
-                // upload it to the layer (only when the gem changes: they are still).
+                // Dithering runs on the CPU: read the gem back, dither it, and upload it to the
+                // layer (only when the gem changes: it is still).
                 self.renderer.render(gem, &params).map(|image| {
                     queue.write_texture(
                         layer.texture.as_image_copy(),

@@ -540,6 +540,7 @@ impl Pipelines {
             (Style::Toon, shaders::TOON),
             (Style::FishEye, shaders::FISHEYE),
             (Style::Chromatic, shaders::CHROMATIC),
+            (Style::Painterly, shaders::PAINTERLY),
         ]
         .into_iter()
         .map(|(style, source)| {
@@ -761,7 +762,9 @@ pub(crate) fn overwrite(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColo
 /// A style pass's uniform (`Style` in style_common.wgsl), or `None` for a serial style (done
 /// on the CPU: [`Style::is_serial`]).
 pub(crate) fn style_uniform(style: Style, time_s: f32) -> Option<[f32; 8]> {
-    use crate::styles::{ChromaticParams, FishEyeParams, ToonParams, chromatic_offsets};
+    use crate::styles::{
+        ChromaticParams, FishEyeParams, PainterlyParams, ToonParams, chromatic_offsets,
+    };
     match style {
         Style::Toon => {
             let t = ToonParams::default();
@@ -787,7 +790,21 @@ pub(crate) fn style_uniform(style: Style, time_s: f32) -> Option<[f32; 8]> {
             });
             Some([r[0], r[1], g[0], g[1], b[0], b[1], 0.0, 0.0])
         }
-        Style::Dither | Style::Painterly => None,
+        Style::Painterly => {
+            let p = PainterlyParams::default();
+            let radius = |i: usize| p.radii.get(i).copied().unwrap_or(0.0);
+            Some([
+                radius(0),
+                radius(1),
+                radius(2),
+                p.jitter,
+                1.0 / p.difference,
+                (p.seed >> 16) as f32,
+                p.radii.len().min(3) as f32,
+                (p.seed & 0xffff) as f32,
+            ])
+        }
+        Style::Dither => None,
     }
 }
 

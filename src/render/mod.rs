@@ -141,8 +141,8 @@ pub struct RenderParams {
     pub background: [f32; 3],
     /// Subsurface scattering in the stone (gold never scatters); `None` turns the pass off.
     pub sss: Option<crate::sss::SssParams>,
-    /// Gallery styles applied after the composite, in order. Toon, fish-eye and chromatic
-    /// aberration are GPU passes; dithering and painterly, and whatever follows them, run on
+    /// Gallery styles applied after the composite, in order. Toon, painterly, fish-eye and
+    /// chromatic aberration are GPU passes; dithering (serial) and whatever follows it run on
     /// the CPU after the readback (a window's frame takes GPU styles only).
     pub styles: Vec<crate::styles::Style>,
     /// Time for the styles that move (the chromatic aberration), seconds.
@@ -747,8 +747,8 @@ impl Renderer {
         let gpu_styles = &params.styles[..gpu_style_count(&params.styles)];
         if matches!(output, Output::View(..)) && gpu_styles.len() < params.styles.len() {
             return Err(RenderError::InvalidParams(
-                "dithering and painterly run on the CPU after a readback: a window's frame takes \
-                 toon, fisheye and chromatic only"
+                "dithering runs on the CPU after a readback: a window's frame takes toon, \
+                 painterly, fisheye and chromatic only"
                     .into(),
             ));
         }

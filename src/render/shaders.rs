@@ -55,9 +55,10 @@ macro_rules! style_module {
 pub const TOON: &str = style_module!("toon.wgsl");
 pub const FISHEYE: &str = style_module!("fisheye.wgsl");
 pub const CHROMATIC: &str = style_module!("chromatic.wgsl");
+pub const PAINTERLY: &str = style_module!("painterly.wgsl");
 
 /// Every module the renderer compiles, by name, exactly as it hands them to wgpu.
-pub fn modules() -> [(&'static str, &'static str); 10] {
+pub fn modules() -> [(&'static str, &'static str); 11] {
     [
         ("shadow", SHADOW),
         ("noise", NOISE),
@@ -69,5 +70,6 @@ pub fn modules() -> [(&'static str, &'static str); 10] {
         ("toon", TOON),
         ("fisheye", FISHEYE),
         ("chromatic", CHROMATIC),
+        ("painterly", PAINTERLY),
     ]
 }
