@@ -26,8 +26,15 @@ fn noise_taylor_inv_sqrt4(r: vec4<f32>) -> vec4<f32> {
     return 1.79284291400159 - 0.85373472095314 * r;
 }
 
+// The simplex grid's skew constants. Module constants rather than `let`s in snoise3: naga 30
+// emits a constant `let` twice when it processes a pipeline's override constants, and then
+// rejects its own output (ExpressionAlreadyInScope).
+const NOISE_SKEW: vec2<f32> = vec2<f32>(1.0 / 6.0, 1.0 / 3.0);
+// The gradients' 7x7 grid (same reason).
+const NOISE_GRID: vec3<f32> = vec3<f32>(2.0 / 7.0, 0.5 / 7.0 - 1.0, 1.0 / 7.0);
+
 fn snoise3(v: vec3<f32>) -> f32 {
-    let c = vec2<f32>(1.0 / 6.0, 1.0 / 3.0);
+    let c = NOISE_SKEW;
 
     // Skew into the simplex grid and find the simplex corner offsets.
     var i = floor(v + dot(v, vec3<f32>(c.y)));
@@ -49,7 +56,7 @@ fn snoise3(v: vec3<f32>) -> f32 {
     );
 
     // Gradients: 7x7 points over a square, mapped onto an octahedron.
-    let ns = vec3<f32>(2.0 / 7.0, 0.5 / 7.0 - 1.0, 1.0 / 7.0);
+    let ns = NOISE_GRID;
     let j = p - 49.0 * floor(p * ns.z * ns.z);
     let gx = floor(j * ns.z);
     let gy = floor(j - 7.0 * gx);

@@ -41,6 +41,11 @@ struct Frame {
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 
+// Which surface effects this pipeline has compiled in (gpu.rs `SceneVariant`): on a CPU
+// rasteriser even an untaken branch costs, so the plain pipeline leaves them out.
+override ENGRAVING: bool = false;
+override LAMP: bool = false;
+
 // Group 1, surface detail: the engraving's height (r: 1 the ground, 0 a groove's bottom) and
 // tangent-space normal maps over the planar frame, and the lamp's shadow cube (distance to the
 // lamp over the far plane).
@@ -264,7 +269,7 @@ fn fs_main(in: VsOut) -> FsOut {
     var occlusion = 1.0;
     let ground_w = 1.0 - smoothstep(0.02, 0.08, in.relief);
     let inset = inset_mm(in.world);
-    if frame.engraving.x > 0.5 && in.gold < 0.5 && ground_w > 0.0 && !flipped
+    if ENGRAVING && frame.engraving.x > 0.5 && in.gold < 0.5 && ground_w > 0.0 && !flipped
         && abs(in.tangent.w) > 0.5 && inset > frame.engraving.z && inset < frame.engraving.w {
         let t_raw = in.tangent.xyz - n * dot(n, in.tangent.xyz);
         if dot(t_raw, t_raw) > 1e-8 {
@@ -293,7 +298,7 @@ fn fs_main(in: VsOut) -> FsOut {
     var light = frame.light_dir.w * occlusion;
     var lamp = 0.0;
     var lamp_l = vec3<f32>(0.0, 0.0, 1.0);
-    if frame.lamp.w > 0.0 {
+    if LAMP && frame.lamp.w > 0.0 {
         let to_lamp = frame.lamp.xyz - in.world;
         let dist = length(to_lamp);
         lamp_l = to_lamp / max(dist, 1e-6);

@@ -809,6 +809,11 @@ impl Renderer {
                 self.queue.write_buffer(buffer, 0, bytemuck::bytes_of(&u));
             }
         }
+        let variant = gpu::SceneVariant {
+            engraving: params.engraving.is_some(),
+            lamp: params.lamp.is_some(),
+        };
+        self.pipelines.ensure_scene(&self.device, variant);
         let (Some(targets), Some(buffers)) = (&self.targets, &self.mesh_buffers) else {
             return Err(RenderError::Gpu("frame resources missing".into()));
         };
@@ -918,6 +923,10 @@ impl Renderer {
 
         // validate() has checked that the count fits in u32.
         let count = u32::try_from(mesh.indices.len()).unwrap_or(0);
+        let scene_pipeline = self
+            .pipelines
+            .scene(variant)
+            .ok_or_else(|| RenderError::Gpu(format!("no scene pipeline for {variant:?}")))?;
         if lamp.is_some() {
             for (face, view) in self.surface.shadow_faces.iter().enumerate() {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -960,7 +969,7 @@ impl Renderer {
                 timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Scene)),
                 ..Default::default()
             });
-            pass.set_pipeline(&self.pipelines.scene);
+            pass.set_pipeline(scene_pipeline);
             pass.set_bind_group(0, &self.pipelines.scene_bind_group, &[]);
             pass.set_bind_group(1, &self.surface.bind_group, &[]);
             pass.set_vertex_buffer(0, buffers.vertices.slice(..vb));
