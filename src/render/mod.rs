@@ -809,16 +809,43 @@ impl Renderer {
                 self.queue.write_buffer(buffer, 0, bytemuck::bytes_of(&u));
             }
         }
-        let variant = gpu::SceneVariant {
-            engraving: params.engraving.is_some(),
+        // The band the engraving's parallax search covers (mm inside the outline): a groove's
+        // width beyond it each side.
+        let band_mm = params.engraving.as_ref().map(|e| {
+            let margin = 0.5 * (e.inset_mm[1] - e.inset_mm[0]) / surface::BAND_UNITS;
+            [e.inset_mm[0] - margin, e.inset_mm[1] + margin]
+        });
+        // The scene pipelines: without the engraving for everything but the band's triangles
+        // (drawn last, from index `band_start`, with it).
+        let plain = gpu::SceneVariant {
+            engraving: false,
             lamp: params.lamp.is_some(),
         };
-        self.pipelines.ensure_scene(&self.device, variant);
+        let engraved = gpu::SceneVariant {
+            engraving: true,
+            ..plain
+        };
+        self.pipelines.ensure_scene(&self.device, plain);
+        if band_mm.is_some() {
+            self.pipelines.ensure_scene(&self.device, engraved);
+        }
         let (Some(targets), Some(buffers)) = (&self.targets, &self.mesh_buffers) else {
             return Err(RenderError::Gpu("frame resources missing".into()));
         };
         self.queue.write_buffer(&buffers.vertices, 0, vertex_bytes);
-        self.queue.write_buffer(&buffers.indices, 0, index_bytes);
+        let band_start = match band_mm {
+            Some(band) => {
+                let (ordered, start) =
+                    surface::band_last(&mesh.vertices, &mesh.indices, &planar, band);
+                self.queue
+                    .write_buffer(&buffers.indices, 0, bytemuck::cast_slice(&ordered));
+                start
+            }
+            None => {
+                self.queue.write_buffer(&buffers.indices, 0, index_bytes);
+                mesh.indices.len()
+            }
+        };
         let tb = gpu::tangent_bytes(vb);
         if params.engraving.is_some() {
             let frames = surface::tangents(&mesh.vertices, &mesh.indices, |p| planar.uv(p));
@@ -861,16 +888,10 @@ impl Renderer {
                 planar.half[0],
                 planar.half[1],
             ],
-            engraving: params.engraving.as_ref().map_or([0.0; 4], |e| {
-                // The parallax search runs a groove's width beyond the band each side.
-                let margin = 0.5 * (e.inset_mm[1] - e.inset_mm[0]) / surface::BAND_UNITS;
-                [
-                    1.0,
-                    e.depth_mm,
-                    e.inset_mm[0] - margin,
-                    e.inset_mm[1] + margin,
-                ]
-            }),
+            engraving: match (&params.engraving, band_mm) {
+                (Some(e), Some([lo, hi])) => [1.0, e.depth_mm, lo, hi],
+                _ => [0.0; 4],
+            },
             lamp: lamp.map_or([0.0; 4], |(l, p, _)| [p.x, p.y, p.z, l.intensity]),
             shadow: lamp.map_or([0.0; 4], |(l, _, far)| {
                 let centre_mm = l.offset_mm.iter().map(|c| c * c).sum::<f32>().sqrt();
@@ -923,10 +944,16 @@ impl Renderer {
 
         // validate() has checked that the count fits in u32.
         let count = u32::try_from(mesh.indices.len()).unwrap_or(0);
-        let scene_pipeline = self
-            .pipelines
-            .scene(variant)
-            .ok_or_else(|| RenderError::Gpu(format!("no scene pipeline for {variant:?}")))?;
+        let scene_pipeline = |variant| {
+            self.pipelines
+                .scene(variant)
+                .ok_or_else(|| RenderError::Gpu(format!("no scene pipeline for {variant:?}")))
+        };
+        let (plain_pipeline, engraved_pipeline) = (
+            scene_pipeline(plain)?,
+            band_mm.map(|_| scene_pipeline(engraved)).transpose()?,
+        );
+        let band_start = u32::try_from(band_start).unwrap_or(count);
         if lamp.is_some() {
             for (face, view) in self.surface.shadow_faces.iter().enumerate() {
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -969,13 +996,19 @@ impl Renderer {
                 timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Scene)),
                 ..Default::default()
             });
-            pass.set_pipeline(scene_pipeline);
+            pass.set_pipeline(plain_pipeline);
             pass.set_bind_group(0, &self.pipelines.scene_bind_group, &[]);
             pass.set_bind_group(1, &self.surface.bind_group, &[]);
             pass.set_vertex_buffer(0, buffers.vertices.slice(..vb));
             pass.set_vertex_buffer(1, buffers.tangents.slice(..tb));
             pass.set_index_buffer(buffers.indices.slice(..ib), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..count, 0, 0..1);
+            pass.draw_indexed(0..band_start, 0, 0..1);
+            if let Some(engraved) = engraved_pipeline
+                && band_start < count
+            {
+                pass.set_pipeline(engraved);
+                pass.draw_indexed(band_start..count, 0, 0..1);
+            }
         }
         if sss_kernel.is_some() {
             let outputs = [&targets.sss_temp, &targets.sss_out];

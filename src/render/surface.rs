@@ -27,6 +27,17 @@ impl PlanarFrame {
         ]
     }
 
+    /// How far (`x`, `y`) lies inside the frame's ellipse (the gem's outline), mm, to first
+    /// order: (1 - rho) / |grad rho| for rho the ellipse's normalised radius. Negative outside.
+    /// The scene shader's `inset_mm` is the same.
+    pub fn inset_mm(&self, x: f32, y: f32) -> f32 {
+        let [a, b] = self.half;
+        let (qx, qy) = ((x - self.centre[0]) / a, (y - self.centre[1]) / b);
+        let rho = (qx * qx + qy * qy).sqrt();
+        let grad = ((qx / a).powi(2) + (qy / b).powi(2)).sqrt() / rho.max(1e-6);
+        (1.0 - rho) / grad.max(1e-6)
+    }
+
     /// Object-space offset (x, y), mm, from the frame's centre to texel centre (`i`, `j`) of a
     /// `size` x `size` map.
     fn texel_mm(&self, i: u32, j: u32, size: u32) -> [f32; 2] {
@@ -120,17 +131,14 @@ pub fn engraving_heights(frame: &PlanarFrame, p: &EngravingParams) -> Vec<f32> {
     for j in 0..n {
         for i in 0..n {
             let [x, y] = frame.texel_mm(i, j, n);
-            // Distance inside the ellipse, to first order: (1 - rho) / |grad rho|.
-            let (qx, qy) = (x / a, y / b);
-            let rho = (qx * qx + qy * qy).sqrt();
-            let grad = ((qx / a).powi(2) + (qy / b).powi(2)).sqrt() / rho.max(1e-6);
-            let inside = (1.0 - rho) / grad.max(1e-6);
+            let inside = frame.inset_mm(x + frame.centre[0], y + frame.centre[1]);
             let across = (inside - i0) / unit_mm;
             if !(-1.0..=BAND_UNITS + 1.0).contains(&across) {
                 continue;
             }
-            let along =
-                (qy.atan2(qx) / std::f32::consts::TAU).rem_euclid(1.0) * periods * PERIOD_UNITS;
+            let along = ((y / b).atan2(x / a) / std::f32::consts::TAU).rem_euclid(1.0)
+                * periods
+                * PERIOD_UNITS;
             let local = [along.rem_euclid(PERIOD_UNITS), across - 1.5];
             // The framing lines at 0.5 and 6.5 units, the meander between 1.5 and 5.5.
             let mut d = (across - 0.5).abs().min((across - 6.5).abs());
@@ -231,6 +239,44 @@ pub fn engraving(frame: &PlanarFrame, p: &EngravingParams) -> Engraving {
         normal,
         size,
     }
+}
+
+/// Relief below which a vertex is ground for the engraving (mm; the shader fades it out
+/// between 0.02 and 0.08).
+const ENGRAVED_RELIEF_MM: f32 = 0.08;
+
+/// `indices` reordered so that the triangles the engraved band can touch come last, and where
+/// they start: a triangle is in the band when a vertex of it is stone ground and its vertices'
+/// insets (mm, [`PlanarFrame::inset_mm`]) reach into `band_mm`. The scene pass draws the first
+/// part with a pipeline that has no engraving code, which a CPU rasteriser would otherwise run
+/// for every fragment.
+pub fn band_last(
+    vertices: &[Vertex],
+    indices: &[u32],
+    frame: &PlanarFrame,
+    band_mm: [f32; 2],
+) -> (Vec<u32>, usize) {
+    let gold = super::Region::Gold as u32;
+    let (mut rest, mut band) = (Vec::with_capacity(indices.len()), Vec::new());
+    for tri in indices.chunks_exact(3) {
+        let mut lo = f32::INFINITY;
+        let mut hi = f32::NEG_INFINITY;
+        let mut ground = false;
+        for v in tri.iter().filter_map(|&i| vertices.get(i as usize)) {
+            let inset = frame.inset_mm(v.position[0], v.position[1]);
+            lo = lo.min(inset);
+            hi = hi.max(inset);
+            ground |= v.region != gold && v.relief < ENGRAVED_RELIEF_MM;
+        }
+        if ground && hi >= band_mm[0] && lo <= band_mm[1] {
+            band.extend_from_slice(tri);
+        } else {
+            rest.extend_from_slice(tri);
+        }
+    }
+    let split = rest.len();
+    rest.extend_from_slice(&band);
+    (rest, split)
 }
 
 fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
@@ -450,6 +496,67 @@ mod tests {
         // The engraved share of the band is a pattern, not a fill.
         let engraved = h.iter().filter(|&&v| v < 1.0).count() as f32 / h.len() as f32;
         assert!((0.01..0.15).contains(&engraved), "{engraved}");
+    }
+
+    #[test]
+    fn band_triangles_go_last_and_none_is_lost() {
+        // A grid over the frame: ground, with a raised block in the middle and gold at x > 20.
+        let mut v = Vec::new();
+        let n = 48u32;
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, y) = (
+                    -23.6 + 47.2 * i as f32 / n as f32,
+                    -29.6 + 59.2 * j as f32 / n as f32,
+                );
+                let mut vx = vertex([x, y, 0.0], [0.0, 0.0, 1.0]);
+                if x.abs() < 8.0 && y.abs() < 8.0 {
+                    vx.relief = 3.0;
+                    vx.region = Region::Relief as u32;
+                }
+                if x > 20.0 {
+                    vx.region = Region::Gold as u32;
+                }
+                v.push(vx);
+            }
+        }
+        let mut idx = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let a = j * (n + 1) + i;
+                idx.extend_from_slice(&[a, a + 1, a + n + 2, a, a + n + 2, a + n + 1]);
+            }
+        }
+        let band = [2.4, 6.2];
+        let (ordered, start) = band_last(&v, &idx, &FRAME, band);
+        let mut a: Vec<[u32; 3]> = idx.chunks(3).map(|t| [t[0], t[1], t[2]]).collect();
+        let mut b: Vec<[u32; 3]> = ordered.chunks(3).map(|t| [t[0], t[1], t[2]]).collect();
+        a.sort_unstable();
+        b.sort_unstable();
+        assert_eq!(a, b, "the same triangles, reordered");
+        assert!(start % 3 == 0 && start < ordered.len() && start > ordered.len() / 2);
+        for (k, t) in ordered.chunks(3).enumerate() {
+            let in_band = 3 * k >= start;
+            let insets: Vec<f32> = t
+                .iter()
+                .map(|&i| FRAME.inset_mm(v[i as usize].position[0], v[i as usize].position[1]))
+                .collect();
+            let ground = t.iter().any(|&i| {
+                v[i as usize].region != Region::Gold as u32 && v[i as usize].relief < 0.08
+            });
+            let reaches = insets.iter().cloned().fold(f32::MIN, f32::max) >= band[0]
+                && insets.iter().cloned().fold(f32::MAX, f32::min) <= band[1];
+            assert_eq!(
+                in_band,
+                ground && reaches,
+                "triangle {t:?}, insets {insets:?}"
+            );
+        }
+        // The raised middle and the gold are never drawn with the engraving.
+        assert!(ordered[start..].iter().all(|&i| {
+            let p = v[i as usize].position;
+            p[0].abs() >= 8.0 - 1.0 || p[1].abs() >= 8.0 - 1.5
+        }));
     }
 
     #[test]
