@@ -20,6 +20,22 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// One frame: its wall time (ms) and its passes' GPU times.
+fn timed_frame(
+    renderer: &mut Renderer,
+    mesh: &glyptic::render::Mesh,
+    p: &RenderParams,
+) -> Result<(f64, glyptic::render::PassTimes), Box<dyn std::error::Error>> {
+    let t = Instant::now();
+    renderer.render(mesh, p)?;
+    let wall = t.elapsed().as_secs_f64() * 1e3;
+    let times = renderer
+        .last_pass_times()
+        .cloned()
+        .ok_or("this device has no timestamp queries")?;
+    Ok((wall, times))
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let frames: usize = std::env::args().nth(1).map_or(Ok(9), |s| s.parse())?;
     let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir())?;
@@ -76,12 +92,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 renderer.render(&mesh, &p)?;
                 let (mut scene, mut blur, mut comp, mut wall) = (vec![], vec![], vec![], vec![]);
                 for _ in 0..frames {
-                    let t = Instant::now();
-                    renderer.render(&mesh, &p)?;
-                    wall.push(t.elapsed().as_secs_f64() * 1e3);
-                    let times = renderer
-                        .last_pass_times()
-                        .ok_or("this device has no timestamp queries")?;
+                    let (ms, times) = timed_frame(&mut renderer, &mesh, &p)?;
+                    wall.push(ms);
                     scene.push(times.scene_ms);
                     blur.push(times.sss_ms.unwrap_or(0.0));
                     comp.push(times.composite_ms);
@@ -124,12 +136,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         renderer.render(&mesh, p)?;
         let (mut wall, mut scene, mut style) = (vec![], vec![], vec![]);
         for _ in 0..frames {
-            let t = Instant::now();
-            renderer.render(&mesh, p)?;
-            wall.push(t.elapsed().as_secs_f64() * 1e3);
-            let times = renderer
-                .last_pass_times()
-                .ok_or("this device has no timestamp queries")?;
+            let (ms, times) = timed_frame(renderer, &mesh, p)?;
+            wall.push(ms);
             scene.push(times.scene_ms);
             style.push(times.styles_ms.iter().map(|(_, ms)| ms).sum());
         }
@@ -187,12 +195,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut samples = vec![(vec![], vec![], vec![]); setups.len()];
     for _ in 0..frames {
         for ((_, p), (wall, scene, shadow)) in setups.iter().zip(samples.iter_mut()) {
-            let t = Instant::now();
-            renderer.render(&mesh, p)?;
-            wall.push(t.elapsed().as_secs_f64() * 1e3);
-            let times = renderer
-                .last_pass_times()
-                .ok_or("this device has no timestamp queries")?;
+            let (ms, times) = timed_frame(&mut renderer, &mesh, p)?;
+            wall.push(ms);
             scene.push(times.scene_ms);
             shadow.push(times.shadow_ms.unwrap_or(0.0));
         }

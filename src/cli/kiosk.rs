@@ -1256,6 +1256,15 @@ fn style(ctx: &egui::Context) {
 }
 
 /// One frame of the controls.
+/// A button that shows `on` as selected and flips it when pressed; `label` says the state.
+fn toggle(ui: &mut egui::Ui, on: &mut bool, label: &str) -> egui::Response {
+    let r = ui.add(egui::Button::selectable(*on, label));
+    if r.clicked() {
+        *on = !*on;
+    }
+    r
+}
+
 struct UiFrame<'a> {
     controls: &'a mut Controls,
     orbit: &'a mut Orbit,
@@ -1290,11 +1299,8 @@ impl UiFrame<'_> {
                     self.rects.push((key, r.rect));
                 }
                 ui.separator();
-                let sss = self.controls.sss;
-                let r = ui.add(egui::Button::selectable(sss, self.controls.sss_label()));
-                if r.clicked() {
-                    self.controls.sss = !sss;
-                }
+                let label = self.controls.sss_label();
+                let r = toggle(ui, &mut self.controls.sss, label);
                 self.rects.push(("sss", r.rect));
             });
             ui.horizontal(|ui| {
@@ -1312,14 +1318,8 @@ impl UiFrame<'_> {
                 self.rects.push(("reset", r.rect));
             });
             ui.horizontal(|ui| {
-                let frozen = self.controls.frozen;
-                let r = ui.add(egui::Button::selectable(
-                    frozen,
-                    self.controls.freeze_label(),
-                ));
-                if r.clicked() {
-                    self.controls.frozen = !frozen;
-                }
+                let label = self.controls.freeze_label();
+                let r = toggle(ui, &mut self.controls.frozen, label);
                 self.rects.push(("freeze", r.rect));
                 let r = ui.button("Save picture");
                 if r.clicked() {
@@ -1341,20 +1341,11 @@ impl UiFrame<'_> {
                     self.controls.next_style();
                 }
                 self.rects.push(("style", r.rect));
-                let engraving = self.controls.engraving;
-                let r = ui.add(egui::Button::selectable(
-                    engraving,
-                    self.controls.engraving_label(),
-                ));
-                if r.clicked() {
-                    self.controls.engraving = !engraving;
-                }
+                let label = self.controls.engraving_label();
+                let r = toggle(ui, &mut self.controls.engraving, label);
                 self.rects.push(("border", r.rect));
-                let lamp = self.controls.lamp;
-                let r = ui.add(egui::Button::selectable(lamp, self.controls.lamp_label()));
-                if r.clicked() {
-                    self.controls.lamp = !lamp;
-                }
+                let label = self.controls.lamp_label();
+                let r = toggle(ui, &mut self.controls.lamp, label);
                 self.rects.push(("lamp", r.rect));
             });
             if let Some(t) = &self.toast {

@@ -16,6 +16,12 @@
 //! `diffuse` horizontally into `sss_temp` and that vertically into `sss_out` (both Rgba16Float,
 //! coverage kept in alpha), reading `depth_mask` for depth and mask.
 //!
+//! The shadow pass (with a lamp) renders the mesh's distance from the lamp into the six
+//! Depth32Float faces of a cube (1024 x 1024 each), sampled by the scene pass with a comparison
+//! sampler; the engraving's height (R8) and tangent-space normal (Rgba8) maps, with mip chains,
+//! are uploaded once per planar frame. Both live in `SurfaceMaps` (one-texel placeholders until a
+//! frame needs them) and are bound as the scene pass's group 1.
+//!
 //! The composite pass reads the resolved (or blurred) `diffuse` and `specular` and writes the Rgba8Unorm
 //! `output` (sRGB-encoded by the shader), which is copied into a mappable buffer with rows padded
 //! to 256 bytes.
@@ -240,6 +246,17 @@ fn fullscreen_pipeline(
     })
 }
 
+/// A written depth buffer, nearer wins.
+fn depth_less(format: wgpu::TextureFormat) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format,
+        depth_write_enabled: Some(true),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
+}
+
 fn color_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
     Some(wgpu::ColorTargetState {
         format,
@@ -308,13 +325,7 @@ fn scene_pipeline(
             cull_mode: None,
             ..Default::default()
         },
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(wgpu::CompareFunction::Less),
-            stencil: Default::default(),
-            bias: Default::default(),
-        }),
+        depth_stencil: Some(depth_less(DEPTH_FORMAT)),
         multisample: wgpu::MultisampleState {
             count: samples,
             ..Default::default()
@@ -480,13 +491,7 @@ impl Pipelines {
                 cull_mode: None,
                 ..Default::default()
             },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: SHADOW_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
+            depth_stencil: Some(depth_less(SHADOW_FORMAT)),
             multisample: wgpu::MultisampleState::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &shadow_module,

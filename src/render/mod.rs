@@ -555,6 +555,7 @@ impl Renderer {
             self.targets = None;
             self.style_targets = None;
             self.mesh_buffers = None;
+            self.surface = gpu::SurfaceMaps::new(&self.device, &self.queue, &self.pipelines);
             return Err(RenderError::Gpu(error.to_string()));
         }
         submitted?;
@@ -631,10 +632,10 @@ impl Renderer {
                 && e.depth_mm <= 5.0
                 && e.groove > 0.0
                 && e.groove <= 1.0
-                && (16..=4096).contains(&e.size);
+                && (16..=2048).contains(&e.size);
             if !ok {
                 return Err(RenderError::InvalidParams(format!(
-                    "engraving: insets 0 <= outer < inner <= 50 mm, depth in (0, 5] mm, groove in (0, 1], size 16..=4096 texels; got {e:?}"
+                    "engraving: insets 0 <= outer < inner <= 50 mm, depth in (0, 5] mm, groove in (0, 1], size 16..=2048 texels; got {e:?}"
                 )));
             }
         }

@@ -60,7 +60,8 @@ pub struct EngravingParams {
     pub depth_mm: f32,
     /// Groove width as a fraction of the pattern's unit (the band is [`BAND_UNITS`] units wide).
     pub groove: f32,
-    /// Side of the square maps, texels.
+    /// Side of the square maps, texels (16..=2048 for the renderer; rounded up to a power of
+    /// two for the mip chain).
     pub size: u32,
 }
 
