@@ -713,6 +713,36 @@ fn renderer_end_to_end() {
     }
     println!("engraving: {changed} pixels changed, {middle} in the middle, {on_gold} on gold");
     assert!(changed > 1000 && middle == 0 && on_gold < changed / 100);
+    // The renderer keeps the engraving's per-mesh data while the mesh stays the same: another
+    // mesh in between must not leave it stale (its triangle order would draw the wrong mesh).
+    let other = cameo(48, 96);
+    let other_engraved = renderer
+        .render(&other, &engraved_params)
+        .expect("other engraved");
+    let other_flat = renderer.render(&other, &plain).expect("other plain");
+    // Its engraving is its own: nothing changed in the middle, the border drawn.
+    let (mut other_changed, mut other_middle) = (0, 0);
+    for (k, (p, q)) in other_engraved.pixels().zip(other_flat.pixels()).enumerate() {
+        if channel_diff(p, q) > 6 {
+            other_changed += 1;
+            let (x, y) = (
+                (k % 320) as f32 / 320.0 - 0.5,
+                (k / 320) as f32 / 400.0 - 0.5,
+            );
+            other_middle += usize::from(x.abs() < 0.15 && y.abs() < 0.15);
+        }
+    }
+    println!(
+        "engraving on another mesh: {other_changed} pixels changed, {other_middle} in the middle"
+    );
+    assert!(other_changed > 1000 && other_middle == 0);
+    let again = renderer
+        .render(&mesh, &engraved_params)
+        .expect("engraved again");
+    assert!(
+        again.as_raw() == engraved.as_raw(),
+        "the first mesh changed on its second draw"
+    );
     for yaw in [-70.0, 65.0] {
         let steep = renderer
             .render(

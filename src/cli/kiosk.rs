@@ -614,7 +614,7 @@ impl Running {
         if let Ok(Some(built)) = self.gems.out.try_recv() {
             match built {
                 Ok(built) => {
-                    self.gem_print = fingerprint(&built.mesh);
+                    self.gem_print = built.mesh.fingerprint();
                     self.gem = Some(built.mesh);
                     self.gem_ms = built.ms;
                     self.gem_count += 1;
@@ -1073,16 +1073,6 @@ fn resident_kb() -> u64 {
         .ok()
         .and_then(|s| s.split_whitespace().nth(1)?.parse::<u64>().ok())
         .map_or(0, |pages| pages * 4)
-}
-
-/// FNV-1a over the gem's vertex positions: equal for equal gems, different for any change.
-fn fingerprint(mesh: &Mesh) -> u64 {
-    mesh.vertices
-        .iter()
-        .flat_map(|v| v.position)
-        .fold(0xcbf2_9ce4_8422_2325, |h, x| {
-            (h ^ u64::from(x.to_bits())).wrapping_mul(0x0100_0000_01b3)
-        })
 }
 
 /// Chooses the surface's format (the composite and egui write display values themselves, so a

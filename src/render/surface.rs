@@ -258,16 +258,26 @@ pub fn band_last(
     band_mm: [f32; 2],
 ) -> (Vec<u32>, usize) {
     let gold = super::Region::Gold as u32;
+    // Each vertex's inset and whether it is stone ground, once (a vertex serves about six
+    // triangles).
+    let per_vertex: Vec<(f32, bool)> = vertices
+        .iter()
+        .map(|v| {
+            (
+                frame.inset_mm(v.position[0], v.position[1]),
+                v.region != gold && v.relief < ENGRAVED_RELIEF_MM,
+            )
+        })
+        .collect();
     let (mut rest, mut band) = (Vec::with_capacity(indices.len()), Vec::new());
     for tri in indices.chunks_exact(3) {
         let mut lo = f32::INFINITY;
         let mut hi = f32::NEG_INFINITY;
         let mut ground = false;
-        for v in tri.iter().filter_map(|&i| vertices.get(i as usize)) {
-            let inset = frame.inset_mm(v.position[0], v.position[1]);
+        for &(inset, is_ground) in tri.iter().filter_map(|&i| per_vertex.get(i as usize)) {
             lo = lo.min(inset);
             hi = hi.max(inset);
-            ground |= v.region != gold && v.relief < ENGRAVED_RELIEF_MM;
+            ground |= is_ground;
         }
         if ground && hi >= band_mm[0] && lo <= band_mm[1] {
             band.extend_from_slice(tri);
