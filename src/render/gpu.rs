@@ -61,7 +61,8 @@ pub(crate) struct FrameUniform {
     pub engraving: [f32; 4],
     /// The lamp: xyz position (mm), w intensity (0: no lamp).
     pub lamp: [f32; 4],
-    /// The lamp's shadow: x far plane (mm), y depth bias (mm), z PCF radius (mm), w on (1).
+    /// The lamp's shadow: x far plane (mm), y depth bias (mm), z PCF radius (mm), w the lamp's
+    /// distance from the gem's centre (mm; its light falls off from 1 there).
     pub shadow: [f32; 4],
 }
 
@@ -150,7 +151,7 @@ pub(crate) struct Pipelines {
     pub scene_bind_group: wgpu::BindGroup,
     /// Group 1 of the scene pass: the engraving's maps and the lamp's shadow cube.
     pub surface_layout: wgpu::BindGroupLayout,
-    /// Mipmapped, repeating: the engraving's maps.
+    /// Mipmapped, clamped at the edges: the engraving's maps.
     pub linear_mipmap: wgpu::Sampler,
     /// Depth comparison (less-equal) for the shadow cube, filtered (2x2 PCF where supported).
     pub shadow_sampler: wgpu::Sampler,
@@ -671,28 +672,26 @@ impl Pipelines {
         }
     }
 
-    /// Builds the pass of `style` writing `format` if there is none yet (false: the style has
-    /// no GPU pass).
+    /// Builds the pass of `style` writing `format` if there is none yet and the style has a
+    /// GPU pass ([`Pipelines::style`] then finds it).
     pub fn ensure_style(
         &mut self,
         device: &wgpu::Device,
         style: Style,
         format: wgpu::TextureFormat,
-    ) -> bool {
+    ) {
         if self
             .style_pipelines
             .iter()
             .any(|(k, _)| *k == (style, format))
         {
-            return true;
+            return;
         }
-        let Some((_, module)) = self.style_modules.iter().find(|(s, _)| *s == style) else {
-            return false;
-        };
-        let pipeline =
-            fullscreen_pipeline(device, style.name(), module, &self.style_layout, format);
-        self.style_pipelines.push(((style, format), pipeline));
-        true
+        if let Some((_, module)) = self.style_modules.iter().find(|(s, _)| *s == style) {
+            let pipeline =
+                fullscreen_pipeline(device, style.name(), module, &self.style_layout, format);
+            self.style_pipelines.push(((style, format), pipeline));
+        }
     }
 
     /// The pass of `style` writing `format` (see [`Pipelines::ensure_style`]).
