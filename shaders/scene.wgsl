@@ -27,7 +27,7 @@ struct Frame {
     marble: vec4<f32>,
     // x: near depth (mm), y: 1 / (far - near) (1/mm).
     depth: vec4<f32>,
-    // x: material (0 marble, 1 agate).
+    // x: material (0 marble, 1 agate), y: agate hair layer (1 on).
     material: vec4<u32>,
     // The engraving's planar frame: centre x, y and half extents x, y (mm) of the mesh's box.
     planar: vec4<f32>,
@@ -63,6 +63,10 @@ struct VsIn {
     @location(4) hair: f32,
     // Tangent along +u (planar frame) and handedness; w = 0: no usable frame here.
     @location(5) tangent: vec4<f32>,
+    // Ambient light reaching the point (the relief's cavity term), 0..1.
+    @location(6) occlusion: f32,
+    // How much of the key light reaches the point (the relief's cast shadows), 0..1.
+    @location(7) key_light: f32,
 }
 
 struct VsOut {
@@ -75,6 +79,8 @@ struct VsOut {
     @location(3) hair: f32,
     @location(4) gold: f32,
     @location(5) tangent: vec4<f32>,
+    @location(6) occlusion: f32,
+    @location(7) key_light: f32,
 }
 
 const REGION_GOLD: u32 = 3u;
@@ -89,6 +95,8 @@ fn vs_main(in: VsIn) -> VsOut {
     out.hair = clamp(in.hair, 0.0, 1.0);
     out.gold = select(0.0, 1.0, in.region == REGION_GOLD);
     out.tangent = in.tangent;
+    out.occlusion = clamp(in.occlusion, 0.0, 1.0);
+    out.key_light = clamp(in.key_light, 0.0, 1.0);
     return out;
 }
 
@@ -116,24 +124,27 @@ fn environment(r: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(room + key + fill);
 }
 
-// The 2021 marble: value = 0.95 sin(3 uv.y^2 uv.z 30 + 8 turbulence(3 uv)), colormap
-// [-1, 1] -> grey 0.2..0.95 through t^(1/8), t = (value + 1) / 2. That system's gem lay in its
-// YZ plane (x was depth), ours lies in XY, so its uv.z is our uv.x: the first term then sweeps
-// gently across the face as it did there, giving the veins a direction. Softness raises the floor
-// of t before the power (the vein core loses its sharp crease and widens into a soft band);
-// lightness lifts the darkest grey towards white. Softness 0 and lightness 0 give the 2021 look.
+// White statuary marble: a warm white body with a faint cloudiness and a few quiet veins that
+// run one way across the stone (as marble is sawn along its bedding), thin grey lines warped
+// by turbulence. Their contrast stays well below the relief's own shading under the raking
+// key light, so the carving, not the stone, is what the eye reads. `frame.marble.x` (softness,
+// 0..1) widens the veins; `frame.marble.y` (lightness, 0..1) fades them and the cloudiness
+// (1: a plain white stone).
 fn marble_albedo(p: vec3<f32>) -> vec3<f32> {
-    let uv = p * frame.marble.z;
-    let value = 0.95 * sin(3.0 * uv.y * uv.y * uv.x * 30.0 + 8.0 * turbulence3(3.0 * uv));
-    let t = clamp((value + 1.0) * 0.5, 0.0, 1.0);
     let softness = clamp(frame.marble.x, 0.0, 1.0);
     let lightness = clamp(frame.marble.y, 0.0, 1.0);
-    let floor_t = 0.25 * softness * softness;
-    let shaped = pow((t + floor_t) / (1.0 + floor_t), 1.0 / 8.0);
-    let darkest = mix(0.2, 0.95, lightness);
-    let grey = mix(darkest, 0.95, shaped);
-    // A faint warm cast: white statuary marble is never quite neutral.
-    return srgb_to_linear(grey * vec3<f32>(1.0, 0.99, 0.965));
+    let dir = normalize(vec3<f32>(0.82, -0.5, 0.28));
+    let warp = 2.4 * turbulence3(p * 0.035);
+    // Main veins about 17 mm apart; a finer, fainter network between them.
+    let w1 = dot(p, dir) * 0.06 + warp;
+    let w2 = dot(p, normalize(vec3<f32>(0.3, 0.9, 0.3))) * 0.15 + 1.7 * warp + 0.5;
+    let width = mix(0.05, 0.16, softness);
+    let v1 = exp(-pow(sin(3.14159265 * w1) / width, 2.0));
+    let v2 = exp(-pow(sin(3.14159265 * w2) / (0.7 * width), 2.0));
+    let vein = (1.0 - lightness) * (0.085 * v1 + 0.035 * v2);
+    let cloud = (1.0 - lightness) * (0.018 * snoise3(p * 0.05) + 0.008 * snoise3(p * 0.23));
+    let grey = 0.92 * (1.0 - vein) * (1.0 + cloud);
+    return srgb_to_linear(grey * vec3<f32>(1.0, 0.985, 0.955));
 }
 
 // The 2021 agate colours (display values).
@@ -147,19 +158,27 @@ const AGATE_BROWN: vec3<f32> = vec3<f32>(0.2863, 0.1137, 0.0078);
 const AGATE_RED_GAIN: f32 = 4.0;
 const AGATE_WHITE_GAIN: f32 = 1.2;
 const AGATE_BROWN_GAIN: f32 = 1.25;
-// Height (mm) over which the white layer goes from transparent over the red to opaque.
-const AGATE_FADE_MM: f32 = 0.9;
+// Thickness (mm) of white chalcedony over the red that lets through 1/e of the red: where the
+// cutter left the white layer thin (every edge of the relief, the wall's foot, a lock's tip)
+// the ground shows through it as a bluish veil.
+const AGATE_VEIL_MM: f32 = 0.45;
+const AGATE_VEIL_TINT: vec3<f32> = vec3<f32>(0.02, 0.035, 0.07);
 
-// Layered agate: a dark red ground, a grey-white layer carved into the relief (thin and
-// red-tinted near the ground, opaque within AGATE_FADE_MM), and a brown top layer for the hair.
+// Layered agate: a dark red ground, a grey-white layer carved into the relief whose opacity
+// follows its thickness (the relief's height over the ground), and a brown top layer for the
+// hair (when frame.material.y is 1).
 fn agate_albedo(p: vec3<f32>, relief: f32, hair: f32) -> vec3<f32> {
     let ground_noise = snoise3(p * vec3<f32>(0.09, 0.09, 0.3)) * 0.6 + snoise3(p * 0.35) * 0.4;
     let ground = srgb_to_linear(AGATE_RED * AGATE_RED_GAIN) * (0.85 + 0.3 * ground_noise);
     // The layer boundary is not a perfect plane in a real stone: wobble it a little.
-    let wobble = 0.25 * snoise3(p * 0.7);
-    let white_w = smoothstep(0.0, AGATE_FADE_MM, max(relief, 0.0) + wobble * min(relief, 1.0));
+    let wobble = 0.12 * snoise3(p * 0.7);
+    let thickness = max(relief + wobble * min(relief, 1.0), 0.0);
+    let white_w = 1.0 - exp(-thickness / AGATE_VEIL_MM);
     let white = srgb_to_linear(AGATE_WHITE * AGATE_WHITE_GAIN) * (0.97 + 0.03 * snoise3(p * 0.5));
-    var col = mix(ground, white, white_w);
+    var col = mix(ground, white, white_w) + 4.0 * white_w * (1.0 - white_w) * AGATE_VEIL_TINT;
+    if frame.material.y == 0u {
+        return col;
+    }
     // Hair: the brown layer lies over the white, so a thin white edge shows where it starts.
     let strands = snoise3(p * vec3<f32>(0.5, 0.5, 1.6));
     let brown = srgb_to_linear(AGATE_BROWN * AGATE_BROWN_GAIN) * (0.75 + 0.4 * strands);
@@ -235,6 +254,9 @@ fn lamp_visibility(p: vec3<f32>, ndl: f32) -> f32 {
     return lit / 9.0;
 }
 
+// The fill light's strength (from the camera's side).
+const FILL_LIGHT: f32 = 0.2;
+
 // Gold's reflectance at normal incidence (linear).
 const GOLD_F0: vec3<f32> = vec3<f32>(1.0, 0.71, 0.29);
 
@@ -291,11 +313,17 @@ fn fs_main(in: VsOut) -> FsOut {
     }
 
     let l = frame.light_dir.xyz;
-    let ambient = frame.marble.w * occlusion;
+    // Sky light from the room in front of the stone, and a soft fill from the camera's side so
+    // slopes turned from the key never go black; both dimmed in hollows and at the foot of
+    // walls (the relief's cavity term).
+    let cavity = in.occlusion * occlusion;
+    let ambient = frame.marble.w * cavity * (0.55 + 0.45 * max(n.z, 0.0))
+        + FILL_LIGHT * cavity * max(dot(n, v), 0.0);
     let ndl = max(dot(n, l), 0.0);
-    // The key light, and the lamp where it has one (falling off with the square of the
-    // distance, 1 at the gem's centre, and shadowed).
-    var light = frame.light_dir.w * occlusion;
+    // The key light (fixed to the stone, raking; the relief's cast shadows come with the
+    // vertices), and the lamp where it has one (falling off with the square of the distance,
+    // 1 at the gem's centre, and shadowed).
+    var light = frame.light_dir.w * occlusion * in.key_light;
     var lamp = 0.0;
     var lamp_l = vec3<f32>(0.0, 0.0, 1.0);
     if LAMP && frame.lamp.w > 0.0 {
@@ -333,6 +361,13 @@ fn fs_main(in: VsOut) -> FsOut {
         sss = 0.0;
     } else if frame.material.x == 0u {
         diffuse = marble_albedo(p) * lit;
+        // Polished marble: a faint, sharp highlight and a weak Fresnel reflection of the
+        // studio (kept out of the scattering pass, so they stay sharp).
+        let h = normalize(l + v);
+        let ndv = max(dot(n, v), 0.0);
+        let fresnel = 0.04 + 0.96 * pow(1.0 - ndv, 5.0);
+        specular = vec3<f32>(0.12 * pow(max(dot(n, h), 0.0), 90.0) * light)
+            + 0.35 * fresnel * environment(reflect(-v, n));
     } else {
         diffuse = agate_albedo(p, in.relief, in.hair) * lit;
         // Phong, exponent 500 (the 2021 agate), plus a faint Fresnel reflection of the studio

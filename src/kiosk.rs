@@ -12,7 +12,7 @@ use crate::sss::SssParams;
 use crate::styles::Style;
 
 /// The SSS strength the reset button returns to (red's, as `glyptic render --sss-strength`).
-pub const DEFAULT_SSS_STRENGTH: f32 = 0.48;
+pub const DEFAULT_SSS_STRENGTH: f32 = crate::sss::DEFAULT_STRENGTH;
 /// Degrees of orbit per pixel dragged.
 pub const DEGREES_PER_PIXEL: f32 = 0.35;
 /// How far the camera may orbit: beyond these the stone's edge or back fills the view.
@@ -97,6 +97,8 @@ pub struct KioskConfig {
     pub engraving: bool,
     /// The raking lamp and its shadows at start.
     pub lamp: bool,
+    /// Agate: the hair cut from a third, brown layer.
+    pub hair_layer: bool,
     /// Window size when not full-screen, logical pixels.
     pub width: u32,
     pub height: u32,
@@ -119,6 +121,7 @@ impl Default for KioskConfig {
             fullscreen: false,
             engraving: false,
             lamp: false,
+            hair_layer: true,
             width: 800,
             height: 1000,
             render_scale: 1.0,

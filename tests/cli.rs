@@ -352,8 +352,17 @@ fn render_takes_a_face_obj_and_writes_the_gem_obj() {
             .arg(d.join("frontal.png")),
     );
     let (models, _) = tobj::load_obj(&gem_obj, &tobj::GPU_LOAD_OPTIONS).unwrap();
-    let expected =
-        glyptic::gem::build_cameo(&positions, &model.shape.triangles, &Default::default()).unwrap();
+    // The face as the file has it (4 decimals) and in its order: the same vertex numbers place
+    // it in the portrait, so the gem is the one built from it here.
+    let (read, triangles) =
+        glyptic::gem::parse_obj(&std::fs::read_to_string(&face).unwrap()).unwrap();
+    assert_eq!(triangles, model.shape.triangles);
+    assert!(
+        read.iter()
+            .zip(&positions)
+            .all(|(a, b)| (a - b).abs() <= 1e-4)
+    );
+    let expected = glyptic::gem::build_cameo(&read, &triangles, &Default::default()).unwrap();
     assert_eq!(models[0].mesh.indices.len(), expected.indices.len());
 
     let broken = d.join("broken.obj");
@@ -374,7 +383,12 @@ fn render_takes_a_face_obj_and_writes_the_gem_obj() {
 /// `glyptic kernel N` prints N taps whose weights sum to 1 per channel; bad sizes are named.
 #[test]
 fn kernel_prints_a_normalised_kernel() {
-    for (taps, profile) in [(21, "gaussians"), (7, "burley"), (65, "gaussians")] {
+    for (taps, profile) in [
+        (21, "gaussians"),
+        (7, "burley"),
+        (65, "gaussians"),
+        (21, "marble"),
+    ] {
         let run = succeeds(glyptic().args(["kernel", &taps.to_string(), "--profile", profile]));
         let text = String::from_utf8(run.stdout).unwrap();
         let rows: Vec<Vec<f64>> = text

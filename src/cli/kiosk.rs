@@ -522,6 +522,7 @@ impl Running {
         );
         let base = RenderParams {
             background: [0.10, 0.11, 0.13],
+            hair_layer: config.hair_layer,
             ..RenderParams::default()
         };
         window.request_redraw();

@@ -57,10 +57,10 @@ pub struct KernelArgs {
     /// Taps (odd, 3..=65).
     pub taps: usize,
     /// How much light scatters, 0..=1.
-    #[arg(long, default_value_t = 0.48, value_name = "S")]
+    #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S")]
     pub strength: f32,
     /// Diffusion profile.
-    #[arg(long, value_enum, default_value_t = ProfileArg::Gaussians)]
+    #[arg(long, value_enum, default_value_t = ProfileArg::Marble)]
     pub profile: ProfileArg,
 }
 
@@ -164,6 +164,9 @@ pub struct ViewArgs {
     /// A raking lamp at the upper left whose shadows the relief casts on the ground.
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
     pub lamp: OnOff,
+    /// Agate: cut the hair from a third, brown layer (off: white like the face).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub hair_layer: OnOff,
 }
 
 /// `--style`'s list.
@@ -203,13 +206,13 @@ pub struct SssArgs {
     #[arg(long, default_value_t = 21, value_name = "N")]
     pub sss_taps: usize,
     /// How much light scatters, 0..=1 (red's share; green and blue follow the reference balance).
-    #[arg(long, default_value_t = 0.48, value_name = "S")]
+    #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S")]
     pub sss_strength: f32,
-    /// How far light travels under the surface, mm.
-    #[arg(long, default_value_t = 1.2, value_name = "MM")]
+    /// How far light travels under the surface, mm (the kernel's reach).
+    #[arg(long, default_value_t = glyptic::sss::DEFAULT_WIDTH_MM, value_name = "MM")]
     pub sss_width: f32,
     /// Diffusion profile.
-    #[arg(long, value_enum, default_value_t = ProfileArg::Gaussians)]
+    #[arg(long, value_enum, default_value_t = ProfileArg::Marble)]
     pub sss_profile: ProfileArg,
 }
 
@@ -225,6 +228,8 @@ pub enum ProfileArg {
     Gaussians,
     /// Christensen-Burley normalised diffusion.
     Burley,
+    /// Measured marble (Jensen et al. 2001's dipole and scattering coefficients).
+    Marble,
 }
 
 impl SssArgs {
@@ -237,8 +242,14 @@ impl SssArgs {
             profile: match self.sss_profile {
                 ProfileArg::Gaussians => glyptic::sss::Profile::Gaussians,
                 ProfileArg::Burley => glyptic::sss::Profile::Burley,
+                ProfileArg::Marble => glyptic::sss::Profile::Marble,
             },
-            ..glyptic::sss::SssParams::default()
+            // The reference demo's per-channel radii for its profiles; the measured one has
+            // its own per channel.
+            falloff: match self.sss_profile {
+                ProfileArg::Marble => [glyptic::sss::MARBLE_SCALE; 3],
+                _ => [1.0, 0.37, 0.3],
+            },
         };
         p.validate().context("subsurface scattering")?;
         Ok(p)
@@ -262,6 +273,7 @@ impl ViewArgs {
             engraving: (self.engraving == OnOff::On)
                 .then(glyptic::render::surface::EngravingParams::default),
             lamp: (self.lamp == OnOff::On).then(glyptic::render::Lamp::default),
+            hair_layer: self.hair_layer == OnOff::On,
             ..RenderParams::default()
         })
     }
@@ -721,31 +733,14 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
 
 /// A face mesh from an OBJ file: positions `[x0, y0, z0, ...]` and triangles.
 fn read_face_obj(path: &Path) -> Result<(Vec<f32>, Vec<[u32; 3]>)> {
-    let (models, _) = tobj::load_obj(
-        path,
-        &tobj::LoadOptions {
-            triangulate: true,
-            single_index: true,
-            ..Default::default()
-        },
-    )
-    .with_context(|| format!("{}: cannot read the face mesh", path.display()))?;
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
-    for m in &models {
-        let first = u32::try_from(positions.len() / 3)?;
-        positions.extend_from_slice(&m.mesh.positions);
-        triangles.extend(
-            m.mesh
-                .indices
-                .chunks_exact(3)
-                .map(|t| [t[0] + first, t[1] + first, t[2] + first]),
-        );
-    }
-    if triangles.is_empty() {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read the face mesh", path.display()))?;
+    let mesh = glyptic::gem::parse_obj(&text)
+        .with_context(|| format!("{}: cannot read the face mesh", path.display()))?;
+    if mesh.1.is_empty() {
         bail!("{}: the face mesh has no triangles", path.display());
     }
-    Ok((positions, triangles))
+    Ok(mesh)
 }
 
 /// Writes the cameo mesh as OBJ (gem millimetres, normals).

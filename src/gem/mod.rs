@@ -2,16 +2,35 @@
 //!
 //! Units: gem millimetres. The cameo lies in the XY plane facing +Z, centred on the origin;
 //! the ground (the stone's top where nothing is carved) is at z = 0 and the relief rises above
-//! it. The portrait is a profile facing left, built by [`relief`] from the fitted face (model
-//! millimetres) and a generated head, then scaled into the oval and compressed in depth as in
-//! a carved cameo. Everything here is pure computation: no files, no GPU.
+//! it. The portrait (a profile facing left, or a frontal head) is one height field:
+//!
+//! 1. the fitted face is placed into the sculpted head's frame by its own landmarks
+//!    ([`face::place`]), rasterised onto the grid and its eyes carved ([`face::Eye`]); inside
+//!    its footprint the face *is* the surface (the face leads);
+//! 2. everywhere else the sculpted head, hair, ear and draped bust of [`template`] (computed
+//!    once per [`CameoBuilder`]);
+//! 3. the whole portrait is compressed in the gradient domain ([`basrelief`]): bulk and
+//!    silhouettes are flattened, features kept, so that eye, lids, nostril, lips, ear and locks
+//!    stay crisp at a stone's depth;
+//! 4. scaled to [`CameoParams::relief_depth`] and lifted by [`CameoParams::wall`], so the
+//!    outline is a steep wall, as a cutter leaves it, not a ramp;
+//! 5. a cavity term per node ([`Relief::occlusion`]: how much of the sky the surrounding relief
+//!    hides), which the renderer uses as ambient occlusion.
+//!
+//! Everything here is pure computation: no files, no GPU.
 
+pub mod basrelief;
+pub mod face;
+pub mod measure;
 pub mod relief;
+pub mod template;
 
 use std::fmt::Write as _;
 
 use crate::render::{Mesh, Region, Vertex};
-use relief::{HeadShape, HeightField};
+pub use basrelief::Compression;
+pub use face::Placement;
+pub use template::View;
 
 /// Why a cameo could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -22,58 +41,50 @@ pub enum GemError {
     NonFinite,
     #[error("invalid cameo parameter: {0}")]
     BadParams(String),
+    #[error(transparent)]
+    Relief(#[from] basrelief::ReliefError),
 }
 
 /// Shape of the cameo.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct CameoParams {
     /// Semi-axes of the stone oval, gem mm.
     pub half_width: f32,
     pub half_height: f32,
     /// Grid spacing of the relief, gem mm.
     pub cell: f32,
-    /// Highest point of the relief above the ground, gem mm (the compression's asymptote).
+    /// Highest point of the relief above the ground, gem mm.
     pub relief_depth: f32,
-    /// Depth compression: gem height = `relief_depth` (1 - e^(-rolloff t)), t = model height
-    /// over the cranium's depth. Large: strong flattening (a profile keeps its outline and
-    /// loses the cheek's bulk); small: nearly linear (a frontal face keeps its features).
-    pub rolloff: f32,
-    /// Gem mm per model mm in the plane.
-    pub portrait_scale: f32,
-    /// Model point (u, v) of the portrait plane placed at the oval's centre.
-    pub portrait_centre: [f32; 2],
-    /// Gem y below which the bust is cut off (the truncation line).
-    pub truncation_y: f32,
-    pub head: HeadShape,
+    /// Height of the steep wall along the portrait's outline, gem mm (part of the depth).
+    pub wall: f32,
+    /// Profile or frontal portrait.
+    pub view: View,
+    /// How the portrait's heights are compressed to the stone's depth.
+    pub compression: Compression,
 }
 
 impl CameoParams {
     /// A frontal portrait (the face looks out of the stone) on the default stone.
     pub fn frontal() -> Self {
         CameoParams {
-            portrait_centre: [0.0, 12.0],
-            head: HeadShape::frontal(),
-            // Nearly linear, reaching 5 mm at the face's front (t = 1).
-            rolloff: 0.6,
-            relief_depth: 5.0 / (1.0 - (-0.6f32).exp()),
+            view: View::Frontal,
             ..CameoParams::default()
         }
     }
 }
 
 impl Default for CameoParams {
-    /// A profile portrait facing left, the classic cameo.
+    /// A profile portrait facing left, the classic cameo: 44 x 56 mm, relief up to 5 mm
+    /// (catalogued stones are 3.5-8 mm thick in all) with a 0.8 mm wall.
     fn default() -> Self {
         CameoParams {
             half_width: 22.0,
             half_height: 28.0,
             cell: 0.2,
             relief_depth: 5.0,
-            rolloff: 1.6,
-            portrait_scale: 0.155,
-            portrait_centre: [97.0, 16.0],
-            truncation_y: -20.0,
-            head: HeadShape::default(),
+            wall: 0.8,
+            view: View::Profile,
+            compression: Compression::default(),
         }
     }
 }
@@ -93,33 +104,51 @@ const BEZEL_PROFILE: [[f32; 2]; 7] = [
 const RING_SEGMENTS: usize = 360;
 /// Depth of the gold back below the ground, gem mm.
 const BACK_Z: f32 = -3.0;
-/// How far the portrait's outline stands above the ground, model mm, and over what height
-/// of the underlying surface the edge rises.
-const PORTRAIT_LIFT_MM: f32 = 8.0;
-const LIFT_RAMP_MM: f32 = 2.5;
-/// How far the face's edge height fades out beyond its footprint, and how far inside it the
-/// face blends into the head, model mm.
-const FADE_MM: f32 = 6.0;
-const BLEND_MM: f32 = 15.0;
+/// The portrait stays inside this fraction of the oval (clear of the bezel's foot).
+const PORTRAIT_OVAL: f32 = 0.93;
+/// Gradient gain of the sculpted head and bust against the face's 1 (see
+/// [`basrelief::compress`]).
+const HEAD_EMPHASIS: f32 = 0.8;
 /// Relief below this height (gem mm) counts as ground.
 const GROUND_EPS: f32 = 0.03;
+/// The share of the portrait's compressed heights below which the relief's scale is set
+/// (the few highest nodes above it are clamped to the depth).
+const DEPTH_QUANTILE: f32 = 0.998;
 
-fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
-}
-
-/// The finished relief in gem units, kept for tests and for inspection.
+/// The finished relief in gem units, kept for tests, measurement and inspection.
 #[derive(Clone, Debug)]
 pub struct Relief {
     /// Height above the ground per grid node, gem mm (row-major, `cols` x `rows`).
     pub height: Vec<f32>,
+    /// How much of the agate's hair layer lies at each node, 0..1.
     pub hair: Vec<f32>,
+    /// Ambient light reaching each node, 0..1 (1: open sky; the foot of a wall or a groove's
+    /// bottom less).
+    pub occlusion: Vec<f32>,
+    /// How much of the key light ([`crate::render::key_light_dir`]) reaches each node, 0..1:
+    /// the relief's cast shadows (the key light is fixed to the stone, so they are computed
+    /// once per cameo).
+    pub key_light: Vec<f32>,
+    /// Nodes where the fitted face makes the surface.
+    pub face: Vec<bool>,
+    /// The portrait before compression, canonical mm (0 off the portrait).
+    pub portrait: Vec<f32>,
+    /// The face's own height (canonical mm, smoothed, eyes carved) where it covers a node;
+    /// NaN elsewhere.
+    pub face_height: Vec<f32>,
     pub cols: usize,
     pub rows: usize,
     /// Gem position of node (0, 0) and the spacing, gem mm.
     pub origin: [f32; 2],
     pub cell: f32,
+    /// How the face was placed, and the canonical frame's point at the gem's centre and its
+    /// millimetres per gem millimetre (see [`Relief::model_to_gem`]).
+    pub placement: Placement,
+    pub view: View,
+    pub centre: [f32; 2],
+    pub canonical_per_gem: f32,
+    /// How the Poisson solve of the compression went.
+    pub solve: basrelief::SolveReport,
 }
 
 impl Relief {
@@ -127,21 +156,31 @@ impl Relief {
     pub fn at(&self, col: usize, row: usize) -> f32 {
         self.height[row * self.cols + col]
     }
+
+    /// Where a model point (mm, the face mesh's frame) lands on the stone: gem x, y and its
+    /// height in canonical mm (before compression).
+    pub fn model_to_gem(&self, p: [f32; 3]) -> [f32; 3] {
+        let c = self.placement.to_canonical(self.view, p);
+        [
+            (c[0] - self.centre[0]) / self.canonical_per_gem,
+            (c[1] - self.centre[1]) / self.canonical_per_gem,
+            c[2],
+        ]
+    }
 }
 
 fn check_params(p: &CameoParams) -> Result<(), GemError> {
-    let pos = [
-        p.half_width,
-        p.half_height,
-        p.cell,
-        p.relief_depth,
-        p.portrait_scale,
-        p.rolloff,
-    ];
+    let pos = [p.half_width, p.half_height, p.cell, p.relief_depth, p.wall];
     if pos.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
         return Err(GemError::BadParams(
-            "sizes and scales must be positive".into(),
+            "sizes and depths must be positive".into(),
         ));
+    }
+    if p.wall >= p.relief_depth {
+        return Err(GemError::BadParams(format!(
+            "the wall ({} mm) must be lower than the relief depth ({} mm)",
+            p.wall, p.relief_depth
+        )));
     }
     let nodes = (2.0 * p.half_width / p.cell + 1.0) * (2.0 * p.half_height / p.cell + 1.0);
     if nodes > 4.0e6 {
@@ -149,12 +188,14 @@ fn check_params(p: &CameoParams) -> Result<(), GemError> {
             "{nodes:.0} grid nodes: the cell is too small"
         )));
     }
+    p.compression.validate()?;
     Ok(())
 }
 
 /// Builds cameos for one set of [`CameoParams`]: everything that does not depend on the face
-/// (the generated head and its hair on the relief grid, the bezel and the back) is computed once
-/// in [`CameoBuilder::new`], so rebuilding after each new fit only does the face's part.
+/// (the sculpted head, hair and bust on the relief grid, the bezel and the back) is computed
+/// once in [`CameoBuilder::new`]; each face then costs its rasterisation, the compression and
+/// the mesh.
 #[derive(Clone, Debug)]
 pub struct CameoBuilder {
     params: CameoParams,
@@ -162,23 +203,18 @@ pub struct CameoBuilder {
     rows: usize,
     /// Gem position of grid node (0, 0), gem mm.
     origin: [f32; 2],
-    /// Per node: head height (model mm) and hair weight.
-    head: Vec<(f32, f32)>,
-    /// Per node: height of the carved hair strands (model mm, before the hair weight).
-    strands: Vec<f32>,
-    /// Per node: 1 where the relief may rise, falling to 0 below the bust's truncation line and
-    /// in a margin inside the bezel.
-    allowed: Vec<f32>,
-    /// Bezel and back.
-    base: Mesh,
+    /// Canonical point at the gem's centre and canonical mm per gem mm.
+    centre: [f32; 2],
+    scale: f32,
+    /// The template per node: height (canonical mm), hair weight and coverage (the share of
+    /// the node's cell inside the portrait's outline; 0 outside the oval's margin).
+    template: Template,
     /// Per node: inside the oval (the stone's top is made of cells with four such corners).
     inside: Vec<bool>,
-    /// The portrait field of the head alone, and its gem heights: a face changes only the
-    /// window around it.
-    base_field: HeightField,
-    base_height: Vec<f32>,
-    /// The stone's top planned for the head alone: a face replans only its window.
-    base_plan: SurfacePlan,
+    /// Per node: inside the portrait's share of the oval.
+    allowed: Vec<bool>,
+    /// Bezel and back.
+    base: Mesh,
 }
 
 impl CameoBuilder {
@@ -187,72 +223,87 @@ impl CameoBuilder {
         let cols = (2.0 * p.half_width / p.cell).round() as usize + 1;
         let rows = (2.0 * p.half_height / p.cell).round() as usize + 1;
         let origin = [-p.half_width, -p.half_height];
-        let k = p.portrait_scale;
-        let model_origin = [
-            origin[0] / k + p.portrait_centre[0],
-            origin[1] / k + p.portrait_centre[1],
-        ];
-        let head = relief::head_layer(&p.head, model_origin, p.cell / k, cols, rows);
-        // Carved hair: wavy strands sweeping back around the ear.
-        let [eu, ev] = p.head.ear_centre;
-        let strands = (0..cols * rows)
-            .map(|i| {
-                let (col, row) = (i % cols, i / cols);
-                let u = (origin[0] + col as f32 * p.cell) / k + p.portrait_centre[0];
-                let v = (origin[1] + row as f32 * p.cell) / k + p.portrait_centre[1];
-                let (du, dv) = (u - eu, v - ev - 25.0);
-                let r = (du * du + dv * dv).sqrt();
-                let a = dv.atan2(du);
-                3.0 * (0.5 + 0.5 * (r / 4.0 + 1.8 * (a * 4.0).sin()).sin())
-            })
-            .collect();
-        let allowed = (0..cols * rows)
-            .map(|i| {
-                let x = origin[0] + (i % cols) as f32 * p.cell;
-                let y = origin[1] + (i / cols) as f32 * p.cell;
-                let r = ((x / p.half_width).powi(2) + (y / p.half_height).powi(2)).sqrt();
-                smoothstep(p.truncation_y - 2.5, p.truncation_y, y)
-                    * (1.0 - smoothstep(0.86, 0.94, r))
-            })
-            .collect();
+        let (centre, scale) = template::framing(p.view);
+        // The framing is for the default stone's height; a taller stone shows a larger head.
+        let scale = scale * 28.0 / p.half_height;
+        let node = |i: usize| {
+            (
+                origin[0] + (i % cols) as f32 * p.cell,
+                origin[1] + (i / cols) as f32 * p.cell,
+            )
+        };
+        let oval = |i: usize| {
+            let (x, y) = node(i);
+            ((x / p.half_width).powi(2) + (y / p.half_height).powi(2)).sqrt()
+        };
+        let inside = (0..cols * rows).map(|i| oval(i) <= 1.0).collect();
+        let allowed: Vec<bool> = (0..cols * rows).map(|i| oval(i) <= PORTRAIT_OVAL).collect();
+        // Each node is the mean of 2 x 2 samples across its cell, so carved grooves and the
+        // outline do not alias into stair-steps.
+        let mut template = Template {
+            height: vec![0.0; cols * rows],
+            hair: vec![0.0; cols * rows],
+            coverage: vec![0.0; cols * rows],
+        };
+        for i in (0..cols * rows).filter(|&i| allowed[i]) {
+            let (x, y) = node(i);
+            for (dx, dy) in [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)] {
+                let s = template::sample(
+                    p.view,
+                    centre[0] + (x + dx * p.cell) * scale,
+                    centre[1] + (y + dy * p.cell) * scale,
+                );
+                template.height[i] += 0.25 * s.height;
+                template.hair[i] += 0.25 * s.hair;
+                template.coverage[i] += 0.25 * f32::from(u8::from(s.covered));
+            }
+        }
+        // Along the outline (partly covered nodes, or nodes beside one of another coverage)
+        // the coverage again from the finer sub-samples the face's outline gets.
+        let coarse = template.coverage.clone();
+        let n_sub = relief::COVERAGE_SAMPLES;
+        for i in (0..cols * rows).filter(|&i| allowed[i]) {
+            let (x, y) = (i % cols, i / cols);
+            let c = coarse[i];
+            let neighbours = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < cols).then(|| i + 1),
+                (y > 0).then(|| i - cols),
+                (y + 1 < rows).then(|| i + cols),
+            ];
+            let edge = (c > 0.0 && c < 1.0) || neighbours.iter().flatten().any(|&j| coarse[j] != c);
+            if !edge {
+                continue;
+            }
+            let (gx, gy) = node(i);
+            let mut inside = 0;
+            for sy in 0..n_sub {
+                for sx in 0..n_sub {
+                    let o = |k: usize| ((k as f32 + 0.5) / n_sub as f32 - 0.5) * p.cell;
+                    let s = template::sample(
+                        p.view,
+                        centre[0] + (gx + o(sx)) * scale,
+                        centre[1] + (gy + o(sy)) * scale,
+                    );
+                    inside += usize::from(s.covered);
+                }
+            }
+            template.coverage[i] = inside as f32 / (n_sub * n_sub) as f32;
+        }
         let mut base = Mesh::default();
         add_bezel_and_back(&mut base, p);
-        let (ia, ib) = (1.0 / p.half_width, 1.0 / p.half_height);
-        let inside = (0..cols * rows)
-            .map(|i| {
-                let x = origin[0] + (i % cols) as f32 * p.cell;
-                let y = origin[1] + (i / cols) as f32 * p.cell;
-                (x * ia).powi(2) + (y * ib).powi(2) <= 1.0
-            })
-            .collect();
-        let base_field = relief::head_only(&head, model_origin, p.cell / k, cols, rows);
-        let mut builder = Self {
+        Ok(Self {
             params: p.clone(),
             cols,
             rows,
             origin,
-            head,
-            strands,
+            centre,
+            scale,
+            template,
+            inside,
             allowed,
             base,
-            inside,
-            base_field,
-            base_height: Vec::new(),
-            base_plan: SurfacePlan::default(),
-        };
-        builder.base_height = (0..cols * rows)
-            .map(|i| builder.gem_height(&builder.base_field, i))
-            .collect();
-        let base = Relief {
-            height: builder.base_height.clone(),
-            hair: builder.base_field.hair.clone(),
-            cols,
-            rows,
-            origin,
-            cell: p.cell,
-        };
-        builder.base_plan = plan_surface(&base, &builder.inside, None);
-        Ok(builder)
+        })
     }
 
     pub fn params(&self) -> &CameoParams {
@@ -261,89 +312,359 @@ impl CameoBuilder {
 
     /// The relief height field (gem mm) for a face mesh in model mm.
     pub fn relief(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Relief, GemError> {
-        self.relief_in(positions, triangles)
-            .map(|(relief, _)| relief)
-    }
-
-    /// [`Self::relief`] and the window outside which it is the head alone's.
-    fn relief_in(
-        &self,
-        positions: &[f32],
-        triangles: &[[u32; 3]],
-    ) -> Result<(Relief, Option<relief::Window>), GemError> {
         if positions.len() < 9 || triangles.is_empty() {
             return Err(GemError::EmptyFace);
         }
         if positions.iter().any(|v| !v.is_finite()) {
             return Err(GemError::NonFinite);
         }
-        let (p, cols, rows, origin) = (&self.params, self.cols, self.rows, self.origin);
-        let (field, window) = relief::portrait_over(
-            positions,
-            triangles,
-            p.head.view,
-            &self.head,
-            &self.base_field,
-            FADE_MM,
-            BLEND_MM,
+        let p = &self.params;
+        let (cols, rows, cell) = (self.cols, self.rows, p.cell);
+        let n = cols * rows;
+        let view = p.view;
+        let placement = face::place(positions, view);
+        // Face vertices -> grid coordinates and canonical height.
+        let to_grid = |c: [f32; 3]| {
+            [
+                ((c[0] - self.centre[0]) / self.scale - self.origin[0]) / cell,
+                ((c[1] - self.centre[1]) / self.scale - self.origin[1]) / cell,
+                c[2],
+            ]
+        };
+        let points: Vec<Option<[f32; 3]>> = positions
+            .chunks_exact(3)
+            .map(|v| {
+                let g = to_grid(placement.to_canonical(view, [v[0], v[1], v[2]]));
+                g.iter().all(|c| c.is_finite()).then_some(g)
+            })
+            .collect();
+        let raw = relief::rasterise(&points, triangles, cols, rows);
+        let face_cover = relief::coverage(&points, triangles, cols, rows);
+        let face: Vec<bool> = (0..n)
+            .map(|i| raw[i].is_finite() && self.allowed[i])
+            .collect();
+        // Smooth the face within its footprint (1-2-1 each way, about 0.7 cells: the Surrey
+        // mesh's facets, 3-5 mm triangles, are not features, and the detail boost would carve
+        // them).
+        let weights: Vec<f32> = face.iter().map(|&f| f32::from(u8::from(f))).collect();
+        let values: Vec<f32> = (0..n)
+            .map(|i| if face[i] { raw[i].max(0.0) } else { 0.0 })
+            .collect();
+        let (num, den) = (
+            smooth_121(&values, cols, rows),
+            smooth_121(&weights, cols, rows),
         );
-        let mut height = self.base_height.clone();
-        if let Some(w) = window {
-            for y in w.y0..=w.y1 {
-                for x in w.x0..=w.x1 {
-                    let i = y * cols + x;
-                    height[i] = self.gem_height(&field, i);
+        let smooth: Vec<f32> = num
+            .iter()
+            .zip(&den)
+            .map(|(v, w)| if *w > 1e-6 { v / w } else { 0.0 })
+            .collect();
+        let eyes = face::eyes(positions, view, &placement);
+        let canonical = |i: usize| {
+            (
+                self.centre[0] + (self.origin[0] + (i % cols) as f32 * cell) * self.scale,
+                self.centre[1] + (self.origin[1] + (i / cols) as f32 * cell) * self.scale,
+            )
+        };
+        // Nothing of the template stands in front of the face's profile line: in every row the
+        // face reaches, the template starts behind the face's front-most node.
+        let front: Vec<usize> = (0..rows)
+            .map(|y| {
+                if view == View::Profile {
+                    (0..cols).find(|&x| face[y * cols + x]).unwrap_or(0)
+                } else {
+                    0
                 }
+            })
+            .collect();
+        let breadth = placement.breadth;
+        let head = self.template_for(&placement);
+        let mut portrait = vec![0f32; n];
+        let mut mask = vec![false; n];
+        let mut hair = vec![0f32; n];
+        // The share of each node's cell inside the portrait's outline (sub-cell precise), and
+        // how much of a node the face makes.
+        let mut cover = vec![0f32; n];
+        let mut face_share = vec![0f32; n];
+        let mut face_height = vec![f32::NAN; n];
+        for i in 0..n {
+            let head_ok = self.allowed[i] && i % cols >= front[i / cols];
+            cover[i] = if self.allowed[i] {
+                face_cover[i].max(if head_ok { head.coverage[i] } else { 0.0 })
+            } else {
+                0.0
+            };
+            let head_here = head.coverage[i] >= 0.5 && head_ok;
+            let head_height = head.height[i] * breadth;
+            // Where the face's border crosses a node's cell, face and head share it by the
+            // face's coverage (no stair-steps along the jaw or the hairline).
+            let share = if head_here && den[i] > 1e-6 && self.allowed[i] {
+                face_cover[i]
+            } else if face[i] {
+                1.0
+            } else {
+                0.0
+            };
+            if share > 0.0 {
+                let (u, v) = canonical(i);
+                let carved: f32 = eyes.iter().map(|e| e.carve(u, v)).sum();
+                let f = (smooth[i] + carved).max(0.0);
+                if face[i] {
+                    face_height[i] = f;
+                }
+                portrait[i] = share * f + (1.0 - share) * head_height;
+                hair[i] = (1.0 - share) * head.hair[i];
+                mask[i] = true;
+            } else if head_here {
+                portrait[i] = head_height;
+                hair[i] = head.hair[i];
+                mask[i] = true;
             }
+            face_share[i] = share;
         }
-        let hair = field.hair;
-        let relief = Relief {
-            height,
-            hair,
+        // The face keeps its compressed gradients; the sculpted head and bust are carved a
+        // little lower, so the face gets more of the stone's depth.
+        let emphasis: Vec<f32> = face_share
+            .iter()
+            .map(|&s| HEAD_EMPHASIS + (1.0 - HEAD_EMPHASIS) * s)
+            .collect();
+        let (relative, solve) = basrelief::compress(
+            &portrait,
+            &mask,
+            &emphasis,
             cols,
             rows,
-            origin,
-            cell: p.cell,
+            cell * self.scale,
+            &p.compression,
+        )?;
+        // Scale: the highest compressed heights reach the depth above the wall.
+        let mut sorted: Vec<f32> = (0..n).filter(|&i| mask[i]).map(|i| relative[i]).collect();
+        let top = if sorted.is_empty() {
+            1.0
+        } else {
+            let k = ((sorted.len() - 1) as f32 * DEPTH_QUANTILE) as usize;
+            *sorted.select_nth_unstable_by(k, f32::total_cmp).1
         };
-        Ok((relief, window))
+        let gain = (p.relief_depth - p.wall) / top.max(1e-6);
+        // The wall: the outline's sub-cell coverage smoothed once (1-2-1 each way), a steep
+        // bevel about two cells wide that follows the silhouette, not the grid's stair-steps
+        // (more smoothing would fill the profile's narrow notches, such as the parting of the
+        // lips).
+        let edge = smooth_121(&cover, cols, rows);
+        let height: Vec<f32> = (0..n)
+            .map(|i| {
+                let lift = p.wall * template::smoothstep(0.0, 1.0, edge[i]);
+                let h = lift + relative[i].max(0.0) * gain;
+                if h < GROUND_EPS {
+                    0.0
+                } else {
+                    h.min(p.relief_depth)
+                }
+            })
+            .collect();
+        let occlusion = cavity(&height, cols, rows, cell);
+        let key_light = light_visibility(&height, cols, rows, cell, crate::render::key_light_dir());
+        Ok(Relief {
+            height,
+            hair,
+            occlusion,
+            key_light,
+            face,
+            portrait,
+            face_height,
+            cols,
+            rows,
+            origin: self.origin,
+            cell,
+            placement,
+            view,
+            centre: self.centre,
+            canonical_per_gem: self.scale,
+            solve,
+        })
     }
 
-    /// Gem height (mm) of node `i` of a portrait field: the lift off the ground, the carved
-    /// hair strands and the depth compression, an exponential roll-off whose asymptote is
-    /// `relief_depth` (the profile's outline keeps its detail, the cheek flattens, nothing
-    /// exceeds the depth; at the head's half-breadth the relief reaches 80 % of the depth).
-    fn gem_height(&self, field: &HeightField, i: usize) -> f32 {
-        let p = &self.params;
-        let reference = p.head.cranium_axes[2].max(1.0);
-        // Lift the portrait off the ground, as carvers do, so its outline is a steep edge
-        // instead of fading into the ground along the profile's centre line.
-        let f = field.height[i];
-        let mut h = f + PORTRAIT_LIFT_MM * smoothstep(0.0, LIFT_RAMP_MM, f);
-        let w = field.hair[i];
-        if w > 0.0 {
-            h += w * self.strands[i];
+    /// The template stretched to the face's proportions ([`Placement::head_stretch`] about
+    /// its pivot), resampled bilinearly from the one computed in [`CameoBuilder::new`].
+    fn template_for(&self, placement: &Placement) -> std::borrow::Cow<'_, Template> {
+        let st = placement.head_stretch;
+        if (st[0] - 1.0).abs() < 1e-4 && (st[1] - 1.0).abs() < 1e-4 {
+            return std::borrow::Cow::Borrowed(&self.template);
         }
-        let t = (h / reference).max(0.0);
-        p.relief_depth * (1.0 - (-p.rolloff * t).exp()) * self.allowed[i]
+        let (cols, rows, cell) = (self.cols, self.rows, self.params.cell);
+        let pivot = placement.head_pivot;
+        let t = &self.template;
+        let mut out = Template {
+            height: vec![0.0; cols * rows],
+            hair: vec![0.0; cols * rows],
+            coverage: vec![0.0; cols * rows],
+        };
+        for row in 0..rows {
+            for col in 0..cols {
+                // Node -> canonical -> the unstretched template's point -> its grid position.
+                let c = [
+                    self.centre[0] + (self.origin[0] + col as f32 * cell) * self.scale,
+                    self.centre[1] + (self.origin[1] + row as f32 * cell) * self.scale,
+                ];
+                let src = [
+                    pivot[0] + (c[0] - pivot[0]) / st[0],
+                    pivot[1] + (c[1] - pivot[1]) / st[1],
+                ];
+                let fx = ((src[0] - self.centre[0]) / self.scale - self.origin[0]) / cell;
+                let fy = ((src[1] - self.centre[1]) / self.scale - self.origin[1]) / cell;
+                if !(fx >= 0.0 && fy >= 0.0 && fx < (cols - 1) as f32 && fy < (rows - 1) as f32) {
+                    continue;
+                }
+                let (x0, y0) = (fx as usize, fy as usize);
+                let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+                let i = row * cols + col;
+                let j = y0 * cols + x0;
+                let lerp = |f: &[f32]| {
+                    let top = f[j] + (f[j + 1] - f[j]) * tx;
+                    let bottom = f[j + cols] + (f[j + cols + 1] - f[j + cols]) * tx;
+                    top + (bottom - top) * ty
+                };
+                out.height[i] = lerp(&t.height);
+                out.hair[i] = lerp(&t.hair);
+                out.coverage[i] = lerp(&t.coverage);
+            }
+        }
+        std::borrow::Cow::Owned(out)
     }
 
     /// The whole cameo mesh for a face mesh in model mm (`[x0, y0, z0, ...]`).
     pub fn build(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Mesh, GemError> {
-        let (relief, window) = self.relief_in(positions, triangles)?;
+        let relief = self.relief(positions, triangles)?;
         let mut mesh = Mesh::default();
-        match window {
-            Some(w) => {
-                let plan = plan_surface(&relief, &self.inside, Some((&self.base_plan, w)));
-                add_relief_surface(&mut mesh, &relief, &plan);
-            }
-            None => add_relief_surface(&mut mesh, &relief, &self.base_plan),
-        }
+        let plan = plan_surface(&relief, &self.inside);
+        add_relief_surface(&mut mesh, &relief, &plan);
         let first = mesh.vertices.len() as u32;
         mesh.vertices.extend_from_slice(&self.base.vertices);
         mesh.indices
             .extend(self.base.indices.iter().map(|&i| i + first));
         Ok(mesh)
     }
+}
+
+/// The sculpted head on the relief grid (see [`CameoBuilder`]).
+#[derive(Clone, Debug)]
+struct Template {
+    height: Vec<f32>,
+    hair: Vec<f32>,
+    coverage: Vec<f32>,
+}
+
+/// Radii (gem mm) and weights of the cavity term: how far the relief around a node stands
+/// above it, at two scales (a groove's width, a wall's foot).
+const CAVITY_SCALES: [(f32, f32); 2] = [(0.35, 0.9), (1.2, 0.45)];
+
+/// Ambient light reaching each node, 0..1: one minus the weighted amount by which the blurred
+/// relief stands above the node (a groove, the foot of a wall, the hollow of an ear), at two
+/// scales. Ridges and open ground get 1.
+fn cavity(height: &[f32], cols: usize, rows: usize, cell: f32) -> Vec<f32> {
+    let mut occ = vec![1f32; height.len()];
+    for (radius, weight) in CAVITY_SCALES {
+        let blurred = basrelief::blur(height, cols, rows, radius / cell);
+        for ((o, b), h) in occ.iter_mut().zip(&blurred).zip(height) {
+            *o -= weight * (b - h).max(0.0);
+        }
+    }
+    occ.iter_mut().for_each(|o| *o = o.clamp(0.25, 1.0));
+    occ
+}
+
+/// One pass of 1-2-1 smoothing in each direction (edges clamped).
+fn smooth_121(values: &[f32], cols: usize, rows: usize) -> Vec<f32> {
+    let mut tmp = vec![0f32; values.len()];
+    for y in 0..rows {
+        for x in 0..cols {
+            let at = |xx: usize| values[y * cols + xx];
+            tmp[y * cols + x] =
+                0.25 * at(x.saturating_sub(1)) + 0.5 * at(x) + 0.25 * at((x + 1).min(cols - 1));
+        }
+    }
+    let mut out = vec![0f32; values.len()];
+    for y in 0..rows {
+        for x in 0..cols {
+            let at = |yy: usize| tmp[yy * cols + x];
+            out[y * cols + x] =
+                0.25 * at(y.saturating_sub(1)) + 0.5 * at(y) + 0.25 * at((y + 1).min(rows - 1));
+        }
+    }
+    out
+}
+
+/// Softness of the cast shadows' edge, gem mm of height.
+const SHADOW_SOFTNESS_MM: f32 = 0.15;
+
+/// How much of a directional light (unit vector `light` towards it) reaches each node of a
+/// height field (gem mm, `cell` apart): one sweep from the light's side keeps, per node, the
+/// highest horizon S = max over the nodes towards the light of (their height - distance x
+/// the light's slope), from the previous node's S (interpolated between two nodes of the
+/// previous line); a node is lit where it stands above S, fading out over
+/// [`SHADOW_SOFTNESS_MM`] below it.
+fn light_visibility(
+    height: &[f32],
+    cols: usize,
+    rows: usize,
+    cell: f32,
+    light: [f32; 3],
+) -> Vec<f32> {
+    let n = cols * rows;
+    let plane = light[0].hypot(light[1]);
+    if plane < 1e-6 || light[2] <= 0.0 {
+        return vec![if light[2] > 0.0 { 1.0 } else { 0.0 }; n];
+    }
+    let (dx, dy) = (light[0] / plane, light[1] / plane);
+    let slope = light[2] / plane;
+    // Step one line along the major axis towards the light; the minor axis moves by a fraction.
+    let x_major = dx.abs() >= dy.abs();
+    let (lines, len) = if x_major { (cols, rows) } else { (rows, cols) };
+    let (major, minor) = if x_major { (dx, dy) } else { (dy, dx) };
+    let shift = minor / major.abs();
+    let step = cell * (1.0 + shift * shift).sqrt();
+    let drop = step * slope;
+    let idx = |line: usize, k: usize| {
+        if x_major {
+            k * cols + line
+        } else {
+            line * cols + k
+        }
+    };
+    let mut horizon = vec![f32::NEG_INFINITY; n];
+    let mut vis = vec![1f32; n];
+    // Lines nearest the light first.
+    let order: Vec<usize> = if major < 0.0 {
+        (0..lines).collect()
+    } else {
+        (0..lines).rev().collect()
+    };
+    for w in 1..order.len() {
+        let (prev, line) = (order[w - 1], order[w]);
+        for k in 0..len {
+            // The point one step towards the light, between two nodes of the previous line.
+            let pos = k as f32 + shift;
+            if pos < 0.0 || pos > (len - 1) as f32 {
+                continue;
+            }
+            let k0 = pos.floor() as usize;
+            let k1 = (k0 + 1).min(len - 1);
+            let t = pos - k0 as f32;
+            let sample = |f: &[f32]| {
+                let (a, b) = (f[idx(prev, k0)], f[idx(prev, k1)]);
+                if a.is_finite() && b.is_finite() {
+                    a + (b - a) * t
+                } else {
+                    a.max(b)
+                }
+            };
+            let s = sample(height).max(sample(&horizon)) - drop;
+            let i = idx(line, k);
+            horizon[i] = s;
+            vis[i] = template::smoothstep(-SHADOW_SOFTNESS_MM, 0.0, height[i] - s);
+        }
+    }
+    vis
 }
 
 /// Builds the relief height field (gem mm) from a face mesh in model mm (one-off: see
@@ -385,14 +706,12 @@ struct Element {
 }
 
 /// The stone's top before triangulation: per node its material region and slope, and the
-/// quadtree's elements, grouped by top-level block (blocks of [`MAX_BLOCK`] cells, row-major;
-/// block `b`'s elements are `elements[block[b]]`).
+/// quadtree's elements.
 #[derive(Clone, Debug, Default)]
 struct SurfacePlan {
     region: Vec<Region>,
     slope: Vec<[f32; 2]>,
     elements: Vec<Element>,
-    block: Vec<std::ops::Range<usize>>,
 }
 
 /// The stone's top, with detail only where the surface needs it: the grid's cells are merged
@@ -400,38 +719,12 @@ struct SurfacePlan {
 /// [`FLAT_TOLERANCE_MM`] of a plane and the material does not change, so the flat ground and
 /// smooth slopes take a few triangles and the face keeps every cell. Cells need all four
 /// corners inside the oval; the bezel's inner foot covers the stepped outline.
-///
-/// With `base` = (the plan of another relief, the window outside which both reliefs are
-/// equal), only the window's nodes and the blocks that reach it are planned again: the rest is
-/// the base's (the same result as planning everything).
-fn plan_surface(
-    relief: &Relief,
-    inside: &[bool],
-    base: Option<(&SurfacePlan, relief::Window)>,
-) -> SurfacePlan {
+fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
     let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
-    // Nodes to compute again: the window, one node wider for the slopes' differences.
-    let all = relief::Window {
-        x0: 0,
-        y0: 0,
-        x1: cols - 1,
-        y1: rows - 1,
-    };
-    let dirty = base.map_or(all, |(_, w)| relief::Window {
-        x0: w.x0.saturating_sub(1),
-        y0: w.y0.saturating_sub(1),
-        x1: (w.x1 + 1).min(cols - 1),
-        y1: (w.y1 + 1).min(rows - 1),
-    });
-    let (mut region, mut slope) = match base {
-        Some((b, _)) => (b.region.clone(), b.slope.clone()),
-        None => (
-            vec![Region::Ground; cols * rows],
-            vec![[0.0; 2]; cols * rows],
-        ),
-    };
-    for row in dirty.y0..=dirty.y1 {
-        for col in dirty.x0..=dirty.x1 {
+    let mut region = vec![Region::Ground; cols * rows];
+    let mut slope = vec![[0.0; 2]; cols * rows];
+    for row in 0..rows {
+        for col in 0..cols {
             let i = row * cols + col;
             region[i] = if relief.height[i] < GROUND_EPS {
                 Region::Ground
@@ -451,40 +744,28 @@ fn plan_surface(
             ];
         }
     }
-
-    // Top-level blocks that reach a dirty node (block (bx, by) spans nodes bx * MAX_BLOCK to
-    // bx * MAX_BLOCK + MAX_BLOCK) are planned again; the rest keep the base's elements.
     let (blocks_x, blocks_y) = (
         (cols - 1).div_ceil(MAX_BLOCK),
         (rows - 1).div_ceil(MAX_BLOCK),
     );
-    let bx0 = dirty.x0.saturating_sub(1) / MAX_BLOCK;
-    let by0 = dirty.y0.saturating_sub(1) / MAX_BLOCK;
-    let bx1 = (dirty.x1 / MAX_BLOCK).min(blocks_x - 1);
-    let by1 = (dirty.y1 / MAX_BLOCK).min(blocks_y - 1);
-    // Summed-area table, over the replanned blocks' nodes, of nodes that are not bare ground
-    // (inside, height, slope and hair 0): a square without any is merged without looking at its
-    // nodes (most of the field).
-    let (nx0, ny0) = (bx0 * MAX_BLOCK, by0 * MAX_BLOCK);
-    let nx1 = ((bx1 + 1) * MAX_BLOCK).min(cols - 1);
-    let ny1 = ((by1 + 1) * MAX_BLOCK).min(rows - 1);
-    let sat_w = nx1 - nx0 + 2;
-    let mut busy = vec![0u32; sat_w * (ny1 - ny0 + 2)];
-    for y in ny0..=ny1 {
+    // Summed-area table of nodes that are not bare ground (inside, height, slope and hair 0):
+    // a square without any is merged without looking at its nodes (most of the field).
+    let sat_w = cols + 1;
+    let mut busy = vec![0u32; sat_w * (rows + 1)];
+    for y in 0..rows {
         let mut run = 0;
-        for x in nx0..=nx1 {
+        for x in 0..cols {
             let i = y * cols + x;
             let bare = inside[i]
                 && relief.height[i] == 0.0
                 && slope[i] == [0.0, 0.0]
                 && relief.hair[i] == 0.0;
             run += u32::from(!bare);
-            let (ly, lx) = (y - ny0, x - nx0);
-            busy[(ly + 1) * sat_w + lx + 1] = busy[ly * sat_w + lx + 1] + run;
+            busy[(y + 1) * sat_w + x + 1] = busy[y * sat_w + x + 1] + run;
         }
     }
     let busy_in = |e: Element| {
-        let (x0, y0) = (e.x - nx0, e.y - ny0);
+        let (x0, y0) = (e.x, e.y);
         let (x1, y1) = (x0 + e.size + 1, y0 + e.size + 1);
         busy[y1 * sat_w + x1] + busy[y0 * sat_w + x0]
             - busy[y0 * sat_w + x1]
@@ -553,32 +834,23 @@ fn plan_surface(
             }
         }
     };
-    let mut elements = Vec::with_capacity(base.map_or(0, |(b, _)| b.elements.len() + 1024));
-    let mut block = vec![0..0; blocks_x * blocks_y];
-    // Last block first (the order of a stack of all blocks, as before planning by block).
+    let mut elements = Vec::with_capacity(cols * rows / 16);
+    // Last block first (the order of a stack of all blocks).
     for b in (0..blocks_x * blocks_y).rev() {
-        let start = elements.len();
         let (bx, by) = (b % blocks_x, b / blocks_x);
-        match base {
-            Some((plan, _)) if !((bx0..=bx1).contains(&bx) && (by0..=by1).contains(&by)) => {
-                elements.extend_from_slice(&plan.elements[plan.block[b].clone()]);
-            }
-            _ => split(
-                Element {
-                    x: bx * MAX_BLOCK,
-                    y: by * MAX_BLOCK,
-                    size: MAX_BLOCK,
-                },
-                &mut elements,
-            ),
-        }
-        block[b] = start..elements.len();
+        split(
+            Element {
+                x: bx * MAX_BLOCK,
+                y: by * MAX_BLOCK,
+                size: MAX_BLOCK,
+            },
+            &mut elements,
+        );
     }
     SurfacePlan {
         region,
         slope,
         elements,
-        block,
     }
 }
 
@@ -625,6 +897,8 @@ fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &SurfacePlan) {
             relief: h,
             region: region[i] as u32,
             hair: relief.hair[i].clamp(0.0, 1.0),
+            occlusion: relief.occlusion[i],
+            key_light: relief.key_light[i],
         });
     }
 
@@ -670,6 +944,8 @@ fn add_bezel_and_back(mesh: &mut Mesh, p: &CameoParams) {
         relief: 0.0,
         region: Region::Gold as u32,
         hair: 0.0,
+        occlusion: 1.0,
+        key_light: 1.0,
     };
     for seg in BEZEL_PROFILE.windows(2) {
         let ([d0, z0], [d1, z1]) = (seg[0], seg[1]);
@@ -708,6 +984,68 @@ fn add_bezel_and_back(mesh: &mut Mesh, p: &CameoParams) {
         mesh.indices
             .extend_from_slice(&[centre, centre + 1 + next, centre + 1 + i]);
     }
+}
+
+/// Why an OBJ face mesh could not be read.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ObjError {
+    #[error("line {line}: {problem}")]
+    Line { line: usize, problem: String },
+}
+
+/// Reads the positions and faces of Wavefront OBJ text (`v x y z`, `f a b c ...` with any of
+/// the `a/t/n` forms and negative indices; polygons as fans; everything else ignored),
+/// keeping the vertices in the file's order: a Surrey face keeps its vertex numbers, which
+/// place it in the portrait (a general loader renumbers them by first use).
+pub fn parse_obj(text: &str) -> Result<(Vec<f32>, Vec<[u32; 3]>), ObjError> {
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        let bad = |problem: String| ObjError::Line {
+            line: k + 1,
+            problem,
+        };
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                let xyz: Vec<f32> = words
+                    .take(3)
+                    .map(|w| {
+                        w.parse::<f32>()
+                            .map_err(|_| bad(format!("bad coordinate {w:?}")))
+                    })
+                    .collect::<Result<_, _>>()?;
+                if xyz.len() != 3 {
+                    return Err(bad("a vertex needs three coordinates".into()));
+                }
+                positions.extend_from_slice(&xyz);
+            }
+            Some("f") => {
+                let count = positions.len() / 3;
+                let ids: Vec<u32> = words
+                    .map(|w| {
+                        let first = w.split('/').next().unwrap_or("");
+                        let i: i64 = first
+                            .parse()
+                            .map_err(|_| bad(format!("bad vertex reference {w:?}")))?;
+                        let index = if i < 0 { count as i64 + i } else { i - 1 };
+                        if index < 0 || index >= count as i64 {
+                            return Err(bad(format!("vertex {i} does not exist ({count} so far)")));
+                        }
+                        Ok(index as u32)
+                    })
+                    .collect::<Result<_, _>>()?;
+                if ids.len() < 3 {
+                    return Err(bad("a face needs three vertices".into()));
+                }
+                for j in 1..ids.len() - 1 {
+                    triangles.push([ids[0], ids[j], ids[j + 1]]);
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok((positions, triangles))
 }
 
 /// Wavefront OBJ text of a triangle mesh (positions `[x0, y0, z0, ...]`, 0-based triangles).
@@ -755,4 +1093,69 @@ pub fn mesh_to_obj(mesh: &Mesh, comment: &str) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn obj_faces_keep_the_file_order() {
+        let text = "# c\nv 0 0 0\nv 1 0 0\nvn 0 0 1\nv 1 1 0\nv 0 1 0\nf 1 2 3\nf 1/1 3/2/1 4//1\nf -4 -3 -2 -1\n";
+        let (p, t) = parse_obj(text).unwrap();
+        assert_eq!(p, vec![0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.]);
+        assert_eq!(t, vec![[0, 1, 2], [0, 2, 3], [0, 1, 2], [0, 2, 3]]);
+        for (bad, line) in [
+            ("v 1 2\n", 1),
+            ("v 0 0 0\nf 1 2 3\n", 2),
+            ("v 0 0 0\nf 1 x 1\n", 2),
+            ("v 0 0 0\nf 1 1\n", 2),
+            ("v a 0 0\n", 1),
+        ] {
+            match parse_obj(bad) {
+                Err(ObjError::Line { line: l, .. }) => assert_eq!(l, line, "{bad:?}"),
+                other => panic!("{bad:?}: {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn light_sweep_shadows_behind_a_wall_and_not_in_front() {
+        // A wall 1 mm high across the middle; light from the left at 20 degrees.
+        let (cols, rows, cell) = (80, 5, 0.1);
+        let height: Vec<f32> = (0..cols * rows)
+            .map(|i| {
+                if (28..32).contains(&(i % cols)) {
+                    1.0
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let el = 20f32.to_radians();
+        let vis = light_visibility(&height, cols, rows, cell, [-el.cos(), 0.0, el.sin()]);
+        let row = 2 * cols;
+        // In front of the wall (lit side) and on it: lit.
+        assert!(
+            vis[row + 10] > 0.99 && vis[row + 30] > 0.99,
+            "{:?}",
+            &vis[row..row + cols]
+        );
+        // Behind it the shadow is 1 / tan(20) = 2.75 mm long: about 27 cells from the wall's
+        // back (cell 31).
+        assert!(
+            vis[row + 35] < 0.01 && vis[row + 50] < 0.01,
+            "{:?}",
+            &vis[row..row + cols]
+        );
+        let lit_again = (32..cols).find(|&x| vis[row + x] > 0.5).unwrap();
+        assert!(
+            (57..=61).contains(&lit_again),
+            "{lit_again}: {:?}",
+            &vis[row..row + cols]
+        );
+        // Light from straight above: nothing shadowed.
+        let top = light_visibility(&height, cols, rows, cell, [0.0, 0.0, 1.0]);
+        assert!(top.iter().all(|v| *v == 1.0));
+    }
 }

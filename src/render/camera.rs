@@ -6,8 +6,8 @@
 //! margin, so nothing leaves the frame whatever the angles. Clip space is wgpu's: depth in
 //! [0, 1].
 //!
-//! The light is a key light fixed to the viewer, from the upper left front, the way a gem on a
-//! turntable is lit by a fixed gallery spot: every yaw shows a lit face.
+//! The key light is fixed to the stone (see [`super::key_light_dir`]): raking from the upper
+//! left, so the relief's slopes and cast shadows read whatever the view.
 
 use nalgebra::{Matrix4, Vector3};
 
@@ -19,8 +19,6 @@ pub const FOV_Y_DEG: f32 = 20.0;
 const MARGIN: f32 = 1.06;
 /// Pitch is kept short of the poles, where the orbit's up vector degenerates.
 const MAX_PITCH_DEG: f32 = 89.0;
-/// Direction towards the light in the camera's frame (x right, y up, z towards the viewer).
-const LIGHT_IN_VIEW: [f32; 3] = [-0.45, 0.55, 0.75];
 
 /// Everything the shaders need from the camera for one frame.
 #[derive(Clone, Debug)]
@@ -97,8 +95,7 @@ pub(crate) fn orbit(
         0.0, 0.0, -1.0, 0.0,
     );
 
-    let l = LIGHT_IN_VIEW;
-    let light = (right * l[0] + up * l[1] - forward * l[2]).normalize();
+    let light = Vector3::from(super::key_light_dir());
     Camera {
         view_proj: projection * view,
         eye,
@@ -172,8 +169,13 @@ mod tests {
         // +X appears to the right and +Y up.
         assert!(project(&c, [10.0, 0.0, 2.5])[0] > 0.0);
         assert!(project(&c, [0.0, 10.0, 2.5])[1] > 0.0);
-        // Light from the upper left front.
+        // Light from the upper left, raking (15-25 degrees above the stone), and fixed to the
+        // stone: the same from another view.
         assert!(c.light.x < 0.0 && c.light.y > 0.0 && c.light.z > 0.0);
+        let elevation = c.light.z.asin().to_degrees();
+        assert!((15.0..=25.0).contains(&elevation), "{elevation}");
+        let turned = orbit(&bounds(), 50.0, 20.0, 1.0, 160, 200);
+        assert_eq!(turned.light, c.light);
     }
 
     /// The cube lookup of the specs: face index and (s, t) in [0, 1] for a direction.

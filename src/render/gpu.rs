@@ -288,6 +288,8 @@ fn scene_pipeline(
         2 => Float32,   // relief
         3 => Uint32,    // region
         4 => Float32,   // hair
+        6 => Float32,   // occlusion
+        7 => Float32,   // key light
     ];
     let constants = [
         ("ENGRAVING", f64::from(u8::from(variant.engraving))),

@@ -67,7 +67,9 @@ pub(crate) fn validate(mesh: &Mesh, max_buffer_bytes: u64) -> Result<Bounds, Ren
             .chain(v.normal.iter())
             .all(|c| c.is_finite())
             && v.relief.is_finite()
-            && v.hair.is_finite();
+            && v.hair.is_finite()
+            && v.occlusion.is_finite()
+            && v.key_light.is_finite();
         if !finite {
             return Err(RenderError::NonFiniteVertex { index });
         }
@@ -116,6 +118,8 @@ mod tests {
             relief: 0.0,
             region: 0,
             hair: 0.0,
+            occlusion: 1.0,
+            key_light: 1.0,
         }
     }
 

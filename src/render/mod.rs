@@ -47,7 +47,7 @@ use self::gpu::{CompositeUniform, FrameUniform, MeshBuffers, Pipelines, Targets}
 
 pub use self::camera::{FOV_Y_DEG, ZOOM_RANGE};
 
-/// One vertex of the draw data, laid out for the GPU (36 bytes).
+/// One vertex of the draw data, laid out for the GPU (44 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Vertex {
@@ -62,6 +62,12 @@ pub struct Vertex {
     /// How much of the agate's brown hair layer lies here, 0..1 (clamped). Interpolated across
     /// triangles, so the layer's border runs smoothly between vertices instead of along them.
     pub hair: f32,
+    /// Ambient light reaching this point, 0..1 (1: open; a groove's bottom or a wall's foot
+    /// less): the relief's cavity term, applied to the ambient and fill light.
+    pub occlusion: f32,
+    /// How much of the key light reaches this point, 0..1 (cast shadows; see
+    /// [`key_light_dir`]).
+    pub key_light: f32,
 }
 
 /// What a vertex is made of.
@@ -119,19 +125,20 @@ struct EngravedMesh {
 /// The stone the gem is cut from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Material {
-    /// White marble with grey veins (Lambert only).
+    /// White statuary marble with a few quiet grey veins, polished (a faint, sharp highlight).
     Marble,
     /// Multilayer agate: red ground, white relief, brown hair (Phong, exponent 500).
     Agate,
 }
 
-/// Controls of the marble veins. Both 0 reproduce the 2021 system's colormap exactly; the
-/// [`Default`] is the softer, lighter look its testers asked for.
+/// Controls of the marble veins: quiet, directional grey lines whose contrast stays below the
+/// relief's own shading (the carving, not the stone, should be what the eye reads).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MarbleParams {
-    /// 0..1: how gradually a vein fades into the white (0 = the original sharp crease).
+    /// 0..1: how wide and soft a vein is.
     pub vein_softness: f32,
-    /// 0..1: how light the darkest vein grey is (0 = grey 0.2, 1 = no veins at all).
+    /// 0..1: how faint the veins and the stone's cloudiness are (1 = a plain white stone; 0 =
+    /// veins about 12 % darker than the white at their core).
     pub vein_lightness: f32,
 }
 
@@ -176,6 +183,9 @@ pub struct RenderParams {
     pub engraving: Option<surface::EngravingParams>,
     /// A point lamp casting shadows (a cube depth map); `None`: the key light alone.
     pub lamp: Option<Lamp>,
+    /// Agate only: the hair cut from a third, brown layer on top of the white (`false`: the
+    /// hair stays white like the face).
+    pub hair_layer: bool,
 }
 
 /// A point lamp fixed to the gem (it stays put while the camera orbits, so its shadows turn
@@ -219,6 +229,7 @@ impl Default for RenderParams {
             style_time_s: 0.0,
             engraving: None,
             lamp: None,
+            hair_layer: true,
         }
     }
 }
@@ -267,10 +278,26 @@ pub enum RenderError {
     Readback(String),
 }
 
+/// The key light's direction: fixed to the stone (it does not turn with the camera), from the
+/// upper left, raking at [`KEY_LIGHT_ELEVATION_DEG`] above the stone's plane, the way cameos
+/// are photographed: a high light fixed to the viewer flattens a relief, a raking one shows
+/// every slope and casts short shadows.
+pub const KEY_LIGHT_AZIMUTH_DEG: f32 = 145.0;
+pub const KEY_LIGHT_ELEVATION_DEG: f32 = 20.0;
+
+/// Unit vector towards the key light, object space (XY the stone's plane, +Z out of it).
+pub fn key_light_dir() -> [f32; 3] {
+    let (az, el) = (
+        KEY_LIGHT_AZIMUTH_DEG.to_radians(),
+        KEY_LIGHT_ELEVATION_DEG.to_radians(),
+    );
+    [az.cos() * el.cos(), az.sin() * el.cos(), el.sin()]
+}
+
 /// Ambient light (the 2021 system's 0.2).
 const AMBIENT: f32 = 0.2;
-/// Intensity of the white key light.
-const LIGHT_INTENSITY: f32 = 1.0;
+/// Intensity of the white key light (raking: the flat ground gets sin 20 degrees of it).
+const LIGHT_INTENSITY: f32 = 1.25;
 /// Texture-space units per mm. The 2021 shader used position / 500 on a base about 370 units
 /// wide; this keeps the same number of veins across a 44 x 56 mm cameo.
 const TEXTURE_SCALE: f32 = 1.0 / 75.0;
@@ -916,7 +943,7 @@ impl Renderer {
                     Material::Marble => 0,
                     Material::Agate => 1,
                 },
-                0,
+                u32::from(params.hair_layer),
                 0,
                 0,
             ],

@@ -407,6 +407,8 @@ mod tests {
             relief: 0.0,
             region: Region::Ground as u32,
             hair: 0.0,
+            occlusion: 1.0,
+            key_light: 1.0,
         }
     }
 

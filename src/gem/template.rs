@@ -1,0 +1,528 @@
+//! The sculpted head and bust that the fitted face is set into: cranium, ear, hair carved as
+//! locks, neck with its sternocleidomastoid, shoulders and chest under a draped mantle held by
+//! a round brooch, cut by an arched truncation. Everything is a height field over the portrait
+//! plane, built from analytic shapes (no third-party mesh).
+//!
+//! Frame and units: the *canonical* frame is the Surrey mean face's, model millimetres.
+//! * Profile ([`View::Profile`]): the plane is (u, v) = (-z, y) and heights are x, the
+//!   distance from the head's mid-plane (the portrait faces left; u grows towards the back of
+//!   the head). The mean face's nose tip is near (-3, -2), its chin (33, -79), the top of its
+//!   forehead (24, 100) and its tragus (103, -7); the head is built around those with an
+//!   average adult's proportions (head length about 195 mm from the brow, chin to crown about
+//!   230 mm, neck about 110 mm across).
+//! * Frontal ([`View::Frontal`]): (u, v) = (x, y); heights are z + [`FRONTAL_BACK_MM`] (the
+//!   ears' plane). The face looks out of the stone; hair frames it, parted in the middle.
+//!
+//! A fitted face is placed into this frame by [`super::anchors`] (scale and shift fitted on
+//! brow, chin, forehead, tragus and jaw), so the head follows the face and the face always
+//! leads: the builder uses the template only outside the face's footprint. Pure computation.
+
+/// Which way the portrait looks out of the stone.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum View {
+    /// Facing left, seen from the face's +x side: the classic cameo.
+    #[default]
+    Profile,
+    /// Facing the viewer.
+    Frontal,
+}
+
+/// Frontal view: depth of the plane the heights are measured from, behind the mean face's
+/// nose tip (about the ears' depth), model mm.
+pub const FRONTAL_BACK_MM: f32 = 95.0;
+
+/// Where the portrait sits in the stone: the canonical point at the oval's centre and the
+/// canonical millimetres per gem millimetre, per view. Chosen so that hair, head and bust fill
+/// about 82 % of the oval's height, as real cameos do.
+pub fn framing(view: View) -> ([f32; 2], f32) {
+    match view {
+        View::Profile => ([105.0, -62.0], 262.0 / 28.0),
+        View::Frontal => ([0.0, -58.0], 270.0 / 28.0),
+    }
+}
+
+/// The template at one point of the canonical plane.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sample {
+    /// Height above the ground plane, canonical mm (0 where nothing is).
+    pub height: f32,
+    /// How much of it is hair (the agate's third layer), 0..1.
+    pub hair: f32,
+    /// Part of the portrait (inside its outline).
+    pub covered: bool,
+}
+
+/// Hermite smoothstep.
+pub(crate) fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Polynomial smooth maximum of width `k` (equals `max` when `a`, `b` differ by more than `k`).
+/// The width shrinks near the ground so that two zero heights stay zero (the plain formula
+/// would lift the whole ground by `k / 4`).
+pub(crate) fn smooth_max(a: f32, b: f32, k: f32) -> f32 {
+    let k = k.min(2.0 * a.min(b).max(0.0));
+    if k <= 1e-6 {
+        return a.max(b);
+    }
+    let h = (k - (a - b).abs()).max(0.0) / k;
+    a.max(b) + h * h * k * 0.25
+}
+
+/// Height of a half-ellipsoid (semi-axes a, b in the plane, c in height) at offset (du, dv).
+fn dome(du: f32, dv: f32, a: f32, b: f32, c: f32) -> f32 {
+    let q = 1.0 - (du / a).powi(2) - (dv / b).powi(2);
+    if q > 0.0 { c * q.sqrt() } else { 0.0 }
+}
+
+/// Distance from p to the segment p0-p1 and the position along it (0..1).
+fn segment(p: [f32; 2], p0: [f32; 2], p1: [f32; 2]) -> (f32, f32) {
+    let d = [p1[0] - p0[0], p1[1] - p0[1]];
+    let t = (((p[0] - p0[0]) * d[0] + (p[1] - p0[1]) * d[1]) / (d[0] * d[0] + d[1] * d[1]))
+        .clamp(0.0, 1.0);
+    ((p[0] - p0[0] - t * d[0]).hypot(p[1] - p0[1] - t * d[1]), t)
+}
+
+/// A small integer hash to vary locks and folds, in [0, 1).
+fn hash2(a: i32, b: i32) -> f32 {
+    let mut h = (a as u32).wrapping_mul(0x9E37_79B1) ^ (b as u32).wrapping_mul(0x85EB_CA77);
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x2C1B_3C6D);
+    h ^= h >> 12;
+    (h & 0xFFFF) as f32 / 65536.0
+}
+
+/// Monotone cubic interpolation (Fritsch-Carlson) through `keys` sorted by x; `None` outside.
+fn pchip(keys: &[(f32, f32)], x: f32) -> Option<f32> {
+    let n = keys.len();
+    if n < 2 || x < keys[0].0 || x > keys[n - 1].0 {
+        return None;
+    }
+    let k = keys.windows(2).position(|w| x <= w[1].0).unwrap_or(n - 2);
+    let slope = |i: usize| (keys[i + 1].1 - keys[i].1) / (keys[i + 1].0 - keys[i].0);
+    let tangent = |i: usize| {
+        if i == 0 {
+            slope(0)
+        } else if i == n - 1 {
+            slope(n - 2)
+        } else {
+            let (a, b) = (slope(i - 1), slope(i));
+            if a * b <= 0.0 {
+                0.0
+            } else {
+                let (ha, hb) = (keys[i].0 - keys[i - 1].0, keys[i + 1].0 - keys[i].0);
+                let (w1, w2) = (2.0 * hb + ha, hb + 2.0 * ha);
+                (w1 + w2) / (w1 / a + w2 / b)
+            }
+        }
+    };
+    let (x0, y0) = keys[k];
+    let (x1, y1) = keys[k + 1];
+    let h = x1 - x0;
+    let t = (x - x0) / h;
+    let (t2, t3) = (t * t, t * t * t);
+    Some(
+        (2.0 * t3 - 3.0 * t2 + 1.0) * y0
+            + (t3 - 2.0 * t2 + t) * h * tangent(k)
+            + (-2.0 * t3 + 3.0 * t2) * y1
+            + (t3 - t2) * h * tangent(k + 1),
+    )
+}
+
+/// One lock of carved hair across a band: a ridge that rises gently from the groove a wheel
+/// drill cuts beside it and drops steeply into the next (a rounded sawtooth), narrowing
+/// towards its tip. `s` runs across the band (0..1), `t` along the lock (0 root, 1 tip),
+/// `jitter` in [0, 1) varies its strength. Continuous in `s` (the groove's bottom is the same
+/// on both sides) and where one lock ends and the next begins (every term that varies per lock
+/// fades out at t = 0 and 1), so the sampled relief does not alias into stair-steps.
+fn lock(s: f32, t: f32, jitter: f32) -> f32 {
+    let t = t.clamp(0.0, 1.0);
+    let mid = (std::f32::consts::PI * t).sin().max(0.0);
+    // The crest sits later across the band towards the tip (the lock narrows).
+    let crest = 0.72 - 0.18 * mid;
+    let s = s.clamp(0.0, 1.0);
+    let rise = if s < crest {
+        (std::f32::consts::FRAC_PI_2 * s / crest).sin().powf(0.8)
+    } else {
+        (std::f32::consts::FRAC_PI_2 * (s - crest) / (1.0 - crest))
+            .cos()
+            .powf(0.6)
+    };
+    let strength = 4.5 + 2.5 * jitter * mid;
+    strength * rise * (0.6 + 0.4 * mid.sqrt()) - 2.0
+}
+
+/// Hair swept in waves around a centre `c`: rows of locks along circles about it (each row
+/// `width` mm across, waving by `wave` mm), each lock `seg` radians long, starting at angle
+/// `start` and running towards decreasing angle when `sense` is 1 (increasing when -1).
+fn swept_locks(u: f32, v: f32, c: [f32; 2], sense: f32, start: f32) -> f32 {
+    const WIDTH: f32 = 15.0;
+    const SEG: f32 = 1.08; // about 62 degrees
+    let (du, dv) = (u - c[0], v - c[1]);
+    let r = du.hypot(dv);
+    let th = dv.atan2(du);
+    let rw = r + 4.0 * (th * 6.0).sin();
+    let row = (rw / WIDTH).floor();
+    let s = rw / WIDTH - row;
+    let a = sense * (start - th) / SEG + hash2(row as i32, 7);
+    let j = a.floor();
+    let t = a - j;
+    lock(s, t, hash2(row as i32, j as i32))
+}
+
+/// The template at canonical point (u, v).
+pub fn sample(view: View, u: f32, v: f32) -> Sample {
+    match view {
+        View::Profile => profile(u, v),
+        View::Frontal => frontal(u, v),
+    }
+}
+
+// ------------------------------------------------------------------------------ profile
+
+/// Torso outline per height v: front u, back u and half-breadth (the height it reaches),
+/// canonical mm: the neck leans forward (its front runs from under the chin back to the
+/// sternal notch), the trapezius widens it at the back, shoulders and chest below.
+const TORSO: [(f32, f32, f32, f32); 10] = [
+    (-380.0, 50.0, 275.0, 165.0),
+    (-320.0, 50.0, 272.0, 165.0),
+    (-260.0, 58.0, 264.0, 160.0),
+    (-225.0, 70.0, 255.0, 140.0),
+    (-195.0, 86.0, 240.0, 100.0),
+    (-165.0, 82.0, 220.0, 66.0),
+    (-130.0, 72.0, 200.0, 57.0),
+    (-90.0, 64.0, 190.0, 54.0),
+    (-40.0, 64.0, 184.0, 50.0),
+    (20.0, 95.0, 170.0, 45.0),
+];
+
+fn torso_keys(col: usize) -> [(f32, f32); 10] {
+    TORSO.map(|k| {
+        (
+            k.0,
+            match col {
+                1 => k.1,
+                2 => k.2,
+                _ => k.3,
+            },
+        )
+    })
+}
+
+/// Neck and bust (before the drapery): elliptic cross-sections between the outlines.
+fn torso(u: f32, v: f32) -> f32 {
+    let (Some(front), Some(back), Some(breadth)) = (
+        pchip(&torso_keys(1), v),
+        pchip(&torso_keys(2), v),
+        pchip(&torso_keys(3), v),
+    ) else {
+        return 0.0;
+    };
+    let (centre, half) = (0.5 * (front + back), 0.5 * (back - front));
+    let t = (u - centre) / half;
+    if t.abs() >= 1.0 {
+        return 0.0;
+    }
+    let h = breadth * (1.0 - t * t).sqrt().powf(0.8);
+    // The sternocleidomastoid, from behind the ear to the sternal notch, and the clavicle.
+    let (d, s) = segment([u, v], [150.0, -20.0], [98.0, -196.0]);
+    let scm = 7.0 * (-(d / 11.0).powi(2)).exp() * (std::f32::consts::PI * s).sin().max(0.0).sqrt();
+    let (d2, s2) = segment([u, v], [100.0, -203.0], [165.0, -212.0]);
+    let clavicle =
+        6.0 * (-(d2 / 6.0).powi(2)).exp() * (std::f32::consts::PI * s2).sin().max(0.0).sqrt();
+    let muscles = if v > -215.0 { scm + clavicle } else { 0.0 };
+    h + muscles
+}
+
+/// The brooch on the shoulder that holds the mantle, and the mantle's hanging point in front.
+const BROOCH: [f32; 2] = [192.0, -222.0];
+const MANTLE_FRONT: [f32; 2] = [40.0, -262.0];
+
+/// The mantle over the bust: swags hanging between the brooch and the front of the chest
+/// (each fold a ridge, deeper folds further down), a rolled hem along its neckline, and the
+/// brooch: a dome in a ring.
+fn drapery(u: f32, v: f32, body: f32) -> f32 {
+    if body <= 0.0 {
+        return 0.0;
+    }
+    let neckline = -238.0 + 0.5 * (u - 60.0) + 0.0015 * (u - 60.0).powi(2);
+    let mut h = body;
+    if v < neckline {
+        let x = ((BROOCH[0] - u) / (BROOCH[0] - MANTLE_FRONT[0])).clamp(0.0, 1.0);
+        let line = BROOCH[1] + (MANTLE_FRONT[1] - BROOCH[1]) * x;
+        let sag = (line - v) / (4.0 * x * (1.0 - x)).max(0.12);
+        let psi = sag / 16.0;
+        let f = psi - psi.floor();
+        let ridge = if f < 0.75 {
+            (std::f32::consts::FRAC_PI_2 * f / 0.75).sin()
+        } else {
+            (std::f32::consts::FRAC_PI_2 * (f - 0.75) / 0.25).cos()
+        };
+        let amp = 7.0 * smoothstep(0.0, 25.0, sag) * smoothstep(0.02, 0.15, x);
+        h = body + 5.0 + amp * (ridge - 0.5);
+    }
+    h += 5.0 * (-((v - neckline) / 5.0).powi(2)).exp();
+    let dr = (u - BROOCH[0]).hypot(v - BROOCH[1]);
+    if dr < 20.0 {
+        let ring = 5.0 * (-((dr - 17.0) / 2.5).powi(2)).exp();
+        let boss = dome(u - BROOCH[0], v - BROOCH[1], 16.0, 16.0, 12.0);
+        h = h.max(body + 8.0 + boss.max(ring));
+    }
+    h
+}
+
+/// The bust's arched truncation: nothing below it.
+fn above_truncation(u: f32, v: f32) -> bool {
+    v > -300.0 + 40.0 * ((u - 150.0) / 140.0).powi(2)
+}
+
+/// The ear, seen flat in profile: helix rim (open at the front where it dives into the
+/// concha), antihelix, concha hollow, tragus and lobe, standing out from the skull. Returns
+/// its height over the skull and whether (u, v) is on it.
+fn ear(u: f32, v: f32) -> Option<f32> {
+    let (ca, sa) = ((-14f32).to_radians().cos(), (-14f32).to_radians().sin());
+    let (eu, ev) = (u - 121.0, v - 8.0);
+    let p = eu * ca + ev * sa;
+    let q = -eu * sa + ev * ca;
+    let (x, y) = (p / 18.0, q / 32.0);
+    let r = x.hypot(y);
+    if r >= 1.0 {
+        return None;
+    }
+    let deg = y.atan2(x).to_degrees().rem_euclid(360.0);
+    let gauss = |d: f32, w: f32| (-(d / w).powi(2)).exp();
+    let opening = smoothstep(150.0, 175.0, deg) * (1.0 - smoothstep(215.0, 240.0, deg));
+    let helix = gauss(r - 0.83, 0.1) * (1.0 - 0.85 * opening);
+    let anti = gauss(r - 0.52, 0.1)
+        * (1.0 - smoothstep(120.0, 150.0, deg) * (1.0 - smoothstep(250.0, 280.0, deg)));
+    let concha = gauss((x + 0.2).hypot(y + 0.05), 0.36);
+    let lobe = gauss((x * 1.2).hypot(y + 0.72), 0.32);
+    let tragus = gauss((x + 0.9).hypot(y + 0.1), 0.16);
+    let edge = smoothstep(1.0, 0.9, r);
+    let h = edge * (6.0 + 4.0 * (x + 0.3).max(0.0)) + 8.0 * helix + 4.0 * anti - 7.0 * concha
+        + 6.0 * lobe
+        + 5.0 * tragus;
+    Some(h.max(0.0))
+}
+
+/// Whether (u, v) is inside the profile's hair: over the cranium behind the hairline, clear
+/// of the ear, in front of and above the nape's line.
+fn profile_hair_region(u: f32, v: f32) -> bool {
+    let near_ear = ((u - 121.0) / 24.0).hypot((v - 8.0) / 38.0) < 1.0;
+    let before_ear = u < 122.0 && v < 28.0;
+    !(near_ear || before_ear) && v > -45.0 + 0.25 * (u - 150.0)
+}
+
+fn profile(u: f32, v: f32) -> Sample {
+    let cranium = dome(u - 112.0, v - 52.0, 98.0, 100.0, 77.0);
+    let mut body = if above_truncation(u, v) {
+        drapery(u, v, torso(u, v))
+    } else {
+        0.0
+    };
+    // The bust stays below the head in depth: real cameos keep it in lower relief.
+    body = 120.0 * (body / 120.0).tanh();
+    let mut height = if body > 0.0 {
+        smooth_max(cranium, body, 15.0)
+    } else {
+        cranium
+    };
+    if let Some(e) = ear(u, v) {
+        height = height.max(0.9 * cranium + e);
+    }
+    let envelope = dome(u - 114.0, v - 55.0, 108.0, 112.0, 90.0);
+    let mut hair = 0.0;
+    if envelope > 0.0 && profile_hair_region(u, v) {
+        let locks = swept_locks(u, v, [128.0, 22.0], 1.0, std::f32::consts::PI);
+        let h = 0.93 * envelope + locks;
+        if h > height {
+            height = h;
+            hair = 1.0;
+        }
+    }
+    Sample {
+        height: height.max(0.0),
+        hair,
+        covered: height > 0.5,
+    }
+}
+
+// ------------------------------------------------------------------------------ frontal
+
+/// Frontal neck and bust: a column under the chin (its front 40 mm above the ears' plane),
+/// trapezius slopes to the shoulders, a broad chest, the two sternocleidomastoids in a V, and
+/// the mantle from a brooch on the viewer's right shoulder.
+fn frontal_body(u: f32, v: f32) -> f32 {
+    if v > -20.0 || v < -330.0 + 30.0 * (u / 150.0).powi(2) {
+        return 0.0;
+    }
+    let neck = dome(u, 0.0, 54.0, 1.0, 1.0) * 38.0 + if u.abs() < 54.0 { 8.0 } else { 0.0 };
+    let neck = if v < 10.0 { neck } else { 0.0 };
+    // Shoulders: from the neck's sides down to the shoulder tips, a smooth ramp.
+    let shoulder_line = -120.0 - 0.55 * (u.abs() - 50.0).max(0.0);
+    let breadth = 150.0;
+    let shoulders = if v < shoulder_line && u.abs() < breadth {
+        let edge = (1.0 - (u / breadth).powi(2)).max(0.0).sqrt();
+        let top = smoothstep(shoulder_line, shoulder_line - 40.0, v);
+        (30.0 + 28.0 * edge) * top
+    } else {
+        0.0
+    };
+    let chest = dome(u, v + 300.0, 150.0, 120.0, 62.0);
+    let mut body = smooth_max(smooth_max(neck, shoulders, 20.0), chest, 20.0);
+    if body <= 0.5 {
+        return 0.0;
+    }
+    for side in [-1.0f32, 1.0] {
+        let (d, s) = segment([u, v], [side * 66.0, -25.0], [side * 14.0, -185.0]);
+        body +=
+            6.0 * (-(d / 10.0).powi(2)).exp() * (std::f32::consts::PI * s).sin().max(0.0).sqrt();
+        let (d2, s2) = segment([u, v], [side * 16.0, -196.0], [side * 110.0, -188.0]);
+        body +=
+            5.0 * (-(d2 / 6.0).powi(2)).exp() * (std::f32::consts::PI * s2).sin().max(0.0).sqrt();
+    }
+    // The mantle: over the viewer's right shoulder and across the chest below a neckline.
+    let neckline = -250.0 + 0.9 * (u - 40.0);
+    if v < neckline {
+        let b = [118.0, -228.0];
+        let (d, _) = segment([u, v], b, [-150.0, -300.0]);
+        let psi = d / 15.0;
+        let f = psi - psi.floor();
+        let ridge = if f < 0.75 {
+            (std::f32::consts::FRAC_PI_2 * f / 0.75).sin()
+        } else {
+            (std::f32::consts::FRAC_PI_2 * (f - 0.75) / 0.25).cos()
+        };
+        body += 5.0 + 6.0 * smoothstep(5.0, 30.0, d) * (ridge - 0.5);
+    }
+    body += 5.0 * (-((v - neckline) / 5.0).powi(2)).exp() * smoothstep(-160.0, -120.0, u);
+    let dr = (u - 118.0).hypot(v + 228.0);
+    if dr < 20.0 {
+        let ring = 5.0 * (-((dr - 17.0) / 2.5).powi(2)).exp();
+        let boss = dome(u - 118.0, v + 228.0, 16.0, 16.0, 12.0);
+        body = body.max(chest.max(30.0) + 10.0 + boss.max(ring));
+    }
+    body.max(0.0)
+}
+
+fn frontal(u: f32, v: f32) -> Sample {
+    let cranium = dome(u, v - 40.0, 80.0, 115.0, 85.0);
+    let body = frontal_body(u, v);
+    let mut height = smooth_max(cranium, body, 12.0);
+    // Ears at the sides, seen almost edge-on: a narrow rim with a hollow.
+    for side in [-1.0f32, 1.0] {
+        let (x, y) = ((u - side * 80.0) / 11.0, (v - 10.0) / 31.0);
+        let r = x.hypot(y);
+        if r < 1.0 {
+            let rim = (-((r - 0.75) / 0.15).powi(2)).exp();
+            height = height.max(10.0 + 8.0 * rim - 4.0 * (1.0 - r));
+        }
+    }
+    let envelope = dome(u, v - 44.0, 94.0, 125.0, 96.0);
+    let mut hair = 0.0;
+    // Hair over the cranium above the ears' line, parted in the middle, swept down each side.
+    if envelope > 0.0 && v > 8.0 - 0.2 * u.abs() {
+        let side = if u < 0.0 { -1.0 } else { 1.0 };
+        let locks = swept_locks(u * side, v, [12.0, 30.0], 1.0, std::f32::consts::FRAC_PI_2);
+        let h = 0.9 * envelope + locks;
+        if h > height {
+            height = h;
+            hair = 1.0;
+        }
+    }
+    Sample {
+        height: height.max(0.0),
+        hair,
+        covered: height > 0.5,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pchip_interpolates_monotonically() {
+        let keys = [(0.0, 0.0), (1.0, 1.0), (2.0, 1.0), (3.0, 5.0)];
+        assert_eq!(pchip(&keys, -0.1), None);
+        assert_eq!(pchip(&keys, 3.1), None);
+        for (x, y) in keys {
+            assert!((pchip(&keys, x).unwrap() - y).abs() < 1e-5);
+        }
+        // Flat between equal keys (no overshoot), rising elsewhere.
+        let mut last = 0.0;
+        for i in 0..=300 {
+            let y = pchip(&keys, i as f32 / 100.0).unwrap();
+            assert!(y >= last - 1e-5, "not monotone at {i}");
+            last = y;
+            if (100..=200).contains(&i) {
+                assert!((y - 1.0).abs() < 1e-5);
+            }
+        }
+    }
+
+    #[test]
+    fn the_head_is_around_the_mean_face() {
+        // The cranium reaches the mean face's forehead top and tragus, the neck runs under
+        // the chin and nothing stands in front of the nose.
+        let p = sample(View::Profile, 24.0, 100.0);
+        assert!(p.covered);
+        assert!(sample(View::Profile, 103.0, -7.0).covered);
+        assert!(sample(View::Profile, 80.0, -110.0).covered, "throat");
+        assert!(
+            !sample(View::Profile, -10.0, 0.0).covered,
+            "in front of the nose"
+        );
+        assert!(
+            !sample(View::Profile, 150.0, 190.0).covered,
+            "above the hair"
+        );
+        // Hair on the crown, not on the ear or the neck.
+        assert_eq!(sample(View::Profile, 150.0, 120.0).hair, 1.0);
+        assert_eq!(sample(View::Profile, 121.0, 8.0).hair, 0.0);
+        assert_eq!(sample(View::Profile, 120.0, -120.0).hair, 0.0);
+        // Frontal: symmetric outline.
+        for (u, v) in [(60.0, 120.0), (90.0, 10.0), (40.0, -150.0), (130.0, -250.0)] {
+            assert_eq!(
+                sample(View::Frontal, u, v).covered,
+                sample(View::Frontal, -u, v).covered,
+                "({u}, {v})"
+            );
+        }
+    }
+
+    /// Every point of both templates is finite (a NaN would make a crack: the relief drops to
+    /// the ground along it).
+    #[test]
+    fn templates_are_finite_everywhere() {
+        for view in [View::Profile, View::Frontal] {
+            for y in -400..=250 {
+                for x in -250..=350 {
+                    let s = sample(view, x as f32 * 0.97, y as f32 * 0.97);
+                    assert!(
+                        s.height.is_finite() && s.hair.is_finite(),
+                        "{view:?} at ({x}, {y}): {s:?}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn smooth_max_keeps_the_ground_and_joins_smoothly() {
+        assert_eq!(smooth_max(0.0, 0.0, 12.0), 0.0);
+        assert_eq!(smooth_max(0.0, 5.0, 12.0), 5.0);
+        assert_eq!(smooth_max(40.0, 10.0, 12.0), 40.0);
+        let joined = smooth_max(30.0, 30.0, 12.0);
+        assert!(joined > 30.0 && joined <= 33.0, "{joined}");
+    }
+
+    #[test]
+    fn ear_has_a_rim_and_a_hollow() {
+        let rim = ear(121.0 + 15.0, 8.0 + 3.0).unwrap();
+        let hollow = ear(121.0 - 4.0, 8.0 - 1.0).unwrap();
+        assert!(rim > hollow + 4.0, "rim {rim} hollow {hollow}");
+        assert!(ear(121.0 + 30.0, 8.0).is_none());
+    }
+}
