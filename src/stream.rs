@@ -63,12 +63,19 @@ impl FaceUpdate {
 impl FaceUpdate {
     /// Builds the cameo around this update's face (if it has one) as stage "gem"; latency then
     /// counts until the gem is ready. A cameo that cannot be built leaves a note, no gem.
-    pub fn build_gem(&mut self, builder: &CameoBuilder, triangles: &[[u32; 3]]) {
+    /// `warm` carries the previous gem's solve into this one (see
+    /// [`CameoBuilder::build_after`]).
+    pub fn build_gem(
+        &mut self,
+        builder: &CameoBuilder,
+        triangles: &[[u32; 3]],
+        warm: &mut Vec<f32>,
+    ) {
         let Some(face) = &self.face else {
             return;
         };
         let t = Instant::now();
-        let built = builder.build(&face.mesh, triangles);
+        let built = builder.build_after(&face.mesh, triangles, warm);
         let ms = t.elapsed().as_secs_f64() * 1e3;
         match built {
             Ok(mesh) => {
@@ -140,6 +147,7 @@ impl FaceStream {
             .spawn(move || {
                 let mut tracker = tracker;
                 let mut summary = StreamSummary::default();
+                let mut warm = Vec::new();
                 let detections_before = tracker.detections();
                 while !flag.load(Ordering::Relaxed) {
                     for e in capture.events().try_iter() {
@@ -156,7 +164,7 @@ impl FaceStream {
                             summary.with_face += u64::from(step.face.is_some());
                             let mut update = FaceUpdate::new(&frame, step);
                             if let Some(b) = &builder {
-                                update.build_gem(b, tracker.triangles());
+                                update.build_gem(b, tracker.triangles(), &mut warm);
                             }
                             update
                         }

@@ -225,10 +225,11 @@ impl GemThread {
                     default_face: Arc::new(mean.clone()),
                 });
                 let mut face = mean;
+                let mut warm = Vec::new();
                 loop {
                     let t = Instant::now();
                     let built = builder
-                        .build(&face, &triangles)
+                        .build_after(&face, &triangles, &mut warm)
                         .map(|mesh| BuiltGem {
                             mesh: Arc::new(mesh),
                             ms: t.elapsed().as_secs_f64() * 1e3,

@@ -177,6 +177,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
         let mut source = open_source(args)?;
         let clock = Instant::now();
         let mut index = 0u64;
+        let mut warm = Vec::new();
         while processed < limit {
             let raw = match source.next_frame() {
                 Ok(Some(raw)) => raw,
@@ -204,7 +205,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
                 Ok(step) => {
                     let mut u = FaceUpdate::new(&frame, step);
                     if let Some(b) = &builder {
-                        u.build_gem(b, tracker.triangles());
+                        u.build_gem(b, tracker.triangles(), &mut warm);
                     }
                     with_face += u64::from(u.face.is_some());
                     record(&u, &mut times)?;

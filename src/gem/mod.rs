@@ -149,6 +149,9 @@ pub struct Relief {
     pub canonical_per_gem: f32,
     /// How the Poisson solve of the compression went.
     pub solve: basrelief::SolveReport,
+    /// The compressed heights before scaling (canonical mm, 0 off the portrait): the warm
+    /// start of the next relief when a face is tracked ([`CameoBuilder::build_after`]).
+    pub relative: Vec<f32>,
 }
 
 impl Relief {
@@ -209,6 +212,8 @@ pub struct CameoBuilder {
     /// The template per node: height (canonical mm), hair weight and coverage (the share of
     /// the node's cell inside the portrait's outline; 0 outside the oval's margin).
     template: Template,
+    /// The nodes the template covers (with any coverage), as a window.
+    template_box: Option<Window>,
     /// Per node: inside the oval (the stone's top is made of cells with four such corners).
     inside: Vec<bool>,
     /// Per node: inside the portrait's share of the oval.
@@ -292,6 +297,9 @@ impl CameoBuilder {
         }
         let mut base = Mesh::default();
         add_bezel_and_back(&mut base, p);
+        let template_box = Window::of(cols, rows, |i| {
+            template.coverage[i] > 0.0 || template.height[i] > 0.0
+        });
         Ok(Self {
             params: p.clone(),
             cols,
@@ -300,6 +308,7 @@ impl CameoBuilder {
             centre,
             scale,
             template,
+            template_box,
             inside,
             allowed,
             base,
@@ -312,6 +321,17 @@ impl CameoBuilder {
 
     /// The relief height field (gem mm) for a face mesh in model mm.
     pub fn relief(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Relief, GemError> {
+        self.relief_from(positions, triangles, &[])
+    }
+
+    /// [`Self::relief`], its compression's solve started from `warm` (a previous relief's
+    /// [`Relief::relative`], or empty).
+    pub fn relief_from(
+        &self,
+        positions: &[f32],
+        triangles: &[[u32; 3]],
+        warm: &[f32],
+    ) -> Result<Relief, GemError> {
         if positions.len() < 9 || triangles.is_empty() {
             return Err(GemError::EmptyFace);
         }
@@ -339,26 +359,31 @@ impl CameoBuilder {
             })
             .collect();
         let raw = relief::rasterise(&points, triangles, cols, rows);
-        let face_cover = relief::coverage(&points, triangles, cols, rows);
         let face: Vec<bool> = (0..n)
             .map(|i| raw[i].is_finite() && self.allowed[i])
             .collect();
+        let face_box = Window::of(cols, rows, |i| face[i]).map(|w| w.grow(2, cols, rows));
+        let face_cover = relief::coverage(&points, triangles, &raw, cols, rows);
         // Smooth the face within its footprint (1-2-1 each way, about 0.7 cells: the Surrey
         // mesh's facets, 3-5 mm triangles, are not features, and the detail boost would carve
         // them).
-        let weights: Vec<f32> = face.iter().map(|&f| f32::from(u8::from(f))).collect();
-        let values: Vec<f32> = (0..n)
-            .map(|i| if face[i] { raw[i].max(0.0) } else { 0.0 })
-            .collect();
-        let (num, den) = (
-            smooth_121(&values, cols, rows),
-            smooth_121(&weights, cols, rows),
-        );
-        let smooth: Vec<f32> = num
-            .iter()
-            .zip(&den)
-            .map(|(v, w)| if *w > 1e-6 { v / w } else { 0.0 })
-            .collect();
+        let mut smooth = vec![0f32; n];
+        let mut den = vec![0f32; n];
+        if let Some(w) = face_box {
+            let values = w.crop(&raw, cols, |v| if v.is_finite() { v.max(0.0) } else { 0.0 });
+            let weights = w.crop(&raw, cols, |v| f32::from(u8::from(v.is_finite())));
+            let (num, d) = (
+                smooth_121(&values, w.width(), w.height()),
+                smooth_121(&weights, w.width(), w.height()),
+            );
+            let ratio: Vec<f32> = num
+                .iter()
+                .zip(&d)
+                .map(|(v, d)| if *d > 1e-6 { v / d } else { 0.0 })
+                .collect();
+            w.paste(&ratio, &mut smooth, cols);
+            w.paste(&d, &mut den, cols);
+        }
         let eyes = face::eyes(positions, view, &placement);
         let canonical = |i: usize| {
             (
@@ -378,7 +403,16 @@ impl CameoBuilder {
             })
             .collect();
         let breadth = placement.breadth;
-        let head = self.template_for(&placement);
+        let (head, head_box) = self.template_for(&placement);
+        // Everything the portrait can reach, a little grown: outside it the relief is ground.
+        let Some(portrait_box) = [face_box, head_box]
+            .into_iter()
+            .flatten()
+            .reduce(|a, b| a.union(b))
+            .map(|w| w.grow(2, cols, rows))
+        else {
+            return Err(GemError::EmptyFace);
+        };
         let mut portrait = vec![0f32; n];
         let mut mask = vec![false; n];
         let mut hair = vec![0f32; n];
@@ -387,7 +421,7 @@ impl CameoBuilder {
         let mut cover = vec![0f32; n];
         let mut face_share = vec![0f32; n];
         let mut face_height = vec![f32::NAN; n];
-        for i in 0..n {
+        for i in portrait_box.indices(cols) {
             let head_ok = self.allowed[i] && i % cols >= front[i / cols];
             cover[i] = if self.allowed[i] {
                 face_cover[i].max(if head_ok { head.coverage[i] } else { 0.0 })
@@ -428,17 +462,23 @@ impl CameoBuilder {
             .iter()
             .map(|&s| HEAD_EMPHASIS + (1.0 - HEAD_EMPHASIS) * s)
             .collect();
+        let warm = if warm.len() == n { warm } else { &[] };
         let (relative, solve) = basrelief::compress(
             &portrait,
             &mask,
             &emphasis,
+            warm,
             cols,
             rows,
             cell * self.scale,
             &p.compression,
         )?;
         // Scale: the highest compressed heights reach the depth above the wall.
-        let mut sorted: Vec<f32> = (0..n).filter(|&i| mask[i]).map(|i| relative[i]).collect();
+        let mut sorted: Vec<f32> = portrait_box
+            .indices(cols)
+            .filter(|&i| mask[i])
+            .map(|i| relative[i])
+            .collect();
         let top = if sorted.is_empty() {
             1.0
         } else {
@@ -450,20 +490,56 @@ impl CameoBuilder {
         // bevel about two cells wide that follows the silhouette, not the grid's stair-steps
         // (more smoothing would fill the profile's narrow notches, such as the parting of the
         // lips).
-        let edge = smooth_121(&cover, cols, rows);
-        let height: Vec<f32> = (0..n)
-            .map(|i| {
-                let lift = p.wall * template::smoothstep(0.0, 1.0, edge[i]);
-                let h = lift + relative[i].max(0.0) * gain;
-                if h < GROUND_EPS {
-                    0.0
-                } else {
-                    h.min(p.relief_depth)
-                }
-            })
-            .collect();
+        let mut edge = vec![0f32; n];
+        portrait_box.paste(
+            &smooth_121(
+                &portrait_box.crop(&cover, cols, |c| c),
+                portrait_box.width(),
+                portrait_box.height(),
+            ),
+            &mut edge,
+            cols,
+        );
+        let mut height = vec![0f32; n];
+        for i in portrait_box.indices(cols) {
+            let lift = p.wall * template::smoothstep(0.0, 1.0, edge[i]);
+            let h = lift + relative[i].max(0.0) * gain;
+            height[i] = if h < GROUND_EPS {
+                0.0
+            } else {
+                h.min(p.relief_depth)
+            };
+        }
         let occlusion = cavity(&height, cols, rows, cell);
-        let key_light = light_visibility(&height, cols, rows, cell, crate::render::key_light_dir());
+        // Shadows fall away from the light, at most the depth over the light's slope.
+        let light = crate::render::key_light_dir();
+        let reach = (p.relief_depth / light[2].max(0.05) / cell).ceil() as usize + 2;
+        let shadow_box = portrait_box.grow_towards(
+            if light[0] < 0.0 {
+                (0, reach)
+            } else {
+                (reach, 0)
+            },
+            if light[1] < 0.0 {
+                (0, reach)
+            } else {
+                (reach, 0)
+            },
+            cols,
+            rows,
+        );
+        let mut key_light = vec![1f32; n];
+        shadow_box.paste(
+            &light_visibility(
+                &shadow_box.crop(&height, cols, |h| h),
+                shadow_box.width(),
+                shadow_box.height(),
+                cell,
+                light,
+            ),
+            &mut key_light,
+            cols,
+        );
         Ok(Relief {
             height,
             hair,
@@ -481,68 +557,201 @@ impl CameoBuilder {
             centre: self.centre,
             canonical_per_gem: self.scale,
             solve,
+            relative,
         })
     }
 
     /// The template stretched to the face's proportions ([`Placement::head_stretch`] about
-    /// its pivot), resampled bilinearly from the one computed in [`CameoBuilder::new`].
-    fn template_for(&self, placement: &Placement) -> std::borrow::Cow<'_, Template> {
+    /// its pivot), resampled bilinearly from the one computed in [`CameoBuilder::new`], and
+    /// the window it covers.
+    fn template_for(
+        &self,
+        placement: &Placement,
+    ) -> (std::borrow::Cow<'_, Template>, Option<Window>) {
         let st = placement.head_stretch;
         if (st[0] - 1.0).abs() < 1e-4 && (st[1] - 1.0).abs() < 1e-4 {
-            return std::borrow::Cow::Borrowed(&self.template);
+            return (
+                std::borrow::Cow::Borrowed(&self.template),
+                self.template_box,
+            );
         }
+        let Some(tb) = self.template_box else {
+            return (std::borrow::Cow::Borrowed(&self.template), None);
+        };
         let (cols, rows, cell) = (self.cols, self.rows, self.params.cell);
         let pivot = placement.head_pivot;
+        // Grid position <-> canonical point.
+        let to_canonical = |col: f32, row: f32| {
+            [
+                self.centre[0] + (self.origin[0] + col * cell) * self.scale,
+                self.centre[1] + (self.origin[1] + row * cell) * self.scale,
+            ]
+        };
+        let to_grid = |c: [f32; 2]| {
+            [
+                ((c[0] - self.centre[0]) / self.scale - self.origin[0]) / cell,
+                ((c[1] - self.centre[1]) / self.scale - self.origin[1]) / cell,
+            ]
+        };
+        // The stretched template's window: its box's corners moved, grown by a node.
+        let corners = [
+            (tb.x0, tb.y0),
+            (tb.x1, tb.y0),
+            (tb.x0, tb.y1),
+            (tb.x1, tb.y1),
+        ]
+        .map(|(x, y)| {
+            let c = to_canonical(x as f32, y as f32);
+            to_grid([
+                pivot[0] + (c[0] - pivot[0]) * st[0],
+                pivot[1] + (c[1] - pivot[1]) * st[1],
+            ])
+        });
+        let lo = |k: usize| corners.iter().map(|c| c[k]).fold(f32::INFINITY, f32::min);
+        let hi = |k: usize| {
+            corners
+                .iter()
+                .map(|c| c[k])
+                .fold(f32::NEG_INFINITY, f32::max)
+        };
+        let clamp = |v: f32, max: usize| (v.max(0.0) as usize).min(max - 1);
+        let window = Window {
+            x0: clamp(lo(0).floor() - 1.0, cols),
+            y0: clamp(lo(1).floor() - 1.0, rows),
+            x1: clamp(hi(0).ceil() + 1.0, cols),
+            y1: clamp(hi(1).ceil() + 1.0, rows),
+        };
         let t = &self.template;
         let mut out = Template {
             height: vec![0.0; cols * rows],
             hair: vec![0.0; cols * rows],
             coverage: vec![0.0; cols * rows],
         };
-        for row in 0..rows {
-            for col in 0..cols {
-                // Node -> canonical -> the unstretched template's point -> its grid position.
-                let c = [
-                    self.centre[0] + (self.origin[0] + col as f32 * cell) * self.scale,
-                    self.centre[1] + (self.origin[1] + row as f32 * cell) * self.scale,
-                ];
-                let src = [
-                    pivot[0] + (c[0] - pivot[0]) / st[0],
-                    pivot[1] + (c[1] - pivot[1]) / st[1],
-                ];
-                let fx = ((src[0] - self.centre[0]) / self.scale - self.origin[0]) / cell;
-                let fy = ((src[1] - self.centre[1]) / self.scale - self.origin[1]) / cell;
-                if !(fx >= 0.0 && fy >= 0.0 && fx < (cols - 1) as f32 && fy < (rows - 1) as f32) {
-                    continue;
-                }
-                let (x0, y0) = (fx as usize, fy as usize);
-                let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
-                let i = row * cols + col;
-                let j = y0 * cols + x0;
-                let lerp = |f: &[f32]| {
-                    let top = f[j] + (f[j + 1] - f[j]) * tx;
-                    let bottom = f[j + cols] + (f[j + cols + 1] - f[j + cols]) * tx;
-                    top + (bottom - top) * ty
-                };
-                out.height[i] = lerp(&t.height);
-                out.hair[i] = lerp(&t.hair);
-                out.coverage[i] = lerp(&t.coverage);
+        for i in window.indices(cols) {
+            // Node -> canonical -> the unstretched template's point -> its grid position.
+            let c = to_canonical((i % cols) as f32, (i / cols) as f32);
+            let [fx, fy] = to_grid([
+                pivot[0] + (c[0] - pivot[0]) / st[0],
+                pivot[1] + (c[1] - pivot[1]) / st[1],
+            ]);
+            if !(fx >= 0.0 && fy >= 0.0 && fx < (cols - 1) as f32 && fy < (rows - 1) as f32) {
+                continue;
             }
+            let (x0, y0) = (fx as usize, fy as usize);
+            let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+            let j = y0 * cols + x0;
+            let lerp = |f: &[f32]| {
+                let top = f[j] + (f[j + 1] - f[j]) * tx;
+                let bottom = f[j + cols] + (f[j + cols + 1] - f[j + cols]) * tx;
+                top + (bottom - top) * ty
+            };
+            out.height[i] = lerp(&t.height);
+            out.hair[i] = lerp(&t.hair);
+            out.coverage[i] = lerp(&t.coverage);
         }
-        std::borrow::Cow::Owned(out)
+        (std::borrow::Cow::Owned(out), Some(window))
     }
 
     /// The whole cameo mesh for a face mesh in model mm (`[x0, y0, z0, ...]`).
     pub fn build(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Mesh, GemError> {
-        let relief = self.relief(positions, triangles)?;
+        Ok(self.mesh(&self.relief(positions, triangles)?))
+    }
+
+    /// [`Self::build`] for the next face of a sequence (a tracked visitor): the relief's solve
+    /// starts from the previous one's result kept in `warm` (empty at first), which it then
+    /// replaces. The gem equals [`Self::build`]'s within the solver's tolerance.
+    pub fn build_after(
+        &self,
+        positions: &[f32],
+        triangles: &[[u32; 3]],
+        warm: &mut Vec<f32>,
+    ) -> Result<Mesh, GemError> {
+        let relief = self.relief_from(positions, triangles, warm)?;
+        let mesh = self.mesh(&relief);
+        *warm = relief.relative;
+        Ok(mesh)
+    }
+
+    /// The cameo mesh of a relief: the stone's top as planned, the bezel and the back.
+    fn mesh(&self, relief: &Relief) -> Mesh {
         let mut mesh = Mesh::default();
-        let plan = plan_surface(&relief, &self.inside);
-        add_relief_surface(&mut mesh, &relief, &plan);
+        let plan = plan_surface(relief, &self.inside);
+        add_relief_surface(&mut mesh, relief, &plan);
         let first = mesh.vertices.len() as u32;
         mesh.vertices.extend_from_slice(&self.base.vertices);
         mesh.indices
             .extend(self.base.indices.iter().map(|&i| i + first));
-        Ok(mesh)
+        mesh
+    }
+}
+
+/// A rectangle of grid nodes (inclusive bounds): the relief's work is done only where the
+/// portrait can reach.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Window {
+    x0: usize,
+    y0: usize,
+    x1: usize,
+    y1: usize,
+}
+
+impl Window {
+    /// The nodes where `pred` holds, or `None`.
+    fn of(cols: usize, rows: usize, pred: impl Fn(usize) -> bool) -> Option<Self> {
+        let (mut x0, mut y0, mut x1, mut y1) = (cols, rows, 0, 0);
+        for i in (0..cols * rows).filter(|&i| pred(i)) {
+            let (x, y) = (i % cols, i / cols);
+            (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+        }
+        (x0 <= x1).then_some(Window { x0, y0, x1, y1 })
+    }
+
+    fn grow(self, m: usize, cols: usize, rows: usize) -> Self {
+        self.grow_towards((m, m), (m, m), cols, rows)
+    }
+
+    /// Grown by (before, after) nodes along x and along y, within the grid.
+    fn grow_towards(self, x: (usize, usize), y: (usize, usize), cols: usize, rows: usize) -> Self {
+        Window {
+            x0: self.x0.saturating_sub(x.0),
+            y0: self.y0.saturating_sub(y.0),
+            x1: (self.x1 + x.1).min(cols - 1),
+            y1: (self.y1 + y.1).min(rows - 1),
+        }
+    }
+
+    fn union(self, o: Self) -> Self {
+        Window {
+            x0: self.x0.min(o.x0),
+            y0: self.y0.min(o.y0),
+            x1: self.x1.max(o.x1),
+            y1: self.y1.max(o.y1),
+        }
+    }
+
+    fn width(&self) -> usize {
+        self.x1 - self.x0 + 1
+    }
+
+    fn height(&self) -> usize {
+        self.y1 - self.y0 + 1
+    }
+
+    /// Row-major node indices of the grid (`cols` wide) inside the window.
+    fn indices(self, cols: usize) -> impl Iterator<Item = usize> {
+        (self.y0..=self.y1).flat_map(move |y| (self.x0..=self.x1).map(move |x| y * cols + x))
+    }
+
+    /// The window's part of a grid field, each value mapped.
+    fn crop(&self, field: &[f32], cols: usize, f: impl Fn(f32) -> f32) -> Vec<f32> {
+        self.indices(cols).map(|i| f(field[i])).collect()
+    }
+
+    /// Writes a window-sized field into the grid field.
+    fn paste(&self, part: &[f32], field: &mut [f32], cols: usize) {
+        for (k, i) in self.indices(cols).enumerate() {
+            field[i] = part[k];
+        }
     }
 }
 
@@ -563,13 +772,26 @@ const CAVITY_SCALES: [(f32, f32); 2] = [(0.35, 0.9), (1.2, 0.45)];
 /// scales. Ridges and open ground get 1.
 fn cavity(height: &[f32], cols: usize, rows: usize, cell: f32) -> Vec<f32> {
     let mut occ = vec![1f32; height.len()];
+    // Only the relief's bounding box, grown by the widest blur's reach, can be occluded (the
+    // blur of the zero ground beyond it is zero either way).
+    let Some(window) = Window::of(cols, rows, |i| height[i] > 0.0) else {
+        return occ;
+    };
+    let window = window.grow(
+        3 * (CAVITY_SCALES[1].0 / cell).ceil() as usize + 2,
+        cols,
+        rows,
+    );
+    let (w, h) = (window.width(), window.height());
+    let crop = window.crop(height, cols, |h| h);
+    let mut local = vec![1f32; w * h];
     for (radius, weight) in CAVITY_SCALES {
-        let blurred = basrelief::blur(height, cols, rows, radius / cell);
-        for ((o, b), h) in occ.iter_mut().zip(&blurred).zip(height) {
-            *o -= weight * (b - h).max(0.0);
+        let blurred = basrelief::blur(&crop, w, h, radius / cell);
+        for ((o, b), h) in local.iter_mut().zip(&blurred).zip(&crop) {
+            *o = (*o - weight * (b - h).max(0.0)).clamp(0.25, 1.0);
         }
     }
-    occ.iter_mut().for_each(|o| *o = o.clamp(0.25, 1.0));
+    window.paste(&local, &mut occ, cols);
     occ
 }
 

@@ -69,15 +69,48 @@ pub const COVERAGE_SAMPLES: usize = 4;
 /// The share of each node's cell (the square of one cell around it) covered by the
 /// triangles' near half (as [`rasterise`] draws it), from [`COVERAGE_SAMPLES`]^2 sub-samples:
 /// an outline with sub-cell precision, so the relief's wall follows the silhouette instead of
-/// the grid's stair-steps.
+/// the grid's stair-steps. `centres` is [`rasterise`]'s result for the same triangles: a node
+/// whose 3 x 3 neighbourhood is all covered (or all empty) there is taken as whole (or empty)
+/// without sampling, so only the outline's nodes cost sub-samples.
 pub fn coverage(
     points: &[Option<[f32; 3]>],
     triangles: &[[u32; 3]],
+    centres: &[f32],
     cols: usize,
     rows: usize,
 ) -> Vec<f32> {
     const N: usize = COVERAGE_SAMPLES;
     let mut bits = vec![0u16; cols * rows];
+    // Nodes on the outline: some node of the 3 x 3 neighbourhood differs from the others
+    // (looked for only around the covered nodes' box).
+    let mut edge = vec![false; cols * rows];
+    let (mut x0, mut y0, mut x1, mut y1) = (cols, rows, 0, 0);
+    for (i, _) in centres.iter().enumerate().filter(|(_, c)| c.is_finite()) {
+        let (x, y) = (i % cols, i / cols);
+        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+    }
+    if x0 > x1 {
+        return vec![0.0; cols * rows];
+    }
+    let (x0, y0) = (x0.saturating_sub(1), y0.saturating_sub(1));
+    let (x1, y1) = ((x1 + 1).min(cols - 1), (y1 + 1).min(rows - 1));
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let i = y * cols + x;
+            let here = centres[i].is_finite();
+            let mut differs = false;
+            for ny in y.saturating_sub(1)..=(y + 1).min(rows - 1) {
+                for nx in x.saturating_sub(1)..=(x + 1).min(cols - 1) {
+                    differs |= centres[ny * cols + nx].is_finite() != here;
+                }
+            }
+            if differs {
+                edge[i] = true;
+            } else if here {
+                bits[i] = u16::MAX;
+            }
+        }
+    }
     let offset = |k: usize| (k as f32 + 0.5) / N as f32 - 0.5;
     let corner = |i: u32| points.get(i as usize).copied().flatten();
     for t in triangles {
@@ -104,7 +137,7 @@ pub fn coverage(
         for y in min_y..=max_y as usize {
             for x in min_x..=max_x as usize {
                 let mut mask = bits[y * cols + x];
-                if mask == u16::MAX {
+                if mask == u16::MAX || !edge[y * cols + x] {
                     continue;
                 }
                 for sy in 0..N {
@@ -171,7 +204,8 @@ mod tests {
             Some([3.25, 3.25, 1.0]),
             Some([0.75, 3.25, 1.0]),
         ];
-        let c = coverage(&points, &[[0, 1, 2], [0, 2, 3]], 5, 5);
+        let tris = [[0, 1, 2], [0, 2, 3]];
+        let c = coverage(&points, &tris, &rasterise(&points, &tris, 5, 5), 5, 5);
         assert_eq!(c[2 * 5 + 2], 1.0);
         assert_eq!(c[2 * 5 + 3], 0.75);
         assert_eq!(c[3 * 5 + 3], 0.75 * 0.75);
