@@ -785,8 +785,16 @@ impl Poisson {
 fn bilinear_parents(x: usize, y: usize, cw: usize) -> [(usize, f32); 4] {
     let (px, py) = ((x - 1) / 2 + 1, (y - 1) / 2 + 1);
     // The neighbour on the fine cell's side of its parent.
-    let nx = if (x - 1).is_multiple_of(2) { px - 1 } else { px + 1 };
-    let ny = if (y - 1).is_multiple_of(2) { py - 1 } else { py + 1 };
+    let nx = if (x - 1).is_multiple_of(2) {
+        px - 1
+    } else {
+        px + 1
+    };
+    let ny = if (y - 1).is_multiple_of(2) {
+        py - 1
+    } else {
+        py + 1
+    };
     [
         (py * cw + px, 9.0 / 16.0),
         (py * cw + nx, 3.0 / 16.0),

@@ -344,17 +344,12 @@ impl CameoBuilder {
         let view = p.view;
         let placement = face::place(positions, view);
         // Face vertices -> grid coordinates and canonical height.
-        let to_grid = |c: [f32; 3]| {
-            [
-                ((c[0] - self.centre[0]) / self.scale - self.origin[0]) / cell,
-                ((c[1] - self.centre[1]) / self.scale - self.origin[1]) / cell,
-                c[2],
-            ]
-        };
         let points: Vec<Option<[f32; 3]>> = positions
             .chunks_exact(3)
             .map(|v| {
-                let g = to_grid(placement.to_canonical(view, [v[0], v[1], v[2]]));
+                let c = placement.to_canonical(view, [v[0], v[1], v[2]]);
+                let [x, y] = self.grid_position([c[0], c[1]]);
+                let g = [x, y, c[2]];
                 g.iter().all(|c| c.is_finite()).then_some(g)
             })
             .collect();
@@ -385,12 +380,7 @@ impl CameoBuilder {
             w.paste(&d, &mut den, cols);
         }
         let eyes = face::eyes(positions, view, &placement);
-        let canonical = |i: usize| {
-            (
-                self.centre[0] + (self.origin[0] + (i % cols) as f32 * cell) * self.scale,
-                self.centre[1] + (self.origin[1] + (i / cols) as f32 * cell) * self.scale,
-            )
-        };
+        let canonical = |i: usize| self.canonical((i % cols) as f32, (i / cols) as f32);
         // Nothing of the template stands in front of the face's profile line: in every row the
         // face reaches, the template starts behind the face's front-most node.
         let front: Vec<usize> = (0..rows)
@@ -440,7 +430,7 @@ impl CameoBuilder {
                 0.0
             };
             if share > 0.0 {
-                let (u, v) = canonical(i);
+                let [u, v] = canonical(i);
                 let carved: f32 = eyes.iter().map(|e| e.carve(u, v)).sum();
                 let f = (smooth[i] + carved).max(0.0);
                 if face[i] {
@@ -561,6 +551,24 @@ impl CameoBuilder {
         })
     }
 
+    /// The canonical point at grid position (col, row) (fractional nodes).
+    fn canonical(&self, col: f32, row: f32) -> [f32; 2] {
+        let cell = self.params.cell;
+        [
+            self.centre[0] + (self.origin[0] + col * cell) * self.scale,
+            self.centre[1] + (self.origin[1] + row * cell) * self.scale,
+        ]
+    }
+
+    /// The grid position (fractional nodes) of canonical point `c`.
+    fn grid_position(&self, c: [f32; 2]) -> [f32; 2] {
+        let cell = self.params.cell;
+        [
+            ((c[0] - self.centre[0]) / self.scale - self.origin[0]) / cell,
+            ((c[1] - self.centre[1]) / self.scale - self.origin[1]) / cell,
+        ]
+    }
+
     /// The template stretched to the face's proportions ([`Placement::head_stretch`] about
     /// its pivot), resampled bilinearly from the one computed in [`CameoBuilder::new`], and
     /// the window it covers.
@@ -578,21 +586,12 @@ impl CameoBuilder {
         let Some(tb) = self.template_box else {
             return (std::borrow::Cow::Borrowed(&self.template), None);
         };
-        let (cols, rows, cell) = (self.cols, self.rows, self.params.cell);
+        let (cols, rows) = (self.cols, self.rows);
         let pivot = placement.head_pivot;
-        // Grid position <-> canonical point.
-        let to_canonical = |col: f32, row: f32| {
-            [
-                self.centre[0] + (self.origin[0] + col * cell) * self.scale,
-                self.centre[1] + (self.origin[1] + row * cell) * self.scale,
-            ]
-        };
-        let to_grid = |c: [f32; 2]| {
-            [
-                ((c[0] - self.centre[0]) / self.scale - self.origin[0]) / cell,
-                ((c[1] - self.centre[1]) / self.scale - self.origin[1]) / cell,
-            ]
-        };
+        let (to_canonical, to_grid) = (
+            |col: f32, row: f32| self.canonical(col, row),
+            |c: [f32; 2]| self.grid_position(c),
+        );
         // The stretched template's window: its box's corners moved, grown by a node.
         let corners = [
             (tb.x0, tb.y0),

@@ -4,6 +4,20 @@
 //! and a height (canonical millimetres); the caller does the projection (see
 //! [`super::face::Placement`]). Pure computation.
 
+/// A triangle's corners and its signed area in the plane, if it is drawn: all three corners
+/// exist and are finite, it reaches height 0 (the far half of the head is hidden behind the
+/// near half; triangles that reach the centre plane stay: they make the profile's outline)
+/// and it is not degenerate.
+fn near_triangle(points: &[Option<[f32; 3]>], t: &[u32; 3]) -> Option<([[f32; 3]; 3], f32)> {
+    let corner = |i: u32| points.get(i as usize).copied().flatten();
+    let (a, b, c) = (corner(t[0])?, corner(t[1])?, corner(t[2])?);
+    if a[2].max(b[2]).max(c[2]) < 0.0 {
+        return None;
+    }
+    let area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
+    (area.abs() >= 1e-12).then_some(([a, b, c], area))
+}
+
 /// Rasterises triangles into a max-height grid (`cols` x `rows`, row-major). Only what lies
 /// above height 0 is drawn (profile: the near half of the head). `None` vertices (non-finite
 /// input) and triangles pointing past the list are skipped. Returns NaN where no triangle
@@ -15,20 +29,10 @@ pub fn rasterise(
     rows: usize,
 ) -> Vec<f32> {
     let mut h = vec![f32::NAN; cols * rows];
-    let corner = |i: u32| points.get(i as usize).copied().flatten();
     for t in triangles {
-        let (Some(a), Some(b), Some(c)) = (corner(t[0]), corner(t[1]), corner(t[2])) else {
+        let Some(([a, b, c], area)) = near_triangle(points, t) else {
             continue;
         };
-        // The far half of the head is hidden behind the near half; triangles that reach the
-        // centre plane stay: they make the profile's outline.
-        if a[2].max(b[2]).max(c[2]) < 0.0 {
-            continue;
-        }
-        let area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
-        if area.abs() < 1e-12 {
-            continue;
-        }
         // Samples sit on whole nodes: the box runs from the first node at or after the smallest
         // coordinate to the last at or before the largest, widened by the edge tolerance below
         // (a sample with every weight >= -1e-4 lies within 3e-4 of the triangle's extent).
@@ -112,18 +116,10 @@ pub fn coverage(
         }
     }
     let offset = |k: usize| (k as f32 + 0.5) / N as f32 - 0.5;
-    let corner = |i: u32| points.get(i as usize).copied().flatten();
     for t in triangles {
-        let (Some(a), Some(b), Some(c)) = (corner(t[0]), corner(t[1]), corner(t[2])) else {
+        let Some(([a, b, c], area)) = near_triangle(points, t) else {
             continue;
         };
-        if a[2].max(b[2]).max(c[2]) < 0.0 {
-            continue;
-        }
-        let area = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
-        if area.abs() < 1e-12 {
-            continue;
-        }
         let inv_area = 1.0 / area;
         let (lo_x, hi_x) = (a[0].min(b[0]).min(c[0]), a[0].max(b[0]).max(c[0]));
         let (lo_y, hi_y) = (a[1].min(b[1]).min(c[1]), a[1].max(b[1]).max(c[1]));

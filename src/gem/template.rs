@@ -332,15 +332,18 @@ fn profile(u: f32, v: f32) -> Sample {
         height = height.max(0.9 * cranium + e);
     }
     let envelope = dome(u - 114.0, v - 55.0, 108.0, 112.0, 90.0);
-    let mut hair = 0.0;
-    if envelope > 0.0 && profile_hair_region(u, v) {
-        let locks = swept_locks(u, v, [128.0, 22.0], 1.0, std::f32::consts::PI);
-        let h = 0.93 * envelope + locks;
-        if h > height {
-            height = h;
-            hair = 1.0;
-        }
-    }
+    let hair = (envelope > 0.0 && profile_hair_region(u, v))
+        .then(|| 0.93 * envelope + swept_locks(u, v, [128.0, 22.0], 1.0, std::f32::consts::PI));
+    with_hair(height, hair)
+}
+
+/// The template's sample where the head is `height` high and the hair (where there is any)
+/// `hair` high: the hair shows where it stands above the head.
+fn with_hair(height: f32, hair: Option<f32>) -> Sample {
+    let (height, hair) = match hair {
+        Some(h) if h > height => (h, 1.0),
+        _ => (height, 0.0),
+    };
     Sample {
         height: height.max(0.0),
         hair,
@@ -360,16 +363,17 @@ fn frontal_body(u: f32, v: f32) -> f32 {
     let neck = dome(u, 0.0, 54.0, 1.0, 1.0) * 38.0 + if u.abs() < 54.0 { 8.0 } else { 0.0 };
     let neck = if v < 10.0 { neck } else { 0.0 };
     // Shoulders: from the neck's sides down to the shoulder tips, a smooth ramp.
-    let shoulder_line = -120.0 - 0.55 * (u.abs() - 50.0).max(0.0);
+    // The trapezius droops from the neck in a curve to the rounded shoulder.
+    let shoulder_line = -105.0 - 0.0042 * (u.abs() - 45.0).max(0.0).powi(2);
     let breadth = 150.0;
     let shoulders = if v < shoulder_line && u.abs() < breadth {
         let edge = (1.0 - (u / breadth).powi(2)).max(0.0).sqrt();
-        let top = smoothstep(shoulder_line, shoulder_line - 40.0, v);
-        (30.0 + 28.0 * edge) * top
+        let top = smoothstep(shoulder_line, shoulder_line - 30.0, v);
+        (30.0 + 28.0 * edge) * top.sqrt()
     } else {
         0.0
     };
-    let chest = dome(u, v + 300.0, 150.0, 120.0, 62.0);
+    let chest = dome(u, v + 270.0, 150.0, 125.0, 62.0);
     let mut body = smooth_max(smooth_max(neck, shoulders, 20.0), chest, 20.0);
     if body <= 0.5 {
         return 0.0;
@@ -378,9 +382,10 @@ fn frontal_body(u: f32, v: f32) -> f32 {
         let (d, s) = segment([u, v], [side * 66.0, -25.0], [side * 14.0, -185.0]);
         body +=
             6.0 * (-(d / 10.0).powi(2)).exp() * (std::f32::consts::PI * s).sin().max(0.0).sqrt();
+        // The clavicle, a soft ridge (a hard bar reads as a yoke from the front).
         let (d2, s2) = segment([u, v], [side * 16.0, -196.0], [side * 110.0, -188.0]);
         body +=
-            5.0 * (-(d2 / 6.0).powi(2)).exp() * (std::f32::consts::PI * s2).sin().max(0.0).sqrt();
+            3.0 * (-(d2 / 8.0).powi(2)).exp() * (std::f32::consts::PI * s2).sin().max(0.0).sqrt();
     }
     // The mantle: over the viewer's right shoulder and across the chest below a neckline.
     let neckline = -250.0 + 0.9 * (u - 40.0);
@@ -420,22 +425,12 @@ fn frontal(u: f32, v: f32) -> Sample {
         }
     }
     let envelope = dome(u, v - 44.0, 94.0, 125.0, 96.0);
-    let mut hair = 0.0;
     // Hair over the cranium above the ears' line, parted in the middle, swept down each side.
-    if envelope > 0.0 && v > 8.0 - 0.2 * u.abs() {
+    let hair = (envelope > 0.0 && v > 8.0 - 0.2 * u.abs()).then(|| {
         let side = if u < 0.0 { -1.0 } else { 1.0 };
-        let locks = swept_locks(u * side, v, [12.0, 30.0], 1.0, std::f32::consts::FRAC_PI_2);
-        let h = 0.9 * envelope + locks;
-        if h > height {
-            height = h;
-            hair = 1.0;
-        }
-    }
-    Sample {
-        height: height.max(0.0),
-        hair,
-        covered: height > 0.5,
-    }
+        0.9 * envelope + swept_locks(u * side, v, [12.0, 30.0], 1.0, std::f32::consts::FRAC_PI_2)
+    });
+    with_hair(height, hair)
 }
 
 #[cfg(test)]
