@@ -133,16 +133,18 @@ fn environment(r: vec3<f32>) -> vec3<f32> {
 fn marble_albedo(p: vec3<f32>) -> vec3<f32> {
     let softness = clamp(frame.marble.x, 0.0, 1.0);
     let lightness = clamp(frame.marble.y, 0.0, 1.0);
+    // Texture space: frame.marble.z per mm (1/75: a few veins across a 44 x 56 mm stone).
+    let uv = p * frame.marble.z;
     let dir = normalize(vec3<f32>(0.82, -0.5, 0.28));
-    let warp = 2.4 * turbulence3(p * 0.035);
+    let warp = 2.4 * turbulence3(uv * 2.625);
     // Main veins about 17 mm apart; a finer, fainter network between them.
-    let w1 = dot(p, dir) * 0.06 + warp;
-    let w2 = dot(p, normalize(vec3<f32>(0.3, 0.9, 0.3))) * 0.15 + 1.7 * warp + 0.5;
+    let w1 = dot(uv, dir) * 4.5 + warp;
+    let w2 = dot(uv, normalize(vec3<f32>(0.3, 0.9, 0.3))) * 11.25 + 1.7 * warp + 0.5;
     let width = mix(0.05, 0.16, softness);
     let v1 = exp(-pow(sin(3.14159265 * w1) / width, 2.0));
     let v2 = exp(-pow(sin(3.14159265 * w2) / (0.7 * width), 2.0));
     let vein = (1.0 - lightness) * (0.085 * v1 + 0.035 * v2);
-    let cloud = (1.0 - lightness) * (0.018 * snoise3(p * 0.05) + 0.008 * snoise3(p * 0.23));
+    let cloud = (1.0 - lightness) * (0.018 * snoise3(uv * 3.75) + 0.008 * snoise3(uv * 17.25));
     let grey = 0.92 * (1.0 - vein) * (1.0 + cloud);
     return srgb_to_linear(grey * vec3<f32>(1.0, 0.985, 0.955));
 }

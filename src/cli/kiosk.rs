@@ -224,9 +224,14 @@ impl GemThread {
                 let _ = note_tx.try_send(GemNote::Ready {
                     default_face: Arc::new(mean.clone()),
                 });
-                let mut face = mean;
+                let mut face = mean.clone();
                 let mut warm = Vec::new();
                 loop {
+                    // A visitor's faces follow each other: each solve starts from the last.
+                    // The default face starts cold, so it is always the same gem.
+                    if face == mean {
+                        warm.clear();
+                    }
                     let t = Instant::now();
                     let built = builder
                         .build_after(&face, &triangles, &mut warm)

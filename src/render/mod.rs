@@ -298,8 +298,8 @@ pub fn key_light_dir() -> [f32; 3] {
 const AMBIENT: f32 = 0.2;
 /// Intensity of the white key light (raking: the flat ground gets sin 20 degrees of it).
 const LIGHT_INTENSITY: f32 = 1.25;
-/// Texture-space units per mm. The 2021 shader used position / 500 on a base about 370 units
-/// wide; this keeps the same number of veins across a 44 x 56 mm cameo.
+/// Texture-space units per mm for the marble's veins (a few across a 44 x 56 mm cameo; the
+/// 2021 shader used position / 500 on a base about 370 units wide).
 const TEXTURE_SCALE: f32 = 1.0 / 75.0;
 /// The shadow cube's near plane, mm.
 const LAMP_NEAR_MM: f32 = 0.1;
