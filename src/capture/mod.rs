@@ -104,12 +104,21 @@ pub fn decode_photo(bytes: &[u8], path: &Path) -> Result<image::RgbImage, Captur
     limits.max_image_width = Some(MAX_SIDE);
     limits.max_image_height = Some(MAX_SIDE);
     limits.max_alloc = Some(MAX_PIXELS * 8);
-    let mut r = reader();
-    r.limits(limits);
-    let img = r.decode().map_err(|e| CaptureError::Decode {
+    use image::ImageDecoder;
+    let decode_error = |e: image::ImageError| CaptureError::Decode {
         path: p(),
         reason: e.to_string(),
-    })?;
+    };
+    let mut decoder = reader().into_decoder().map_err(decode_error)?;
+    decoder.set_limits(limits).map_err(decode_error)?;
+    // Phones store the picture as the sensor saw it and say in EXIF how to turn it; a face
+    // on its side is found by no detector, so the photo is turned upright first. A broken
+    // orientation tag is not worth refusing the photo for: it is then taken as it is.
+    let orientation = decoder
+        .orientation()
+        .unwrap_or(image::metadata::Orientation::NoTransforms);
+    let mut img = image::DynamicImage::from_decoder(decoder).map_err(decode_error)?;
+    img.apply_orientation(orientation);
     Ok(img.to_rgb8())
 }
 
@@ -161,5 +170,74 @@ mod tests {
             ),
             "{err}"
         );
+    }
+
+    /// A JPEG of `w` x `h` pixels, red on its left half and blue on its right, with an EXIF
+    /// orientation tag (`None`: no EXIF at all).
+    fn jpeg_with_orientation(w: u32, h: u32, orientation: Option<u16>) -> Vec<u8> {
+        let img = image::RgbImage::from_fn(w, h, |x, _| {
+            if x < w / 2 {
+                image::Rgb([220, 20, 20])
+            } else {
+                image::Rgb([20, 20, 220])
+            }
+        });
+        let mut jpeg = Vec::new();
+        image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 95)
+            .encode_image(&img)
+            .unwrap();
+        let Some(o) = orientation else {
+            return jpeg;
+        };
+        // APP1 "Exif": a little-endian TIFF header and one IFD entry, 0x0112 SHORT.
+        let mut tiff = b"II*\0".to_vec();
+        tiff.extend(8u32.to_le_bytes());
+        tiff.extend(1u16.to_le_bytes());
+        tiff.extend(0x0112u16.to_le_bytes());
+        tiff.extend(3u16.to_le_bytes());
+        tiff.extend(1u32.to_le_bytes());
+        tiff.extend(o.to_le_bytes());
+        tiff.extend([0, 0]);
+        tiff.extend(0u32.to_le_bytes());
+        let mut app1 = b"Exif\0\0".to_vec();
+        app1.extend(tiff);
+        let mut out = jpeg[..2].to_vec();
+        out.extend([0xFF, 0xE1]);
+        out.extend(((app1.len() + 2) as u16).to_be_bytes());
+        out.extend(app1);
+        out.extend(&jpeg[2..]);
+        out
+    }
+
+    #[test]
+    fn exif_orientation_turns_the_photo_upright() {
+        let is_red = |p: &image::Rgb<u8>| p[0] > 150 && p[2] < 100;
+        let is_blue = |p: &image::Rgb<u8>| p[2] > 150 && p[0] < 100;
+        let plain = decode_photo(&jpeg_with_orientation(96, 48, None), Path::new("a.jpg")).unwrap();
+        assert_eq!(plain.dimensions(), (96, 48));
+        assert!(is_red(plain.get_pixel(10, 24)) && is_blue(plain.get_pixel(86, 24)));
+        let upright =
+            decode_photo(&jpeg_with_orientation(96, 48, Some(1)), Path::new("b.jpg")).unwrap();
+        assert_eq!(upright.dimensions(), (96, 48));
+        // 6: the camera was turned a quarter clockwise; shown turned 90 degrees clockwise, the
+        // left (red) half is on top.
+        let turned =
+            decode_photo(&jpeg_with_orientation(96, 48, Some(6)), Path::new("c.jpg")).unwrap();
+        assert_eq!(turned.dimensions(), (48, 96));
+        assert!(
+            is_red(turned.get_pixel(24, 10)),
+            "{:?}",
+            turned.get_pixel(24, 10)
+        );
+        assert!(is_blue(turned.get_pixel(24, 86)));
+        // 8: a quarter anticlockwise, the red half at the bottom.
+        let other =
+            decode_photo(&jpeg_with_orientation(96, 48, Some(8)), Path::new("d.jpg")).unwrap();
+        assert_eq!(other.dimensions(), (48, 96));
+        assert!(is_red(other.get_pixel(24, 86)) && is_blue(other.get_pixel(24, 10)));
+        // 3: upside down, red on the right.
+        let flipped =
+            decode_photo(&jpeg_with_orientation(96, 48, Some(3)), Path::new("e.jpg")).unwrap();
+        assert!(is_red(flipped.get_pixel(86, 24)) && is_blue(flipped.get_pixel(10, 24)));
     }
 }
