@@ -13,6 +13,7 @@ pub mod fit;
 pub mod gem;
 pub mod kiosk;
 pub mod landmarks;
+pub mod person;
 #[cfg(feature = "face")]
 pub mod pipeline;
 pub mod render;

@@ -130,6 +130,7 @@ fn face_job(
     pipeline: &mut FacePipeline,
     input: &Path,
     cameo: &glyptic::gem::CameoParams,
+    choice: &super::ChoiceArgs,
     row: &mut Row,
 ) -> Result<glyptic::render::Mesh> {
     let mut stages: Vec<Stage> = Vec::new();
@@ -137,11 +138,12 @@ fn face_job(
         let img = super::decode(&mut stages, input)?;
         let face = pipeline.process(&img, &mut stages)?;
         row.faces = face.faces_found;
+        let cameo = super::person_cameo(&mut stages, &img, &face.landmarks, cameo.clone(), choice);
         let mesh = super::build_gem(
             &mut stages,
             &face.mesh,
             &pipeline.model.shape.triangles,
-            cameo,
+            &cameo,
         )?;
         Ok(mesh)
     })();
@@ -153,6 +155,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     let view = args.view.params()?;
     let cameo = args.view.portrait.cameo();
     let cameo = &cameo;
+    let choice = args.choice;
     let start = Instant::now();
     let files = glyptic::capture::source::list_images(&args.dir)?;
     if files.is_empty() {
@@ -228,7 +231,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                     };
                     // A panic in one image must not take the batch down.
                     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        face_job(&mut pipeline, input, cameo, &mut row)
+                        face_job(&mut pipeline, input, cameo, &choice, &mut row)
                     }));
                     let mesh = match outcome {
                         Ok(Ok(mesh)) => Some(mesh),

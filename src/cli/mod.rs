@@ -279,13 +279,64 @@ impl ViewArgs {
     }
 }
 
-/// Which face is the subject when a photo or frame holds several.
+/// Which face is the subject when a photo or frame holds several, and what of the photo
+/// besides the face goes into the gem.
 #[derive(clap::Args, Debug, Clone, Copy)]
 pub struct ChoiceArgs {
     /// The subject among several faces: the largest, or the one nearest the image's centre
     /// (a kiosk with people passing behind the visitor).
     #[arg(long, value_enum, default_value_t = PreferArg::Largest)]
     pub prefer: PreferArg,
+    /// The hair: the person's own, as the photo shows it (bald stays bald, long hair falls
+    /// over the shoulders), or the same classical hairstyle for everyone.
+    #[arg(long, value_enum, default_value_t = HairArg::Photo)]
+    pub hair: HairArg,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum HairArg {
+    Photo,
+    Classical,
+}
+
+/// The cameo's parameters with the subject's own hair (stage "person"); when the photo cannot
+/// be read for it, a warning and the classical hair: the gem is still made.
+#[cfg(feature = "face")]
+pub fn person_cameo(
+    stages: &mut Vec<Stage>,
+    img: &image::RgbImage,
+    landmarks: &[[f32; 2]],
+    cameo: CameoParams,
+    choice: &ChoiceArgs,
+) -> CameoParams {
+    if choice.hair == HairArg::Classical {
+        return cameo;
+    }
+    let person = timed(
+        stages,
+        "person",
+        || glyptic::person::analyse(img, landmarks),
+        |p| match p.hair {
+            Some(h) => format!(
+                "hair: stands {:.2}, ends {:.2} face lengths below the eyes, curl {:.2}; beard {:.0} %",
+                h.top.max(0.7 * h.sides),
+                h.length,
+                h.curl,
+                100.0 * p.beard
+            ),
+            None => format!("bald; beard {:.0} %", 100.0 * p.beard),
+        },
+    );
+    match person {
+        Ok(p) => CameoParams {
+            hair: gem::hair_style(&p),
+            ..cameo
+        },
+        Err(e) => {
+            eprintln!("warning: cannot read the hair from the photo ({e}); classical hair");
+            cameo
+        }
+    }
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -686,6 +737,7 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
             view: args.view.clone(),
             choice: ChoiceArgs {
                 prefer: PreferArg::Largest,
+                hair: HairArg::Photo,
             },
             landmarks_out: None,
             obj: None,
@@ -829,11 +881,18 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     let mut pipeline = glyptic::pipeline::FacePipeline::load_default(&mut stages)?;
     args.choice.apply(&mut pipeline.faces.detect_options);
     let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
+    let cameo = person_cameo(
+        &mut stages,
+        &img,
+        &face.landmarks,
+        args.view.portrait.cameo(),
+        &args.choice,
+    );
     let mesh = build_gem(
         &mut stages,
         &face.mesh,
         &pipeline.model.shape.triangles,
-        &args.view.portrait.cameo(),
+        &cameo,
     )?;
     for s in &stages[1..] {
         print_stage(s);

@@ -30,7 +30,7 @@ use std::fmt::Write as _;
 use crate::render::{Mesh, Region, Vertex};
 pub use basrelief::Compression;
 pub use face::Placement;
-pub use template::View;
+pub use template::{HairStyle, View};
 
 /// Why a cameo could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -61,6 +61,8 @@ pub struct CameoParams {
     pub view: View,
     /// How the portrait's heights are compressed to the stone's depth.
     pub compression: Compression,
+    /// The hair: the classical default, or a person's ([`hair_style`]).
+    pub hair: HairStyle,
 }
 
 impl CameoParams {
@@ -85,6 +87,7 @@ impl Default for CameoParams {
             wall: 0.8,
             view: View::Profile,
             compression: Compression::default(),
+            hair: HairStyle::default(),
         }
     }
 }
@@ -195,6 +198,31 @@ fn check_params(p: &CameoParams) -> Result<(), GemError> {
     Ok(())
 }
 
+/// The canonical face's length from the eyes' level to the chin, and the eyes' level
+/// (canonical v), model mm: the unit [`crate::person`] measures hair in.
+const FACE_LENGTH_MM: f32 = 115.0;
+const EYES_V: f32 = 30.0;
+
+/// A person's hair as the template carves it, from what their photo shows: none for a bald
+/// head; its volume from how far it stands above and beside the skull; where it ends from its
+/// length (below the nape it falls behind the neck and over the shoulders); its locks from its
+/// curl (straight hair in long locks, curls in short ones).
+pub fn hair_style(person: &crate::person::Person) -> HairStyle {
+    let Some(h) = person.hair else {
+        return HairStyle {
+            bald: true,
+            ..HairStyle::default()
+        };
+    };
+    let stand = h.top.max(0.7 * h.sides);
+    HairStyle {
+        bald: false,
+        volume: (3.0 + 0.75 * FACE_LENGTH_MM * stand).clamp(3.0, 32.0),
+        end: (EYES_V - h.length * FACE_LENGTH_MM).clamp(-290.0, -20.0),
+        curl: (0.15 + 0.85 * h.curl).clamp(0.0, 1.0),
+    }
+}
+
 /// Builds cameos for one set of [`CameoParams`]: everything that does not depend on the face
 /// (the sculpted head, hair and bust on the relief grid, the bezel and the back) is computed
 /// once in [`CameoBuilder::new`]; each face then costs its rasterisation, the compression and
@@ -255,6 +283,7 @@ impl CameoBuilder {
             for (dx, dy) in [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)] {
                 let s = template::sample(
                     p.view,
+                    &p.hair,
                     centre[0] + (x + dx * p.cell) * scale,
                     centre[1] + (y + dy * p.cell) * scale,
                 );
@@ -287,6 +316,7 @@ impl CameoBuilder {
                     let o = |k: usize| ((k as f32 + 0.5) / n_sub as f32 - 0.5) * p.cell;
                     let s = template::sample(
                         p.view,
+                        &p.hair,
                         centre[0] + (gx + o(sx)) * scale,
                         centre[1] + (gy + o(sy)) * scale,
                     );

@@ -52,6 +52,42 @@ pub struct Sample {
     pub covered: bool,
 }
 
+/// The portrait's hair, canonical mm (the Surrey mean face's eyes are about 115 mm above
+/// its chin). [`HairStyle::default`] is the classical one the template was designed with;
+/// [`super::hair_style`] makes a person's from what their photo shows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HairStyle {
+    /// No hair at all: the cranium shows (a bald or shaved head).
+    pub bald: bool,
+    /// How far the hair stands above the skull.
+    pub volume: f32,
+    /// Where it ends below the eyes' level (canonical v): about -45 at the nape, -80 at the
+    /// chin, -200 at the shoulders; lower still, it falls over them.
+    pub end: f32,
+    /// 0 straight (long parallel locks) .. 1 tight curls (short locks in narrow rows).
+    pub curl: f32,
+}
+
+impl Default for HairStyle {
+    fn default() -> Self {
+        HairStyle {
+            bald: false,
+            volume: 11.0,
+            end: -45.0,
+            curl: 0.5,
+        }
+    }
+}
+
+impl HairStyle {
+    /// Rows of locks (mm across), lock length (radians of arc) and wave (mm) for its curl:
+    /// the default's 15 mm rows of 62-degree locks at 0.5.
+    fn locks(&self) -> (f32, f32, f32) {
+        let c = self.curl.clamp(0.0, 1.0);
+        (20.0 - 10.0 * c, 1.8 - 1.44 * c, 1.0 + 6.0 * c)
+    }
+}
+
 /// Hermite smoothstep.
 pub(crate) fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
     let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
@@ -156,26 +192,31 @@ fn lock(s: f32, t: f32, jitter: f32) -> f32 {
 /// Hair swept in waves around a centre `c`: rows of locks along circles about it (each row
 /// `width` mm across, waving by `wave` mm), each lock `seg` radians long, starting at angle
 /// `start` and running towards decreasing angle when `sense` is 1 (increasing when -1).
-fn swept_locks(u: f32, v: f32, c: [f32; 2], sense: f32, start: f32) -> f32 {
-    const WIDTH: f32 = 15.0;
-    const SEG: f32 = 1.08; // about 62 degrees
+fn swept_locks(
+    u: f32,
+    v: f32,
+    c: [f32; 2],
+    sense: f32,
+    start: f32,
+    (width, seg, wave): (f32, f32, f32),
+) -> f32 {
     let (du, dv) = (u - c[0], v - c[1]);
     let r = du.hypot(dv);
     let th = dv.atan2(du);
-    let rw = r + 4.0 * (th * 6.0).sin();
-    let row = (rw / WIDTH).floor();
-    let s = rw / WIDTH - row;
-    let a = sense * (start - th) / SEG + hash2(row as i32, 7);
+    let rw = r + wave * (th * 6.0).sin();
+    let row = (rw / width).floor();
+    let s = rw / width - row;
+    let a = sense * (start - th) / seg + hash2(row as i32, 7);
     let j = a.floor();
     let t = a - j;
     lock(s, t, hash2(row as i32, j as i32))
 }
 
 /// The template at canonical point (u, v).
-pub fn sample(view: View, u: f32, v: f32) -> Sample {
+pub fn sample(view: View, hair: &HairStyle, u: f32, v: f32) -> Sample {
     match view {
-        View::Profile => profile(u, v),
-        View::Frontal => frontal(u, v),
+        View::Profile => profile(hair, u, v),
+        View::Frontal => frontal(hair, u, v),
     }
 }
 
@@ -314,7 +355,20 @@ fn profile_hair_region(u: f32, v: f32) -> bool {
     !(near_ear || before_ear) && v > -45.0 + 0.25 * (u - 150.0)
 }
 
-fn profile(u: f32, v: f32) -> Sample {
+/// Hair that falls below the nape, behind the ear and the neck, down to `style.end` and over
+/// the shoulders: its front edge (canonical u) at height v, or `None` above the nape or below
+/// the end. Its back edge follows the head's envelope, then the back.
+fn profile_fall(style: &HairStyle, v: f32) -> Option<(f32, f32)> {
+    if style.bald || style.end > -46.0 || v > 10.0 || v < style.end {
+        return None;
+    }
+    // Behind the ear and jaw, then forward over the shoulder as it falls.
+    let front = 128.0 - 0.18 * (-v - 10.0).max(0.0);
+    let back = 214.0 + 0.1 * style.volume - 0.12 * (-v - 10.0).max(0.0);
+    Some((front, back))
+}
+
+fn profile(style: &HairStyle, u: f32, v: f32) -> Sample {
     let cranium = dome(u - 112.0, v - 52.0, 98.0, 100.0, 77.0);
     let mut body = if above_truncation(u, v) {
         drapery(u, v, torso(u, v))
@@ -331,9 +385,42 @@ fn profile(u: f32, v: f32) -> Sample {
     if let Some(e) = ear(u, v) {
         height = height.max(0.9 * cranium + e);
     }
-    let envelope = dome(u - 114.0, v - 55.0, 108.0, 112.0, 90.0);
-    let hair = (envelope > 0.0 && profile_hair_region(u, v))
-        .then(|| 0.93 * envelope + swept_locks(u, v, [128.0, 22.0], 1.0, std::f32::consts::PI));
+    if style.bald {
+        return with_hair(height, None);
+    }
+    // The envelope over the cranium: the default style's 108 x 112 x 90 mm stands about 11 mm
+    // above the skull.
+    let extra = style.volume - 11.0;
+    let envelope = dome(
+        u - 114.0 - 0.3 * extra,
+        v - 55.0,
+        108.0 + extra,
+        112.0 + extra,
+        90.0 + 0.8 * extra,
+    );
+    let locks = style.locks();
+    let mut hair = (envelope > 0.0 && profile_hair_region(u, v)).then(|| {
+        0.93 * envelope + swept_locks(u, v, [128.0, 22.0], 1.0, std::f32::consts::PI, locks)
+    });
+    // Long hair: a fall of locks from the nape, standing over neck and shoulders.
+    if let Some((front, back)) = profile_fall(style, v)
+        && u > front
+        && u < back
+    {
+        let across = ((u - front) / (back - front)).clamp(0.0, 1.0);
+        let round = (std::f32::consts::PI * across).sin().sqrt();
+        let taper = smoothstep(style.end, style.end + 40.0, v);
+        let under = height.max(45.0);
+        let (w, seg, wave) = locks;
+        // Locks run down the fall: rows across u, each lock `seg` x 60 mm long.
+        let s = (u + wave * (v / 25.0).sin()) / w;
+        let row = s.floor();
+        let t = -v / (60.0 * seg) + hash2(row as i32, 11);
+        let fall = under
+            + (14.0 + 0.6 * style.volume) * round * taper
+            + lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32));
+        hair = Some(hair.map_or(fall, |h| h.max(fall)));
+    }
     with_hair(height, hair)
 }
 
@@ -411,7 +498,7 @@ fn frontal_body(u: f32, v: f32) -> f32 {
     body.max(0.0)
 }
 
-fn frontal(u: f32, v: f32) -> Sample {
+fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
     let cranium = dome(u, v - 40.0, 80.0, 115.0, 85.0);
     let body = frontal_body(u, v);
     let mut height = smooth_max(cranium, body, 12.0);
@@ -424,12 +511,44 @@ fn frontal(u: f32, v: f32) -> Sample {
             height = height.max(10.0 + 8.0 * rim - 4.0 * (1.0 - r));
         }
     }
-    let envelope = dome(u, v - 44.0, 94.0, 125.0, 96.0);
+    if style.bald {
+        return with_hair(height, None);
+    }
+    let extra = style.volume - 11.0;
+    let envelope = dome(u, v - 44.0, 94.0 + extra, 125.0 + extra, 96.0 + 0.8 * extra);
+    let locks = style.locks();
+    let side = if u < 0.0 { -1.0 } else { 1.0 };
     // Hair over the cranium above the ears' line, parted in the middle, swept down each side.
-    let hair = (envelope > 0.0 && v > 8.0 - 0.2 * u.abs()).then(|| {
-        let side = if u < 0.0 { -1.0 } else { 1.0 };
-        0.9 * envelope + swept_locks(u * side, v, [12.0, 30.0], 1.0, std::f32::consts::FRAC_PI_2)
+    let mut hair = (envelope > 0.0 && v > 8.0 - 0.2 * u.abs()).then(|| {
+        0.9 * envelope
+            + swept_locks(
+                u * side,
+                v,
+                [12.0, 30.0],
+                1.0,
+                std::f32::consts::FRAC_PI_2,
+                locks,
+            )
     });
+    // Long hair falls beside the face and neck, onto the shoulders.
+    if style.end < -46.0 && v < 20.0 && v > style.end {
+        let inner = 74.0 + 0.12 * (20.0 - v);
+        let outer = 100.0 + extra + 0.25 * (20.0 - v).min(160.0);
+        let a = u.abs();
+        if a > inner && a < outer {
+            let across = ((a - inner) / (outer - inner)).clamp(0.0, 1.0);
+            let round = (std::f32::consts::PI * across).sin().sqrt();
+            let taper = smoothstep(style.end, style.end + 40.0, v);
+            let (w, seg, wave) = locks;
+            let s = (a + wave * (v / 25.0).sin()) / w;
+            let row = s.floor();
+            let t = -v / (60.0 * seg) + hash2(row as i32, 13);
+            let fall = height.max(30.0)
+                + (16.0 + 0.6 * style.volume) * round * taper
+                + lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32));
+            hair = Some(hair.map_or(fall, |h| h.max(fall)));
+        }
+    }
     with_hair(height, hair)
 }
 
@@ -461,27 +580,39 @@ mod tests {
     fn the_head_is_around_the_mean_face() {
         // The cranium reaches the mean face's forehead top and tragus, the neck runs under
         // the chin and nothing stands in front of the nose.
-        let p = sample(View::Profile, 24.0, 100.0);
+        let p = sample(View::Profile, &HairStyle::default(), 24.0, 100.0);
         assert!(p.covered);
-        assert!(sample(View::Profile, 103.0, -7.0).covered);
-        assert!(sample(View::Profile, 80.0, -110.0).covered, "throat");
+        assert!(sample(View::Profile, &HairStyle::default(), 103.0, -7.0).covered);
         assert!(
-            !sample(View::Profile, -10.0, 0.0).covered,
+            sample(View::Profile, &HairStyle::default(), 80.0, -110.0).covered,
+            "throat"
+        );
+        assert!(
+            !sample(View::Profile, &HairStyle::default(), -10.0, 0.0).covered,
             "in front of the nose"
         );
         assert!(
-            !sample(View::Profile, 150.0, 190.0).covered,
+            !sample(View::Profile, &HairStyle::default(), 150.0, 190.0).covered,
             "above the hair"
         );
         // Hair on the crown, not on the ear or the neck.
-        assert_eq!(sample(View::Profile, 150.0, 120.0).hair, 1.0);
-        assert_eq!(sample(View::Profile, 121.0, 8.0).hair, 0.0);
-        assert_eq!(sample(View::Profile, 120.0, -120.0).hair, 0.0);
+        assert_eq!(
+            sample(View::Profile, &HairStyle::default(), 150.0, 120.0).hair,
+            1.0
+        );
+        assert_eq!(
+            sample(View::Profile, &HairStyle::default(), 121.0, 8.0).hair,
+            0.0
+        );
+        assert_eq!(
+            sample(View::Profile, &HairStyle::default(), 120.0, -120.0).hair,
+            0.0
+        );
         // Frontal: symmetric outline.
         for (u, v) in [(60.0, 120.0), (90.0, 10.0), (40.0, -150.0), (130.0, -250.0)] {
             assert_eq!(
-                sample(View::Frontal, u, v).covered,
-                sample(View::Frontal, -u, v).covered,
+                sample(View::Frontal, &HairStyle::default(), u, v).covered,
+                sample(View::Frontal, &HairStyle::default(), -u, v).covered,
                 "({u}, {v})"
             );
         }
@@ -491,16 +622,62 @@ mod tests {
     /// the ground along it).
     #[test]
     fn templates_are_finite_everywhere() {
-        for view in [View::Profile, View::Frontal] {
-            for y in -400..=250 {
-                for x in -250..=350 {
-                    let s = sample(view, x as f32 * 0.97, y as f32 * 0.97);
-                    assert!(
-                        s.height.is_finite() && s.hair.is_finite(),
-                        "{view:?} at ({x}, {y}): {s:?}"
-                    );
+        let styles = [
+            HairStyle::default(),
+            HairStyle {
+                bald: true,
+                ..HairStyle::default()
+            },
+            HairStyle {
+                bald: false,
+                volume: 32.0,
+                end: -290.0,
+                curl: 1.0,
+            },
+            HairStyle {
+                bald: false,
+                volume: 3.0,
+                end: -120.0,
+                curl: 0.0,
+            },
+        ];
+        for style in &styles {
+            for view in [View::Profile, View::Frontal] {
+                for y in (-400..=250).step_by(2) {
+                    for x in (-250..=350).step_by(2) {
+                        let s = sample(view, style, x as f32 * 0.97, y as f32 * 0.97);
+                        assert!(
+                            s.height.is_finite() && s.hair.is_finite(),
+                            "{view:?} {style:?} at ({x}, {y}): {s:?}"
+                        );
+                    }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn bald_heads_have_no_hair_and_long_hair_falls_to_the_shoulders() {
+        let bald = HairStyle {
+            bald: true,
+            ..HairStyle::default()
+        };
+        let long = HairStyle {
+            end: -220.0,
+            ..HairStyle::default()
+        };
+        for view in [View::Profile, View::Frontal] {
+            let hair_in = |style: &HairStyle, v0: i32, v1: i32| {
+                (v0..v1)
+                    .step_by(4)
+                    .flat_map(|v| (-250..350).step_by(4).map(move |u| (u, v)))
+                    .filter(|&(u, v)| sample(view, style, u as f32, v as f32).hair > 0.0)
+                    .count()
+            };
+            assert_eq!(hair_in(&bald, -400, 250), 0, "{view:?}");
+            assert_eq!(hair_in(&HairStyle::default(), -200, -100), 0, "{view:?}");
+            assert!(hair_in(&long, -200, -100) > 100, "{view:?}");
+            assert!(hair_in(&long, -300, -230) == 0, "{view:?}: ends at its end");
         }
     }
 

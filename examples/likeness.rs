@@ -1,0 +1,238 @@
+//! The likeness test (issue #17): can a person's gems be told from other people's?
+//!
+//! Photos of several people, several photos each (deepface's `tests/unit/dataset`, whose
+//! `master.csv` and `face-recognition-pivot.csv` say which photos show the same person; used
+//! for measurement only, never committed). Every photo is made into a gem (the relief as the
+//! photo path builds it, profile or frontal) and every gem's nearest other gem is looked up by
+//! a descriptor of the gem alone:
+//!
+//! * `relief`: the relief's heights (gem mm) averaged over 1 mm squares of the stone, compared
+//!   by root-mean-square difference: what the eye sees of the carving, outline and depth;
+//! * `outline`: the share of 1 mm squares inside one portrait's outline and not the other's:
+//!   the silhouette alone, as a shadow play would show it;
+//! * `face`: the relief over the union of both faces' footprints only.
+//!
+//! The figure is the share of gems whose nearest other gem is the same person's (chance is
+//! about 1 / number of people). `--dump DIR` writes each relief (f32, little-endian, cols x
+//! rows) for further study.
+//!
+//! `--classical` gives everyone the template's classical hair (the gems before issue #17).
+//!
+//! `cargo run --release --example likeness -- DATASET_DIR [--frontal] [--classical] [--dump DIR]`
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use glyptic::gem::{self, CameoParams, Relief};
+use glyptic::pipeline::FacePipeline;
+
+/// Identities from the "Yes" rows of deepface's pair lists: photo name -> person number.
+fn identities(dir: &Path) -> Result<BTreeMap<String, usize>> {
+    let mut parent: BTreeMap<String, String> = BTreeMap::new();
+    fn find(p: &mut BTreeMap<String, String>, x: &str) -> String {
+        let mut x = x.to_string();
+        loop {
+            let up = p.entry(x.clone()).or_insert_with(|| x.clone()).clone();
+            if up == x {
+                return x;
+            }
+            x = up;
+        }
+    }
+    for list in ["master.csv", "face-recognition-pivot.csv"] {
+        let path = dir.join(list);
+        let Ok(text) = std::fs::read_to_string(&path) else {
+            continue;
+        };
+        for line in text.lines().skip(1) {
+            let f: Vec<&str> = line.split(',').collect();
+            if f.len() < 3 || !f[2].eq_ignore_ascii_case("yes") {
+                continue;
+            }
+            let name = |s: &str| s.rsplit('/').next().unwrap_or(s).to_string();
+            let (a, b) = (name(f[0]), name(f[1]));
+            let (ra, rb) = (find(&mut parent, &a), find(&mut parent, &b));
+            if ra != rb {
+                parent.insert(ra, rb);
+            }
+        }
+    }
+    anyhow::ensure!(
+        !parent.is_empty(),
+        "{}: no master.csv or face-recognition-pivot.csv with same-person pairs",
+        dir.display()
+    );
+    let names: Vec<String> = parent.keys().cloned().collect();
+    let mut roots: BTreeMap<String, usize> = BTreeMap::new();
+    let mut out = BTreeMap::new();
+    for n in names {
+        let r = find(&mut parent, &n);
+        let k = roots.len();
+        let id = *roots.entry(r).or_insert(k);
+        out.insert(n, id);
+    }
+    Ok(out)
+}
+
+/// The relief's heights over 1 mm squares (a square outside the portrait is 0).
+struct Descriptor {
+    heights: Vec<f32>,
+    outline: Vec<bool>,
+    face: Vec<bool>,
+}
+
+fn describe(r: &Relief) -> Descriptor {
+    let k = (1.0 / r.cell).round().max(1.0) as usize;
+    let (w, h) = (r.cols / k, r.rows / k);
+    let mut d = Descriptor {
+        heights: vec![0.0; w * h],
+        outline: vec![false; w * h],
+        face: vec![false; w * h],
+    };
+    for y in 0..h {
+        for x in 0..w {
+            let (mut sum, mut inside, mut face) = (0.0, 0, 0);
+            for yy in y * k..(y + 1) * k {
+                for xx in x * k..(x + 1) * k {
+                    let i = yy * r.cols + xx;
+                    sum += r.height[i];
+                    inside += usize::from(r.portrait[i] > 0.0);
+                    face += usize::from(r.face[i]);
+                }
+            }
+            let j = y * w + x;
+            d.heights[j] = sum / (k * k) as f32;
+            d.outline[j] = 2 * inside > k * k;
+            d.face[j] = 2 * face > k * k;
+        }
+    }
+    d
+}
+
+fn distance(kind: &str, a: &Descriptor, b: &Descriptor) -> f64 {
+    let n = a.heights.len();
+    match kind {
+        "relief" => {
+            let s: f64 = (0..n)
+                .map(|i| f64::from(a.heights[i] - b.heights[i]).powi(2))
+                .sum();
+            (s / n as f64).sqrt()
+        }
+        "outline" => (0..n).filter(|&i| a.outline[i] != b.outline[i]).count() as f64 / n as f64,
+        _ => {
+            let idx: Vec<usize> = (0..n).filter(|&i| a.face[i] || b.face[i]).collect();
+            let s: f64 = idx
+                .iter()
+                .map(|&i| f64::from(a.heights[i] - b.heights[i]).powi(2))
+                .sum();
+            (s / idx.len().max(1) as f64).sqrt()
+        }
+    }
+}
+
+fn main() -> Result<()> {
+    let mut args = std::env::args().skip(1);
+    let mut dir = None;
+    let mut dump = None;
+    let mut params = CameoParams::default();
+    let mut classical = false;
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--frontal" => params = CameoParams::frontal(),
+            "--classical" => classical = true,
+            "--dump" => dump = Some(PathBuf::from(args.next().context("--dump DIR")?)),
+            _ => dir = Some(PathBuf::from(a)),
+        }
+    }
+    let dir = dir.context("usage: likeness DATASET_DIR [--frontal] [--classical] [--dump DIR]")?;
+    let ids = identities(&dir)?;
+    let mut stages = Vec::new();
+    let mut pipeline = FacePipeline::load_default(&mut stages)?;
+    let builder = gem::CameoBuilder::new(&params)?;
+    let triangles = pipeline.model.shape.triangles.clone();
+    if let Some(d) = &dump {
+        std::fs::create_dir_all(d)?;
+    }
+    let mut gems: Vec<(String, usize, Descriptor)> = Vec::new();
+    let mut per_photo_ms = Vec::new();
+    for (name, &id) in &ids {
+        let path = dir.join(name);
+        let t = std::time::Instant::now();
+        let img = match glyptic::capture::load_photo(&path) {
+            Ok(i) => i,
+            Err(e) => {
+                eprintln!("{name}: {e}");
+                continue;
+            }
+        };
+        let face = match pipeline.process(&img, &mut stages) {
+            Ok(f) => f,
+            Err(e) => {
+                eprintln!("{name}: no gem: {e}");
+                continue;
+            }
+        };
+        // The person's own hair (unless --classical: the same hair for everyone).
+        let relief = if classical {
+            builder.relief(&face.mesh, &triangles)?
+        } else {
+            let person = glyptic::person::analyse(&img, &face.landmarks)?;
+            let own = CameoParams {
+                hair: gem::hair_style(&person),
+                ..params.clone()
+            };
+            gem::CameoBuilder::new(&own)?.relief(&face.mesh, &triangles)?
+        };
+        per_photo_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        if let Some(d) = &dump {
+            let bytes: Vec<u8> = relief.height.iter().flat_map(|v| v.to_le_bytes()).collect();
+            std::fs::write(
+                d.join(format!("{name}.{}x{}.f32", relief.cols, relief.rows)),
+                bytes,
+            )?;
+        }
+        gems.push((name.clone(), id, describe(&relief)));
+    }
+    let people = gems
+        .iter()
+        .map(|g| g.1)
+        .collect::<std::collections::BTreeSet<_>>()
+        .len();
+    println!(
+        "{} gems of {} people from {}; chance about {:.0} %",
+        gems.len(),
+        people,
+        dir.display(),
+        100.0 / people as f64
+    );
+    for kind in ["relief", "outline", "face"] {
+        let mut right = 0;
+        let mut misses = Vec::new();
+        for (i, (name, id, d)) in gems.iter().enumerate() {
+            let nearest = gems
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .min_by(|a, b| distance(kind, d, &a.1.2).total_cmp(&distance(kind, d, &b.1.2)));
+            if let Some((_, (other, oid, _))) = nearest {
+                if oid == id {
+                    right += 1;
+                } else {
+                    misses.push(format!("{name}->{other}"));
+                }
+            }
+        }
+        println!(
+            "descriptor {kind:8}: nearest other gem the same person's for {right} / {} = {:.1} %",
+            gems.len(),
+            100.0 * right as f64 / gems.len().max(1) as f64
+        );
+        println!("  misses: {}", misses.join(" "));
+    }
+    per_photo_ms.sort_by(f64::total_cmp);
+    if let Some(m) = per_photo_ms.get(per_photo_ms.len() / 2) {
+        println!("photo -> relief median {m:.0} ms (decode, detect, landmarks, fit, relief)");
+    }
+    Ok(())
+}

@@ -1,0 +1,862 @@
+//! The person around the face, read from the photo: where the hair is, how far it stands out
+//! from the skull, how long it falls, whether it is straight or curled, and whether there is a
+//! beard or a moustache. 68 landmarks say nothing of these, and at a cameo's size they are
+//! most of what makes a person recognisable.
+//!
+//! Method (no trained segmentation model is available, see `docs/likeness.md`): the photo is
+//! resampled into the *head frame*, then every pixel is labelled background, skin or hair by
+//! colour models (Gaussian mixtures, refitted a few times as in GrabCut) weighted by where each
+//! is likely to be around a head, with the posteriors smoothed before each decision. Skin is
+//! learnt from the cheeks and nose, background from the frame's far corners and the photo's
+//! edges, hair from the crown and temples where they are neither. Facial hair is hair-coloured
+//! (or skin-unlike and darker) pixels inside the chin's and upper lip's regions.
+//!
+//! Frame and units: origin midway between the eyes' centres, `s` along the eye line towards
+//! the image-right eye, `t` perpendicular to it down the face, both in inter-ocular distances
+//! (IOD, the eyes' centres apart, about 63 mm on an adult). Pure computation.
+
+use image::RgbImage;
+
+/// Head-frame extent of the analysis canvas, IOD.
+const S_RANGE: (f32, f32) = (-3.6, 3.6);
+const T_RANGE: (f32, f32) = (-3.4, 6.0);
+/// Canvas pixel, IOD.
+const RES: f32 = 0.04;
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum PersonError {
+    #[error("expected 68 landmarks, got {0}")]
+    Landmarks(usize),
+    #[error("landmark {0} is not a finite point")]
+    NonFinite(usize),
+    #[error("the eyes are {0:.1} pixels apart: too close to read a head from")]
+    TooSmall(f32),
+}
+
+/// The hair as it is read from the photo (absent: a bald or shaved head).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hair {
+    /// Share of the crown (where a full head of hair grows, above the forehead) that is hair.
+    pub crown: f32,
+    /// How far the hair stands above the skull's top, in face lengths (eyes to chin).
+    pub top: f32,
+    /// How far it stands out beside the temples beyond the skull, in face lengths.
+    pub sides: f32,
+    /// Where it ends below the eyes, in face lengths: about 0.5 cropped at the ears, 1 at
+    /// the chin, 1.8 at the shoulders, more when it falls over them.
+    pub length: f32,
+    /// 0 straight .. 1 tight curls (from how little its strands agree in direction).
+    pub curl: f32,
+    /// Mean brightness 0..1 (grey and blond hair are light).
+    pub brightness: f32,
+}
+
+/// The person around the face.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Person {
+    pub hair: Option<Hair>,
+    /// Share of the chin's region that is beard, 0..1.
+    pub beard: f32,
+    /// Share of the upper lip's region that is moustache, 0..1.
+    pub moustache: f32,
+    /// The labelled canvas, for pictures and measurement.
+    pub labels: Labels,
+}
+
+impl Person {
+    /// Whether a beard is carved (more than half the chin).
+    pub fn has_beard(&self) -> bool {
+        self.beard > 0.5
+    }
+    /// Whether a moustache is carved.
+    pub fn has_moustache(&self) -> bool {
+        self.moustache > 0.5
+    }
+}
+
+/// What each canvas pixel was found to be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Label {
+    Outside,
+    Background,
+    Skin,
+    Hair,
+}
+
+/// The head frame's canvas with a label per pixel, and the way back to the photo.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Labels {
+    pub width: usize,
+    pub height: usize,
+    pub labels: Vec<Label>,
+    frame: Frame,
+}
+
+impl Labels {
+    /// The label at photo pixel (x, y) (`Outside` beyond the canvas).
+    pub fn at_pixel(&self, x: f32, y: f32) -> Label {
+        let [s, t] = self.frame.to_head([x, y]);
+        let c = ((s - S_RANGE.0) / RES).floor();
+        let r = ((t - T_RANGE.0) / RES).floor();
+        if c < 0.0 || r < 0.0 || c >= self.width as f32 || r >= self.height as f32 {
+            return Label::Outside;
+        }
+        self.labels[r as usize * self.width + c as usize]
+    }
+}
+
+/// Photo pixels <-> head frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Frame {
+    origin: [f32; 2],
+    /// Unit eye-line direction times the IOD, in pixels.
+    axis: [f32; 2],
+}
+
+impl Frame {
+    fn to_pixel(self, [s, t]: [f32; 2]) -> [f32; 2] {
+        let [ax, ay] = self.axis;
+        [
+            self.origin[0] + s * ax - t * ay,
+            self.origin[1] + s * ay + t * ax,
+        ]
+    }
+    fn to_head(self, [x, y]: [f32; 2]) -> [f32; 2] {
+        let [ax, ay] = self.axis;
+        let n = ax * ax + ay * ay;
+        let (dx, dy) = (x - self.origin[0], y - self.origin[1]);
+        [(dx * ax + dy * ay) / n, (-dx * ay + dy * ax) / n]
+    }
+}
+
+/// A colour as the models see it: brightness and two opponent chroma axes, 0..1 scale.
+type Colour = [f32; 3];
+
+fn colour(p: [f32; 3]) -> Colour {
+    let [r, g, b] = p;
+    [(r + g + b) / 3.0, r - g, 0.5 * (r + g) - b]
+}
+
+/// One Gaussian of a mixture, full covariance.
+#[derive(Clone, Debug)]
+struct Gauss {
+    mean: Colour,
+    inv: [[f32; 3]; 3],
+    /// log(weight) - log(sqrt((2 pi)^3 det)).
+    log_norm: f32,
+}
+
+impl Gauss {
+    fn d2(&self, c: Colour) -> f32 {
+        let d = [
+            c[0] - self.mean[0],
+            c[1] - self.mean[1],
+            c[2] - self.mean[2],
+        ];
+        let mut s = 0.0;
+        for i in 0..3 {
+            for j in 0..3 {
+                s += d[i] * self.inv[i][j] * d[j];
+            }
+        }
+        s
+    }
+}
+
+/// A Gaussian mixture over colours.
+#[derive(Clone, Debug)]
+struct Gmm(Vec<Gauss>);
+
+impl Gmm {
+    /// Fits `k` components (k-means from farthest-point seeds, then one Gaussian per
+    /// cluster); `None` with fewer than 20 samples. Deterministic.
+    fn fit(samples: &[Colour], k: usize) -> Option<Gmm> {
+        if samples.len() < 20 {
+            return None;
+        }
+        // At most about 3000 samples, evenly strided.
+        let stride = samples.len().div_ceil(3000);
+        let xs: Vec<Colour> = samples.iter().step_by(stride).copied().collect();
+        let dist = |a: &Colour, b: &Colour| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f32>();
+        let mean = mean_of(&xs);
+        let mut centres = vec![mean];
+        while centres.len() < k.min(xs.len()) {
+            let far = xs.iter().max_by(|a, b| {
+                let da = centres.iter().map(|c| dist(a, c)).fold(f32::MAX, f32::min);
+                let db = centres.iter().map(|c| dist(b, c)).fold(f32::MAX, f32::min);
+                da.total_cmp(&db)
+            })?;
+            centres.push(*far);
+        }
+        let mut assign = vec![0usize; xs.len()];
+        for _ in 0..8 {
+            for (a, x) in assign.iter_mut().zip(&xs) {
+                *a = (0..centres.len())
+                    .min_by(|&i, &j| dist(x, &centres[i]).total_cmp(&dist(x, &centres[j])))
+                    .unwrap_or(0);
+            }
+            for (c, centre) in centres.iter_mut().enumerate() {
+                let members: Vec<Colour> = xs
+                    .iter()
+                    .zip(&assign)
+                    .filter(|(_, a)| **a == c)
+                    .map(|(x, _)| *x)
+                    .collect();
+                if !members.is_empty() {
+                    *centre = mean_of(&members);
+                }
+            }
+        }
+        let mut comps = Vec::new();
+        for c in 0..centres.len() {
+            let members: Vec<Colour> = xs
+                .iter()
+                .zip(&assign)
+                .filter(|(_, a)| **a == c)
+                .map(|(x, _)| *x)
+                .collect();
+            if members.len() < 5 {
+                continue;
+            }
+            let m = mean_of(&members);
+            let mut cov = [[0f32; 3]; 3];
+            for x in &members {
+                for i in 0..3 {
+                    for j in 0..3 {
+                        cov[i][j] += (x[i] - m[i]) * (x[j] - m[j]) / members.len() as f32;
+                    }
+                }
+            }
+            // Noise floor: JPEG and sensor noise, about 2 % of full scale.
+            for (i, row) in cov.iter_mut().enumerate() {
+                row[i] += 0.02f32.powi(2);
+            }
+            let mat = nalgebra::Matrix3::from_fn(|i, j| f64::from(cov[i][j]));
+            let det = mat.determinant();
+            let inv = mat.try_inverse()?;
+            let weight = members.len() as f64 / xs.len() as f64;
+            comps.push(Gauss {
+                mean: m,
+                inv: std::array::from_fn(|i| std::array::from_fn(|j| inv[(i, j)] as f32)),
+                log_norm: (weight.ln()
+                    - 0.5 * ((2.0 * std::f64::consts::PI).powi(3) * det.max(1e-30)).ln())
+                    as f32,
+            });
+        }
+        (!comps.is_empty()).then_some(Gmm(comps))
+    }
+
+    fn log_pdf(&self, c: Colour) -> f32 {
+        let terms: Vec<f32> = self.0.iter().map(|g| g.log_norm - 0.5 * g.d2(c)).collect();
+        let m = terms.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        m + terms.iter().map(|t| (t - m).exp()).sum::<f32>().ln()
+    }
+
+    /// The smallest squared Mahalanobis distance to a component.
+    fn d2(&self, c: Colour) -> f32 {
+        self.0.iter().map(|g| g.d2(c)).fold(f32::MAX, f32::min)
+    }
+}
+
+fn mean_of(xs: &[Colour]) -> Colour {
+    let n = xs.len().max(1) as f32;
+    let mut m = [0f32; 3];
+    for x in xs {
+        for i in 0..3 {
+            m[i] += x[i] / n;
+        }
+    }
+    m
+}
+
+/// Even-odd point-in-polygon.
+fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
+    let mut c = false;
+    let mut j = poly.len() - 1;
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[j]);
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
+        {
+            c = !c;
+        }
+        j = i;
+    }
+    c
+}
+
+/// Box blur of a canvas field, radius `r` pixels, edges renormalised.
+fn box_blur(f: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
+    let pass = |src: &[f32], horizontal: bool| {
+        let mut out = vec![0f32; src.len()];
+        let (n, m) = if horizontal { (h, w) } else { (w, h) };
+        for line in 0..n {
+            let idx = |k: usize| {
+                if horizontal {
+                    line * w + k
+                } else {
+                    k * w + line
+                }
+            };
+            let mut prefix = vec![0f32; m + 1];
+            for k in 0..m {
+                prefix[k + 1] = prefix[k] + src[idx(k)];
+            }
+            for k in 0..m {
+                let (lo, hi) = (k.saturating_sub(r), (k + r + 1).min(m));
+                out[idx(k)] = (prefix[hi] - prefix[lo]) / (hi - lo) as f32;
+            }
+        }
+        out
+    };
+    pass(&pass(f, true), false)
+}
+
+/// Reads the person around the face from an RGB photo and the face's 68 iBUG landmarks
+/// (photo pixels).
+pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonError> {
+    if landmarks.len() != 68 {
+        return Err(PersonError::Landmarks(landmarks.len()));
+    }
+    if let Some(i) = landmarks
+        .iter()
+        .position(|p| !p.iter().all(|v| v.is_finite()))
+    {
+        return Err(PersonError::NonFinite(i));
+    }
+    let centre = |r: std::ops::Range<usize>| {
+        let n = r.len() as f32;
+        let (x, y) = landmarks[r]
+            .iter()
+            .fold((0.0, 0.0), |(x, y), p| (x + p[0], y + p[1]));
+        [x / n, y / n]
+    };
+    let (le, re) = (centre(36..42), centre(42..48));
+    let axis = [re[0] - le[0], re[1] - le[1]];
+    let iod = axis[0].hypot(axis[1]);
+    if iod < 8.0 {
+        return Err(PersonError::TooSmall(iod));
+    }
+    let frame = Frame {
+        origin: [(le[0] + re[0]) / 2.0, (le[1] + re[1]) / 2.0],
+        axis,
+    };
+    let head: Vec<[f32; 2]> = landmarks.iter().map(|p| frame.to_head(*p)).collect();
+    // Face length (eyes to chin) and half-breadth at the temples, IOD.
+    let chin = head[8][1].max(1.0);
+    let half = (0.5 * (head[16][0] - head[0][0]).abs()).max(0.7);
+
+    // The canvas.
+    let w = ((S_RANGE.1 - S_RANGE.0) / RES) as usize;
+    let h = ((T_RANGE.1 - T_RANGE.0) / RES) as usize;
+    let pos = |i: usize| {
+        [
+            S_RANGE.0 + ((i % w) as f32 + 0.5) * RES,
+            T_RANGE.0 + ((i / w) as f32 + 0.5) * RES,
+        ]
+    };
+    let (iw, ih) = (img.width() as f32, img.height() as f32);
+    let mut rgb = vec![[0f32; 3]; w * h];
+    let mut valid = vec![false; w * h];
+    let mut border = vec![false; w * h];
+    for i in 0..w * h {
+        let [x, y] = frame.to_pixel(pos(i));
+        if !(x >= 0.0 && y >= 0.0 && x <= iw - 1.0 && y <= ih - 1.0) {
+            continue;
+        }
+        let (x0, y0) = (x as u32, y as u32);
+        let (x1, y1) = (
+            (x0 + 1).min(img.width() - 1),
+            (y0 + 1).min(img.height() - 1),
+        );
+        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+        let px = |x: u32, y: u32| img.get_pixel(x, y).0.map(|v| f32::from(v) / 255.0);
+        let (a, b, c, d) = (px(x0, y0), px(x1, y0), px(x0, y1), px(x1, y1));
+        rgb[i] = std::array::from_fn(|k| {
+            (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
+        });
+        valid[i] = true;
+        // Within 2 % of the photo's edge: photographers frame the head with background.
+        let m = 0.02 * iw.min(ih);
+        border[i] = x < m || y < m || x > iw - 1.0 - m || y > ih - 1.0 - m;
+    }
+    let col: Vec<Colour> = rgb.iter().map(|p| colour(*p)).collect();
+
+    // Regions from the landmarks.
+    let face_poly: Vec<[f32; 2]> = (0..=16).chain((17..=26).rev()).map(|k| head[k]).collect();
+    let lip_top = head[51][1];
+    let in_face: Vec<bool> = (0..w * h).map(|i| inside(&face_poly, pos(i))).collect();
+    // The skull: an ellipse from the temples' breadth and the face's length (the eyes sit
+    // about halfway down the head).
+    let skull = |p: [f32; 2]| {
+        let (a, b) = (1.08 * half, 0.98 * chin);
+        let ct = 0.02 * chin;
+        ((p[0] / a).powi(2) + ((p[1] - ct) / b).powi(2)).sqrt()
+    };
+
+    // Seeds.
+    let skin_seed: Vec<Colour> = (0..w * h)
+        .filter(|&i| {
+            let p = pos(i);
+            // Cheeks and nose, clear of the face's sides (long hair may hang over them).
+            valid[i]
+                && in_face[i]
+                && p[1] > 0.3
+                && p[1] < lip_top - 0.08
+                && p[0].abs() < 0.75 * half
+        })
+        .map(|i| col[i])
+        .collect();
+    let skin0 = Gmm::fit(&skin_seed, 2);
+    let bg_seed: Vec<Colour> = (0..w * h)
+        .filter(|&i| {
+            let p = pos(i);
+            valid[i] && (border[i] && p[1] < chin || skull(p) > 2.1 && p[1] < 0.5 * chin)
+        })
+        .map(|i| col[i])
+        .collect();
+    let bg0 = Gmm::fit(&bg_seed, 3);
+    let crown_band = |p: [f32; 2]| {
+        let r = skull(p);
+        (0.7..1.05).contains(&r) && p[1] < -0.45 * chin
+            || (p[0].abs() > half * 0.98 && p[0].abs() < half * 1.2 && (-0.9..-0.1).contains(&p[1]))
+    };
+    let crown_pixels = (0..w * h)
+        .filter(|&i| valid[i] && crown_band(pos(i)))
+        .count();
+    let enough = (crown_pixels / 12).max(30);
+    let unlike_skin = |i: usize| {
+        valid[i] && crown_band(pos(i)) && skin0.as_ref().is_none_or(|g| g.d2(col[i]) > 14.0)
+    };
+    // Hair is what is neither skin nor background there; when that leaves too little, hair
+    // and background share a colour and only skin is ruled out (where it lies then decides).
+    let mut hair_seed: Vec<Colour> = (0..w * h)
+        .filter(|&i| unlike_skin(i) && bg0.as_ref().is_none_or(|g| g.d2(col[i]) > 6.0))
+        .map(|i| col[i])
+        .collect();
+    if hair_seed.len() < enough {
+        hair_seed = (0..w * h)
+            .filter(|&i| unlike_skin(i))
+            .map(|i| col[i])
+            .collect();
+    }
+
+    // Where each class is likely to be, before colour: [background, skin, hair].
+    let prior: Vec<[f32; 3]> = (0..w * h)
+        .map(|i| {
+            let p = pos(i);
+            let r = skull(p);
+            if in_face[i] {
+                [0.04, 0.86, 0.10]
+            } else if p[1] > chin * 1.05 {
+                // Below the chin: neck near the middle, clothes and background, long hair.
+                let neck = (p[0].abs() < 0.75 * half) as u8 as f32;
+                [0.55 - 0.2 * neck, 0.1 + 0.3 * neck, 0.35 - 0.1 * neck]
+            } else if r < 1.0 {
+                [0.1, 0.35, 0.55]
+            } else {
+                let hair = (0.5 - 0.5 * (r - 1.0)).clamp(0.12, 0.5);
+                [0.92 - hair, 0.08, hair]
+            }
+        })
+        .collect();
+
+    let mut skin = skin0.clone();
+    let mut bg = bg0;
+    // Hair is learnt from what is not skin where a full head grows (it may be the
+    // background's colour: then where it is decides); with almost nothing there, the head
+    // is bald or shaved.
+    let bald = hair_seed.len() < enough;
+    let mut hair = if bald { None } else { Gmm::fit(&hair_seed, 2) };
+    let mut labels = vec![Label::Outside; w * h];
+    for round in 0..4 {
+        let mut post = [vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]];
+        for i in (0..w * h).filter(|&i| valid[i]) {
+            let ll = [&bg, &skin, &hair].map(|g| {
+                g.as_ref()
+                    .map_or(f32::NEG_INFINITY, |g| g.log_pdf(col[i]).max(-60.0))
+            });
+            let lp: [f32; 3] = std::array::from_fn(|c| prior[i][c].ln() + ll[c]);
+            let m = lp.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            let e: [f32; 3] = std::array::from_fn(|c| (lp[c] - m).exp());
+            let z: f32 = e.iter().sum();
+            for c in 0..3 {
+                post[c][i] = e[c] / z;
+            }
+        }
+        let post = post.map(|p| box_blur(&p, w, h, 2));
+        for i in 0..w * h {
+            labels[i] = if !valid[i] {
+                Label::Outside
+            } else if post[2][i] > post[0][i] && post[2][i] > post[1][i] {
+                Label::Hair
+            } else if post[1][i] >= post[0][i] {
+                Label::Skin
+            } else {
+                Label::Background
+            };
+        }
+        if round == 3 {
+            break;
+        }
+        let of = |l: Label, keep: &dyn Fn(usize) -> bool| -> Vec<Colour> {
+            (0..w * h)
+                .filter(|&i| labels[i] == l && keep(i))
+                .map(|i| col[i])
+                .collect()
+        };
+        // Skin learnt around the face only (a beige wall far away is not the person).
+        if let Some(g) = Gmm::fit(&of(Label::Skin, &|i| skull(pos(i)) < 1.3), 2) {
+            skin = Some(g);
+        }
+        if let Some(g) = Gmm::fit(&of(Label::Background, &|_| true), 4) {
+            bg = Some(g);
+        }
+        if !bald {
+            hair = Gmm::fit(&of(Label::Hair, &|i| skull(pos(i)) < 2.0 && !in_face[i]), 3);
+        }
+    }
+
+    // Hair is what is connected to the crown or the temples; the rest (dark clothes, a dark
+    // doorway) is background.
+    let mut keep = vec![false; w * h];
+    let mut stack: Vec<usize> = (0..w * h)
+        .filter(|&i| labels[i] == Label::Hair && crown_band(pos(i)))
+        .collect();
+    for &i in &stack {
+        keep[i] = true;
+    }
+    while let Some(i) = stack.pop() {
+        let (x, y) = (i % w, i / w);
+        let around = [
+            (x > 0).then(|| i - 1),
+            (x + 1 < w).then(|| i + 1),
+            (y > 0).then(|| i - w),
+            (y + 1 < h).then(|| i + w),
+        ];
+        for j in around.into_iter().flatten() {
+            // Hair stands at most about 0.8 skull radii out (a big afro); beyond is a wall.
+            let far = skull(pos(j)) > 1.8 && pos(j)[1] < chin;
+            if !keep[j] && labels[j] == Label::Hair && !in_face[j] && !far {
+                keep[j] = true;
+                stack.push(j);
+            }
+        }
+    }
+    // Facial hair: inside the face, hair-labelled pixels count; elsewhere only connected hair.
+    for i in 0..w * h {
+        if labels[i] == Label::Hair && !keep[i] && !in_face[i] {
+            labels[i] = Label::Background;
+        }
+    }
+
+    let chin_poly: Vec<[f32; 2]> = (4..=12)
+        .chain([54, 55, 56, 57, 58, 59, 48])
+        .map(|k| head[k])
+        .collect();
+    let lip_poly: Vec<[f32; 2]> = [48, 31, 32, 33, 34, 35, 54, 53, 52, 51, 50, 49]
+        .iter()
+        .map(|&k| head[k])
+        .collect();
+    let skin_l = mean_of(&skin_seed)[0];
+    let share = |poly: &[[f32; 2]]| {
+        let px: Vec<usize> = (0..w * h)
+            .filter(|&i| valid[i] && inside(poly, pos(i)))
+            .collect();
+        if px.is_empty() {
+            return 0.0;
+        }
+        let dark = px
+            .iter()
+            .filter(|&&i| {
+                labels[i] == Label::Hair
+                    || (col[i][0] < 0.75 * skin_l
+                        && skin.as_ref().is_some_and(|g| g.d2(col[i]) > 16.0))
+            })
+            .count();
+        dark as f32 / px.len() as f32
+    };
+    let beard = share(&chin_poly);
+    let moustache = share(&lip_poly);
+
+    // Hair over less than a third of the crown: a bald head (perhaps with a fringe of hair
+    // at the sides, which a carver leaves out at this size).
+    let hair_traits = (!bald)
+        .then(|| traits(&labels, &col, w, h, &pos, &in_face, &skull, chin, half))
+        .flatten()
+        .filter(|h| h.crown >= 0.33);
+    Ok(Person {
+        hair: hair_traits,
+        beard,
+        moustache,
+        labels: Labels {
+            width: w,
+            height: h,
+            labels,
+            frame,
+        },
+    })
+}
+
+/// The hair's traits from its labelled pixels.
+#[allow(clippy::too_many_arguments)]
+fn traits(
+    labels: &[Label],
+    col: &[Colour],
+    w: usize,
+    h: usize,
+    pos: &dyn Fn(usize) -> [f32; 2],
+    in_face: &[bool],
+    skull: &dyn Fn([f32; 2]) -> f32,
+    chin: f32,
+    half: f32,
+) -> Option<Hair> {
+    // Scalp hair only (the face's own hair-coloured pixels are brows and beard).
+    let hair: Vec<usize> = (0..w * h)
+        .filter(|&i| labels[i] == Label::Hair && !in_face[i])
+        .collect();
+    if hair.len() < 30 {
+        return None;
+    }
+    // The crown: the band above the forehead across the head's middle.
+    let crown_px: Vec<usize> = (0..w * h)
+        .filter(|&i| {
+            let p = pos(i);
+            labels[i] != Label::Outside && skull(p) < 1.0 && p[1] < -0.8 * chin
+        })
+        .collect();
+    let crown = if crown_px.is_empty() {
+        1.0
+    } else {
+        crown_px
+            .iter()
+            .filter(|&&i| labels[i] == Label::Hair)
+            .count() as f32
+            / crown_px.len() as f32
+    };
+    // Top: the highest hair over the head's middle, beyond the skull's top.
+    let top_t = hair
+        .iter()
+        .map(|&i| pos(i))
+        .filter(|p| p[0].abs() < 0.7 * half)
+        .map(|p| p[1])
+        .fold(f32::INFINITY, f32::min);
+    let top = if top_t.is_finite() {
+        ((-top_t - 0.96 * chin) / chin).max(0.0)
+    } else {
+        0.0
+    };
+    // Sides: the hair's reach beside the temples (the widest row between brow and eyes).
+    let side_reach = hair
+        .iter()
+        .map(|&i| pos(i))
+        .filter(|p| (-0.6 * chin..0.2 * chin).contains(&p[1]))
+        .map(|p| p[0].abs())
+        .fold(0.0f32, f32::max);
+    let sides = ((side_reach - 1.08 * half) / chin).max(0.0);
+    // Length: walk down beside the face while each row still has hair (gaps under 0.15 face
+    // lengths are bridged: a strand of background, an ear).
+    let row_has_hair = |t0: f32, t1: f32| {
+        hair.iter().any(|&i| {
+            let p = pos(i);
+            p[1] >= t0 && p[1] < t1 && p[0].abs() > 0.55 * half
+        })
+    };
+    let step = 0.05 * chin;
+    let mut t = -0.2 * chin;
+    let mut last = t;
+    while t < T_RANGE.1 {
+        if row_has_hair(t, t + step) {
+            last = t + step;
+        } else if t - last > 0.15 * chin {
+            break;
+        }
+        t += step;
+    }
+    let length = (last / chin).max(0.0);
+    // Curl: structure-tensor coherence of brightness over the hair (straight strands agree).
+    let lum: Vec<f32> = col.iter().map(|c| c[0]).collect();
+    let (mut jxx, mut jyy, mut jxy) = (vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]);
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let i = y * w + x;
+            let gx = lum[i + 1] - lum[i - 1];
+            let gy = lum[i + w] - lum[i - w];
+            jxx[i] = gx * gx;
+            jyy[i] = gy * gy;
+            jxy[i] = gx * gy;
+        }
+    }
+    let (jxx, jyy, jxy) = (
+        box_blur(&jxx, w, h, 3),
+        box_blur(&jyy, w, h, 3),
+        box_blur(&jxy, w, h, 3),
+    );
+    let (mut num, mut den) = (0.0, 0.0);
+    for &i in &hair {
+        let tr = jxx[i] + jyy[i];
+        if tr < 1e-6 {
+            continue;
+        }
+        let diff = ((jxx[i] - jyy[i]).powi(2) + 4.0 * jxy[i].powi(2)).sqrt();
+        num += diff;
+        den += tr;
+    }
+    let coherence = if den > 0.0 { num / den } else { 1.0 };
+    let curl = ((0.55 - coherence) / 0.35).clamp(0.0, 1.0);
+    let brightness = hair.iter().map(|&i| col[i][0]).sum::<f32>() / hair.len() as f32;
+    Some(Hair {
+        crown,
+        top,
+        sides,
+        length,
+        curl,
+        brightness,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BG: [u8; 3] = [90, 110, 140];
+    const SKIN: [u8; 3] = [222, 172, 142];
+    const BROWN: [u8; 3] = [62, 42, 28];
+
+    /// 68 landmarks of a frontal face: eyes 60 px apart at y = 200, chin at y = 320.
+    fn landmarks() -> Vec<[f32; 2]> {
+        let mut p = vec![[0f32; 2]; 68];
+        for (k, q) in p.iter_mut().enumerate().take(17) {
+            let th = std::f32::consts::PI * k as f32 / 16.0;
+            *q = [200.0 - 70.0 * th.cos(), 205.0 + 115.0 * th.sin()];
+        }
+        for k in 0..5 {
+            p[17 + k] = [140.0 + 11.0 * k as f32, 180.0];
+            p[22 + k] = [216.0 + 11.0 * k as f32, 180.0];
+        }
+        for k in 0..4 {
+            p[27 + k] = [200.0, 195.0 + 15.0 * k as f32];
+        }
+        for k in 0..5 {
+            p[31 + k] = [185.0 + 7.5 * k as f32, 250.0];
+        }
+        for (e, cx) in [(36, 170.0), (42, 230.0)] {
+            for k in 0..6 {
+                let th = std::f32::consts::TAU * k as f32 / 6.0;
+                p[e + k] = [cx - 10.0 * th.cos(), 200.0 - 4.0 * th.sin()];
+            }
+        }
+        for k in 0..12 {
+            let th = std::f32::consts::TAU * k as f32 / 12.0;
+            p[48 + k] = [200.0 - 25.0 * th.cos(), 275.0 - 10.0 * th.sin()];
+        }
+        for k in 0..8 {
+            let th = std::f32::consts::TAU * k as f32 / 8.0;
+            p[60 + k] = [200.0 - 18.0 * th.cos(), 275.0 - 4.0 * th.sin()];
+        }
+        p
+    }
+
+    /// A head on a plain ground: skin over the skull's ellipse and a neck; `hair(x, y)` says
+    /// where hair is drawn; `beard` darkens the chin. Mild deterministic noise everywhere.
+    fn photo(hair: impl Fn(f32, f32) -> bool, hair_colour: [u8; 3], beard: bool) -> RgbImage {
+        RgbImage::from_fn(400, 520, |x, y| {
+            let (fx, fy) = (x as f32, y as f32);
+            let head = ((fx - 200.0) / 72.0).powi(2) + ((fy - 205.0) / 125.0).powi(2) < 1.0;
+            let neck = (fx - 200.0).abs() < 45.0 && fy > 300.0 && fy < 420.0;
+            let chin = beard && head && fy > 288.0 && (fx - 200.0).abs() < 60.0;
+            let mut c = if hair(fx, fy) {
+                hair_colour
+            } else if chin {
+                BROWN
+            } else if head || neck {
+                SKIN
+            } else {
+                BG
+            };
+            let n = ((x.wrapping_mul(73_856_093) ^ y.wrapping_mul(19_349_663)) % 17) as i32 - 8;
+            for v in &mut c {
+                *v = (i32::from(*v) + n).clamp(0, 255) as u8;
+            }
+            image::Rgb(c)
+        })
+    }
+
+    /// Hair over the crown above the forehead's hairline, standing `stand` px out, and down
+    /// both sides to `end` (image y).
+    fn hair_to(stand: f32, end: f32) -> impl Fn(f32, f32) -> bool {
+        move |x, y| {
+            let outer = ((x - 200.0) / (72.0 + stand)).powi(2)
+                + ((y - 205.0) / (125.0 + stand)).powi(2)
+                < 1.0;
+            let head = ((x - 200.0) / 72.0).powi(2) + ((y - 205.0) / 125.0).powi(2) < 1.0;
+            let crown = outer && y < 150.0;
+            let sides = outer && !head && y < 215.0;
+            let fall =
+                (x - 200.0).abs() > 62.0 && (x - 200.0).abs() < 100.0 && y > 140.0 && y < end;
+            crown || sides || fall
+        }
+    }
+
+    #[test]
+    fn bald_short_and_long_hair_are_told_apart() {
+        let lm = landmarks();
+        let bald = analyse(&photo(|_, _| false, BROWN, false), &lm).unwrap();
+        assert!(bald.hair.is_none(), "{:?}", bald.hair);
+        let short = analyse(&photo(hair_to(12.0, 0.0), BROWN, false), &lm).unwrap();
+        let h = short.hair.expect("short hair found");
+        assert!(h.crown > 0.6, "{h:?}");
+        assert!(h.length < 0.6, "short hair ends near the ears: {h:?}");
+        let long = analyse(&photo(hair_to(12.0, 470.0), BROWN, false), &lm).unwrap();
+        let l = long.hair.expect("long hair found");
+        assert!(l.length > 1.6, "long hair reaches the shoulders: {l:?}");
+        let big = analyse(&photo(hair_to(45.0, 0.0), BROWN, false), &lm).unwrap();
+        let b = big.hair.expect("big hair found");
+        assert!(b.top > h.top + 0.15, "volume: {:.2} vs {:.2}", b.top, h.top);
+        // In the cameo: bald stays bald, long hair ends lower, big hair stands higher.
+        let (sb, ss, sl, sg) = (
+            crate::gem::hair_style(&bald),
+            crate::gem::hair_style(&short),
+            crate::gem::hair_style(&long),
+            crate::gem::hair_style(&big),
+        );
+        assert!(sb.bald && !ss.bald && !sl.bald);
+        assert!(sl.end < ss.end - 100.0, "{sl:?} {ss:?}");
+        assert!(sg.volume > ss.volume + 5.0, "{sg:?} {ss:?}");
+    }
+
+    #[test]
+    fn grey_hair_is_hair_and_a_beard_is_found_only_when_there() {
+        let lm = landmarks();
+        let grey = analyse(&photo(hair_to(12.0, 0.0), [168, 168, 170], false), &lm).unwrap();
+        assert!(
+            grey.hair.is_some_and(|h| h.brightness > 0.5),
+            "{:?}",
+            grey.hair
+        );
+        let shaven = analyse(&photo(hair_to(12.0, 0.0), BROWN, false), &lm).unwrap();
+        assert!(!shaven.has_beard(), "beard {:.2}", shaven.beard);
+        let bearded = analyse(&photo(hair_to(12.0, 0.0), BROWN, true), &lm).unwrap();
+        assert!(bearded.has_beard(), "beard {:.2}", bearded.beard);
+    }
+
+    #[test]
+    fn bad_landmarks_are_named() {
+        let img = photo(|_, _| false, BROWN, false);
+        let mut lm = landmarks();
+        assert_eq!(analyse(&img, &lm[..5]), Err(PersonError::Landmarks(5)));
+        lm[30][1] = f32::NAN;
+        assert_eq!(analyse(&img, &lm), Err(PersonError::NonFinite(30)));
+        let tiny: Vec<[f32; 2]> = landmarks()
+            .iter()
+            .map(|p| [200.0 + 0.05 * (p[0] - 200.0), 200.0 + 0.05 * (p[1] - 200.0)])
+            .collect();
+        assert!(matches!(
+            analyse(&img, &tiny),
+            Err(PersonError::TooSmall(_))
+        ));
+        // A face at the photo's edge, mostly outside it: an answer, not a panic.
+        let edge: Vec<[f32; 2]> = landmarks().iter().map(|p| [p[0] - 230.0, p[1]]).collect();
+        assert!(analyse(&img, &edge).is_ok());
+    }
+}
