@@ -188,6 +188,13 @@ impl Gmm {
             })?;
             centres.push(*far);
         }
+        let members_of = |c: usize, assign: &[usize]| -> Vec<Colour> {
+            xs.iter()
+                .zip(assign)
+                .filter(|(_, a)| **a == c)
+                .map(|(x, _)| *x)
+                .collect()
+        };
         let mut assign = vec![0usize; xs.len()];
         for _ in 0..8 {
             for (a, x) in assign.iter_mut().zip(&xs) {
@@ -196,12 +203,7 @@ impl Gmm {
                     .unwrap_or(0);
             }
             for (c, centre) in centres.iter_mut().enumerate() {
-                let members: Vec<Colour> = xs
-                    .iter()
-                    .zip(&assign)
-                    .filter(|(_, a)| **a == c)
-                    .map(|(x, _)| *x)
-                    .collect();
+                let members = members_of(c, &assign);
                 if !members.is_empty() {
                     *centre = mean_of(&members);
                 }
@@ -209,12 +211,7 @@ impl Gmm {
         }
         let mut comps = Vec::new();
         for c in 0..centres.len() {
-            let members: Vec<Colour> = xs
-                .iter()
-                .zip(&assign)
-                .filter(|(_, a)| **a == c)
-                .map(|(x, _)| *x)
-                .collect();
+            let members = members_of(c, &assign);
             if members.len() < 5 {
                 continue;
             }
