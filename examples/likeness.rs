@@ -16,9 +16,15 @@
 //! about 1 / number of people). `--dump DIR` writes each relief (f32, little-endian, cols x
 //! rows) for further study.
 //!
-//! `--classical` gives everyone the template's classical hair (the gems before issue #17).
+//! `--classical` gives everyone the template's classical hair (the gems before issue #17);
+//! `--caricature GAIN,DETAIL` sets the portrait's caricature (`1,0`: the fitted face as it is;
+//! see [`glyptic::shapemodel::Caricature`]).
 //!
-//! `cargo run --release --example likeness -- DATASET_DIR [--frontal] [--classical] [--dump DIR]`
+//! Also printed, for comparison and not a descriptor of the gem: the same test on the fitted
+//! identities themselves, by standard deviations of the model and by millimetres of the mesh.
+//!
+//! `cargo run --release --example likeness -- DATASET_DIR [--frontal] [--classical]
+//! [--caricature G,D] [--dump DIR]`
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -26,6 +32,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use glyptic::gem::{self, CameoParams, Relief};
 use glyptic::pipeline::FacePipeline;
+use glyptic::shapemodel::Caricature;
 
 /// Identities from the "Yes" rows of deepface's pair lists: photo name -> person number.
 fn identities(dir: &Path) -> Result<BTreeMap<String, usize>> {
@@ -137,10 +144,19 @@ fn main() -> Result<()> {
     let mut dump = None;
     let mut params = CameoParams::default();
     let mut classical = false;
+    let mut caricature = Caricature::default();
     while let Some(a) = args.next() {
         match a.as_str() {
             "--frontal" => params = CameoParams::frontal(),
             "--classical" => classical = true,
+            "--caricature" => {
+                let v = args.next().context("--caricature GAIN,DETAIL")?;
+                let (g, d) = v.split_once(',').context("--caricature GAIN,DETAIL")?;
+                caricature = Caricature {
+                    gain: g.parse()?,
+                    detail: d.parse()?,
+                };
+            }
             "--dump" => dump = Some(PathBuf::from(args.next().context("--dump DIR")?)),
             _ => dir = Some(PathBuf::from(a)),
         }
@@ -149,12 +165,14 @@ fn main() -> Result<()> {
     let ids = identities(&dir)?;
     let mut stages = Vec::new();
     let mut pipeline = FacePipeline::load_default(&mut stages)?;
+    pipeline.caricature = caricature;
     let builder = gem::CameoBuilder::new(&params)?;
     let triangles = pipeline.model.shape.triangles.clone();
     if let Some(d) = &dump {
         std::fs::create_dir_all(d)?;
     }
     let mut gems: Vec<(String, usize, Descriptor)> = Vec::new();
+    let mut identities: Vec<(usize, Vec<f32>)> = Vec::new();
     let mut per_photo_ms = Vec::new();
     for (name, &id) in &ids {
         let path = dir.join(name);
@@ -175,14 +193,14 @@ fn main() -> Result<()> {
         };
         // The person's own hair (unless --classical: the same hair for everyone).
         let relief = if classical {
-            builder.relief(&face.mesh, &triangles)?
+            builder.relief(&face.portrait, &triangles)?
         } else {
             let person = glyptic::person::analyse(&img, &face.landmarks)?;
             let own = CameoParams {
                 hair: gem::hair_style(&person),
                 ..params.clone()
             };
-            gem::CameoBuilder::new(&own)?.relief(&face.mesh, &triangles)?
+            gem::CameoBuilder::new(&own)?.relief(&face.portrait, &triangles)?
         };
         per_photo_ms.push(t.elapsed().as_secs_f64() * 1e3);
         if let Some(d) = &dump {
@@ -193,6 +211,7 @@ fn main() -> Result<()> {
             )?;
         }
         gems.push((name.clone(), id, describe(&relief)));
+        identities.push((id, face.fit.shape.clone()));
     }
     let people = gems
         .iter()
@@ -229,6 +248,38 @@ fn main() -> Result<()> {
             100.0 * right as f64 / gems.len().max(1) as f64
         );
         println!("  misses: {}", misses.join(" "));
+    }
+    // The fitted identities themselves: by standard deviations, and by millimetres (the
+    // model's basis is orthonormal, so a coefficient's millimetres are it times sqrt(variance)).
+    let sd: Vec<f32> = pipeline
+        .model
+        .shape
+        .eigenvalues
+        .iter()
+        .map(|v| v.sqrt())
+        .collect();
+    for (label, scale) in [("standard deviations", None), ("millimetres", Some(&sd))] {
+        let d = |a: &[f32], b: &[f32]| -> f32 {
+            a.iter()
+                .zip(b)
+                .enumerate()
+                .map(|(k, (x, y))| ((x - y) * scale.map_or(1.0, |s| s[k])).powi(2))
+                .sum()
+        };
+        let right = (0..identities.len())
+            .filter(|&i| {
+                let nearest = (0..identities.len()).filter(|&j| j != i).min_by(|&a, &b| {
+                    d(&identities[i].1, &identities[a].1)
+                        .total_cmp(&d(&identities[i].1, &identities[b].1))
+                });
+                nearest.is_some_and(|j| identities[j].0 == identities[i].0)
+            })
+            .count();
+        println!(
+            "fitted identity by {label:19}: nearest the same person's for {right} / {} = {:.1} % (not a gem descriptor)",
+            identities.len(),
+            100.0 * right as f64 / identities.len().max(1) as f64
+        );
     }
     per_photo_ms.sort_by(f64::total_cmp);
     if let Some(m) = per_photo_ms.get(per_photo_ms.len() / 2) {

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use crate::detect::{DetectError, DetectOptions, Detection, FaceDetector};
 use crate::fit::{Fit, FitError, FitOptions};
 use crate::landmarks::{LandmarkError, ShapePredictor};
-use crate::shapemodel::{ModelError, SurreyModel};
+use crate::shapemodel::{Caricature, ModelError, SurreyModel};
 
 /// Rounds of box re-estimation after the first landmark pass (see the landmarks tests).
 const LANDMARK_REFINE_ROUNDS: usize = 1;
@@ -42,6 +42,9 @@ pub struct FaceResult {
     pub fit: Fit,
     /// Fitted mesh in model mm, `[x0, y0, z0, ...]` (pose removed).
     pub mesh: Vec<f32>,
+    /// The face the gem carves: `mesh` with [`FacePipeline::caricature`] applied to the
+    /// identity (same layout and units).
+    pub portrait: Vec<f32>,
 }
 
 /// Detector and landmark predictor: faces and their 68 landmarks, without the face model
@@ -163,6 +166,8 @@ pub struct FacePipeline {
     pub faces: LandmarkPipeline,
     pub model: Arc<SurreyModel>,
     pub fit_options: FitOptions,
+    /// How the portrait exaggerates the fitted identity ([`FaceResult::portrait`]).
+    pub caricature: Caricature,
 }
 
 impl FacePipeline {
@@ -192,6 +197,7 @@ impl FacePipeline {
             faces,
             model: Arc::new(model),
             fit_options: FitOptions::default(),
+            caricature: Caricature::default(),
         })
     }
 
@@ -217,6 +223,7 @@ impl FacePipeline {
             },
             model: self.model.clone(),
             fit_options: self.fit_options.clone(),
+            caricature: self.caricature,
         })
     }
 
@@ -262,12 +269,21 @@ impl FacePipeline {
             .fit_subject(img, stages)?
             .ok_or(PipelineError::NoFace)?;
         let mesh = self.model.instance(&fit.shape, &fit.expression);
+        let portrait = self.portrait(&fit.shape, &fit.expression);
         Ok(FaceResult {
             detection: found.detection,
             faces_found,
             landmarks: found.points,
             fit,
             mesh,
+            portrait,
         })
+    }
+
+    /// The face the gem carves for these coefficients: the identity with
+    /// [`FacePipeline::caricature`] applied, model mm, pose removed.
+    pub fn portrait(&self, shape: &[f32], expression: &[f32]) -> Vec<f32> {
+        let shape = self.model.shape.caricature(shape, self.caricature);
+        self.model.instance(&shape, expression)
     }
 }

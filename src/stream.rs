@@ -75,7 +75,7 @@ impl FaceUpdate {
             return;
         };
         let t = Instant::now();
-        let built = builder.build_after(&face.mesh, triangles, warm);
+        let built = builder.build_after(&face.portrait, triangles, warm);
         let ms = t.elapsed().as_secs_f64() * 1e3;
         match built {
             Ok(mesh) => {

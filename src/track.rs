@@ -95,6 +95,9 @@ pub struct TrackedFace {
     pub identity_frames: usize,
     /// Face mesh from `shape` and `expression`, model mm, pose removed.
     pub mesh: Vec<f32>,
+    /// The face the gem carves: `mesh` with the pipeline's caricature (see
+    /// [`FacePipeline::portrait`]).
+    pub portrait: Vec<f32>,
 }
 
 /// A frame's outcome: a face, or why there is none.
@@ -354,6 +357,7 @@ impl Tracker {
             (fit.pose, fit.expression.clone())
         };
         let mesh = self.pipeline.model.instance(&shape, &expression);
+        let portrait = self.pipeline.portrait(&shape, &expression);
         let identity_frames = state.identity_n;
         state.landmarks = landmarks.clone();
         state.fit = fit.clone();
@@ -367,6 +371,7 @@ impl Tracker {
             shape,
             identity_frames,
             mesh,
+            portrait,
         }
     }
 }

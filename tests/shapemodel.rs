@@ -158,3 +158,75 @@ fn a_mapping_to_a_missing_vertex_is_rejected_with_file_and_field() {
     );
     std::fs::remove_dir_all(&tmp).ok();
 }
+
+/// The caricature: none leaves the face alone; the gain scales the difference from the mean
+/// face; the detail grows the small components' millimetres towards the first's; the mean face
+/// stays the mean face; nonsense leaves the coefficients alone.
+#[test]
+fn caricature_exaggerates_the_difference_from_the_mean_face() {
+    use shapemodel::Caricature;
+    let m = model();
+    let shape: Vec<f32> = (0..63)
+        .map(|k| if k % 2 == 0 { 0.8 } else { -0.5 })
+        .collect();
+    assert_eq!(m.shape.caricature(&shape, Caricature::NONE), shape);
+    let doubled = m.shape.caricature(
+        &shape,
+        Caricature {
+            gain: 2.0,
+            detail: 0.0,
+        },
+    );
+    assert!(
+        doubled
+            .iter()
+            .zip(&shape)
+            .all(|(d, s)| (d - 2.0 * s).abs() < 1e-6)
+    );
+    // Millimetres of component k: coefficient times sqrt(variance).
+    let mm = |c: &[f32], k: usize| (c[k] * m.shape.eigenvalues[k].sqrt()).abs();
+    let full = m.shape.caricature(
+        &shape,
+        Caricature {
+            gain: 1.0,
+            detail: 1.0,
+        },
+    );
+    // Detail 1: every component as many millimetres per standard deviation as the first.
+    let first = m.shape.eigenvalues[0].sqrt();
+    for k in [0, 1, 10, 62] {
+        assert!(
+            (mm(&full, k) - shape[k].abs() * first).abs() < 1e-3 * first,
+            "{k}"
+        );
+    }
+    let half = m.shape.caricature(&shape, Caricature::PORTRAIT);
+    for k in 1..63 {
+        assert!(half[k].abs() > shape[k].abs() && half[k].abs() < full[k].abs() + 1e-6);
+        assert_eq!(half[k].signum(), shape[k].signum());
+    }
+    assert!(
+        m.shape
+            .caricature(&[0.0; 63], Caricature::PORTRAIT)
+            .iter()
+            .all(|&v| v == 0.0)
+    );
+    assert!(m.shape.caricature(&[], Caricature::PORTRAIT).is_empty());
+    for bad in [
+        Caricature {
+            gain: f32::NAN,
+            detail: 0.5,
+        },
+        Caricature {
+            gain: 1.0,
+            detail: -0.1,
+        },
+        Caricature {
+            gain: 9.0,
+            detail: 0.5,
+        },
+    ] {
+        assert!(!bad.is_valid());
+        assert_eq!(m.shape.caricature(&shape, bad), shape);
+    }
+}

@@ -141,7 +141,7 @@ fn face_job(
         let cameo = super::person_cameo(&mut stages, &img, &face.landmarks, cameo.clone(), choice);
         let mesh = super::build_gem(
             &mut stages,
-            &face.mesh,
+            &face.portrait,
             &pipeline.model.shape.triangles,
             &cameo,
         )?;
@@ -181,7 +181,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     let renderer_thread = super::spawn_renderer();
     let mut load = Vec::new();
     let mut first = FacePipeline::load_default(&mut load)?;
-    args.choice.apply(&mut first.faces.detect_options);
+    args.choice.apply_face(&mut first);
     let mut pipelines = vec![first];
     for _ in 1..jobs {
         let p = pipelines[0].fork(

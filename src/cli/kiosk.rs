@@ -373,7 +373,7 @@ mod live {
             }
             if let Ok(Some(u)) = stream.updates().try_recv() {
                 news.push(FaceNews::Update {
-                    face: u.face.map(|f| f.mesh),
+                    face: u.face.map(|f| f.portrait),
                     frame: u.frame_index,
                     latency_ms: u.latency_ms,
                 });

@@ -291,6 +291,31 @@ pub struct ChoiceArgs {
     /// over the shoulders), or the same classical hairstyle for everyone.
     #[arg(long, value_enum, default_value_t = HairArg::Photo)]
     pub hair: HairArg,
+    /// The portrait's caricature, GAIN,DETAIL: the gain multiplies the face's difference from
+    /// the mean face, the detail (0..1) exaggerates its small, telling differences more than
+    /// its large ones. `1,0` carves the fitted face as it is.
+    #[arg(long, value_parser = parse_caricature, default_value = "1,0.5")]
+    pub caricature: glyptic::shapemodel::Caricature,
+}
+
+fn parse_caricature(s: &str) -> Result<glyptic::shapemodel::Caricature, String> {
+    let (g, d) = s
+        .split_once(',')
+        .ok_or_else(|| format!("{s}: expected GAIN,DETAIL, e.g. 1,0.5"))?;
+    let number = |v: &str| {
+        v.trim()
+            .parse::<f32>()
+            .map_err(|e| format!("{s}: {v:?} is not a number ({e})"))
+    };
+    let c = glyptic::shapemodel::Caricature {
+        gain: number(g)?,
+        detail: number(d)?,
+    };
+    if c.is_valid() {
+        Ok(c)
+    } else {
+        Err(format!("{s}: the gain must be 0..4 and the detail 0..1"))
+    }
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -352,6 +377,13 @@ impl ChoiceArgs {
             PreferArg::Largest => glyptic::detect::FaceChoice::Largest,
             PreferArg::Central => glyptic::detect::FaceChoice::Central,
         };
+    }
+
+    /// The subject's choice and the portrait's caricature.
+    #[cfg(feature = "face")]
+    pub fn apply_face(&self, pipeline: &mut glyptic::pipeline::FacePipeline) {
+        self.apply(&mut pipeline.faces.detect_options);
+        pipeline.caricature = self.caricature;
     }
 }
 
@@ -738,6 +770,7 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
             choice: ChoiceArgs {
                 prefer: PreferArg::Largest,
                 hair: HairArg::Photo,
+                caricature: glyptic::shapemodel::Caricature::default(),
             },
             landmarks_out: None,
             obj: None,
@@ -879,7 +912,7 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     let img = decode(&mut stages, image_path)?;
     print_stage(&stages[0]);
     let mut pipeline = glyptic::pipeline::FacePipeline::load_default(&mut stages)?;
-    args.choice.apply(&mut pipeline.faces.detect_options);
+    args.choice.apply_face(&mut pipeline);
     let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
     let cameo = person_cameo(
         &mut stages,
@@ -890,7 +923,7 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     );
     let mesh = build_gem(
         &mut stages,
-        &face.mesh,
+        &face.portrait,
         &pipeline.model.shape.triangles,
         &cameo,
     )?;

@@ -136,7 +136,7 @@ fn json_line(update: &FaceUpdate) -> serde_json::Value {
 pub fn track(args: &TrackArgs) -> Result<()> {
     let mut load = Vec::new();
     let mut pipeline = FacePipeline::load_default(&mut load)?;
-    args.choice.apply(&mut pipeline.faces.detect_options);
+    args.choice.apply_face(&mut pipeline);
     for s in &load {
         super::print_stage(s);
     }
