@@ -19,9 +19,9 @@ fn main() -> Result<()> {
     let mut stages = Vec::new();
     let mut pipeline = FacePipeline::load_default(&mut stages)?;
     println!(
-        "| photo | hair | crown | top | sides | length | curl | brightness | beard | moustache | ms |"
+        "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | ms |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for photo in &photos {
         let name = photo
             .file_stem()
@@ -66,7 +66,7 @@ fn main() -> Result<()> {
         let f = |v: Option<f32>| v.map_or("-".into(), |v| format!("{v:.2}"));
         let h = p.hair;
         println!(
-            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {ms:.0} |",
+            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {ms:.0} |",
             f(h.map(|h| h.crown)),
             f(h.map(|h| h.top)),
             f(h.map(|h| h.sides)),
@@ -74,6 +74,7 @@ fn main() -> Result<()> {
             f(h.map(|h| h.curl)),
             f(h.map(|h| h.brightness)),
             p.beard,
+            p.beard_jaw,
             p.moustache
         );
     }

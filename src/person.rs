@@ -52,11 +52,19 @@ pub struct Hair {
 }
 
 /// The person around the face.
+/// The share of the chin that makes a beard. On deepface's 61 photos (12 with beards, from
+/// stubble-length to full) bearded chins measure 0.61-1.00, shaven ones 0.03-0.46 (the highest
+/// a day's stubble).
+pub const BEARD_SHARE: f32 = 0.55;
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Person {
     pub hair: Option<Hair>,
-    /// Share of the chin's region that is beard, 0..1.
+    /// Share of the chin (below the lower lip) that is beard, 0..1.
     pub beard: f32,
+    /// Share of the jaw (round the chin, up to below the cheekbones) that is beard, 0..1: a
+    /// full beard's is high, a goatee's or a chin beard's lower.
+    pub beard_jaw: f32,
     /// Share of the upper lip's region that is moustache, 0..1.
     pub moustache: f32,
     /// The labelled canvas, for pictures and measurement.
@@ -64,9 +72,9 @@ pub struct Person {
 }
 
 impl Person {
-    /// Whether a beard is carved (more than half the chin).
+    /// Whether a beard is carved (more than [`BEARD_SHARE`] of the chin).
     pub fn has_beard(&self) -> bool {
-        self.beard > 0.5
+        self.beard > BEARD_SHARE
     }
     /// Whether a moustache is carved.
     pub fn has_moustache(&self) -> bool {
@@ -392,23 +400,30 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
     };
 
     // Seeds.
-    let skin_seed: Vec<Colour> = (0..w * h)
+    // Skin: the nose and the cheeks beside it, above the nose's base (a beard may grow up the
+    // cheeks to there) and clear of the face's sides (long hair may hang over them); the
+    // darkest (nostrils, a beard's upper edge, shadow beside the nose) left out.
+    let nose_base = head[33][1].min(lip_top - 0.08);
+    let mut skin_seed: Vec<Colour> = (0..w * h)
         .filter(|&i| {
             let p = pos(i);
-            // Cheeks and nose, clear of the face's sides (long hair may hang over them).
-            valid[i]
-                && in_face[i]
-                && p[1] > 0.3
-                && p[1] < lip_top - 0.08
-                && p[0].abs() < 0.75 * half
+            valid[i] && in_face[i] && p[1] > 0.3 && p[1] < nose_base && p[0].abs() < 0.6 * half
         })
         .map(|i| col[i])
         .collect();
+    let mut ls: Vec<f32> = skin_seed.iter().map(|c| c[0]).collect();
+    ls.sort_by(f32::total_cmp);
+    if let Some(&median) = ls.get(ls.len() / 2) {
+        skin_seed.retain(|c| c[0] > 0.7 * median);
+    }
     let skin0 = Gmm::fit(&skin_seed, 2);
     let bg_seed: Vec<Colour> = (0..w * h)
         .filter(|&i| {
             let p = pos(i);
-            valid[i] && (border[i] && p[1] < chin || skull(p) > 2.1 && p[1] < 0.5 * chin)
+            // The photo's edges away from the head (a tight crop cuts through the hair).
+            valid[i]
+                && (border[i] && p[1] < chin && skull(p) > 1.5
+                    || skull(p) > 2.1 && p[1] < 0.5 * chin)
         })
         .map(|i| col[i])
         .collect();
@@ -547,33 +562,51 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
         }
     }
 
-    let chin_poly: Vec<[f32; 2]> = (4..=12)
+    // Facial hair: a region's share of pixels that are hair-labelled, darker than the skin
+    // (0.72 of its median lightness) or greyer (under half its median chroma per lightness):
+    // stubble, dark beards and grey or white ones alike. Regions clear of the lips' edges and
+    // the nostrils, whose shadows are dark on every face.
+    let median = |mut v: Vec<f32>| {
+        v.sort_by(f32::total_cmp);
+        v.get(v.len() / 2).copied()
+    };
+    let chroma = |c: Colour| c[1].hypot(c[2]) / c[0].max(0.02);
+    let skin_l = median(skin_seed.iter().map(|c| c[0]).collect()).unwrap_or(0.5);
+    let skin_chroma = median(skin_seed.iter().map(|c| chroma(*c)).collect()).unwrap_or(0.1);
+    let facial_hair = |i: usize| {
+        labels[i] == Label::Hair || col[i][0] < 0.72 * skin_l || chroma(col[i]) < 0.5 * skin_chroma
+    };
+    let share = |poly: &[[f32; 2]]| {
+        let (mut n, mut hair) = (0usize, 0usize);
+        for i in (0..w * h).filter(|&i| valid[i] && inside(poly, pos(i))) {
+            n += 1;
+            hair += usize::from(facial_hair(i));
+        }
+        if n == 0 { 0.0 } else { hair as f32 / n as f32 }
+    };
+    let toward =
+        |a: [f32; 2], b: [f32; 2], t: f32| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+    // The chin below the lower lip (its top a third of the way down to the chin, below the
+    // shadow under the lip), between the jaw's points beside the chin.
+    let below_lip = |k: usize| [head[k][0], toward(head[k], head[8], 0.3)[1]];
+    let chin_poly: Vec<[f32; 2]> = [59, 58, 57, 56, 55]
+        .into_iter()
+        .map(below_lip)
+        .chain([10, 9, 8, 7, 6].map(|k| head[k]))
+        .collect();
+    // The jaw: from below the cheekbones round the chin, under the mouth.
+    let jaw_poly: Vec<[f32; 2]> = (4..=12)
         .chain([54, 55, 56, 57, 58, 59, 48])
         .map(|k| head[k])
         .collect();
-    let lip_poly: Vec<[f32; 2]> = [48, 31, 32, 33, 34, 35, 54, 53, 52, 51, 50, 49]
-        .iter()
-        .map(|&k| head[k])
+    // The upper lip between the nose's base and the lip, its top clear of the nostrils.
+    let lip_poly: Vec<[f32; 2]> = [48, 49, 50, 51, 52, 53, 54]
+        .map(|k| toward(head[k], head[33], 0.15))
+        .into_iter()
+        .chain([35, 34, 33, 32, 31].map(|k| toward(head[k], head[51], 0.35)))
         .collect();
-    let skin_l = mean_of(&skin_seed)[0];
-    let share = |poly: &[[f32; 2]]| {
-        let px: Vec<usize> = (0..w * h)
-            .filter(|&i| valid[i] && inside(poly, pos(i)))
-            .collect();
-        if px.is_empty() {
-            return 0.0;
-        }
-        let dark = px
-            .iter()
-            .filter(|&&i| {
-                labels[i] == Label::Hair
-                    || (col[i][0] < 0.75 * skin_l
-                        && skin.as_ref().is_some_and(|g| g.d2(col[i]) > 16.0))
-            })
-            .count();
-        dark as f32 / px.len() as f32
-    };
     let beard = share(&chin_poly);
+    let beard_jaw = share(&jaw_poly);
     let moustache = share(&lip_poly);
 
     // Hair over less than a third of the crown: a bald head (perhaps with a fringe of hair
@@ -585,6 +618,7 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
     Ok(Person {
         hair: hair_traits,
         beard,
+        beard_jaw,
         moustache,
         labels: Labels {
             width: w,

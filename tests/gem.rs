@@ -412,3 +412,130 @@ fn bad_input_is_an_error() {
     let bogus = vec![[0u32, 1, 99_999]];
     assert!(gem::build_relief(&m.instance(&[], &[]), &bogus, &CameoParams::default()).is_ok());
 }
+
+/// Facial hair on the mean face: a beard moves the chin out by its thickness and leaves nose,
+/// eyes and lips where they were; a chin beard leaves the jaw's angle alone, a full beard moves
+/// it; a moustache moves the upper lip and not the chin; without facial hair, or on a mesh of
+/// another topology, nothing is made.
+#[test]
+fn facial_hair_grows_where_a_beard_and_a_moustache_grow() {
+    use gem::face::facial_hair;
+    let m = model();
+    let mean = m.instance(&[], &[]);
+    let tri = &m.shape.triangles;
+    let moved = |f: &gem::face::FacialHair, v: usize| {
+        (0..3)
+            .map(|k| (f.positions[3 * v + k] - mean[3 * v + k]).powi(2))
+            .sum::<f32>()
+            .sqrt()
+    };
+    // Chin 33, nose tip 114, an eye's corner 177, lower lip middle 411 (its lower edge: the
+    // beard starts just below), upper lip top 329, the jaw's angle 805 / 391, and the upper
+    // lip's middle: the vertex nearest the midpoint of the nose's base (270) and the lip's top.
+    let mid = [
+        0.0,
+        0.5 * (mean[3 * 270 + 1] + mean[3 * 329 + 1]),
+        0.5 * (mean[3 * 270 + 2] + mean[3 * 329 + 2]),
+    ];
+    let philtrum = (0..mean.len() / 3)
+        .min_by(|&a, &b| {
+            let d = |v: usize| {
+                (0..3)
+                    .map(|k| (mean[3 * v + k] - mid[k]).powi(2))
+                    .sum::<f32>()
+            };
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap();
+    let none = gem::HairStyle::default();
+    assert!(facial_hair(&mean, tri, &none).is_none());
+    let chin_beard = gem::HairStyle {
+        beard: 8.0,
+        beard_jaw: 0.0,
+        ..none
+    };
+    let full = gem::HairStyle {
+        beard_jaw: 1.0,
+        ..chin_beard
+    };
+    let c = facial_hair(&mean, tri, &chin_beard).expect("a chin beard");
+    let f = facial_hair(&mean, tri, &full).expect("a full beard");
+    for (name, hair) in [("chin", &c), ("full", &f)] {
+        assert!(
+            (moved(hair, 33) - 8.0).abs() < 0.5,
+            "{name}: chin moved {}",
+            moved(hair, 33)
+        );
+        assert!((hair.thickness[33] - 8.0).abs() < 0.5);
+        for v in [114, 177, 329, philtrum] {
+            assert!(
+                moved(hair, v) < 1e-4,
+                "{name}: vertex {v} moved {}",
+                moved(hair, v)
+            );
+        }
+        assert!(
+            moved(hair, 411) < 2.0,
+            "{name}: lower lip moved {}",
+            moved(hair, 411)
+        );
+    }
+    for v in [805, 391] {
+        assert!(
+            moved(&c, v) < 0.5,
+            "chin beard moved the jaw's angle {v}: {}",
+            moved(&c, v)
+        );
+        assert!(
+            moved(&f, v) > 6.0,
+            "full beard left the jaw's angle {v}: {}",
+            moved(&f, v)
+        );
+    }
+    let moustache = gem::HairStyle {
+        moustache: 3.0,
+        ..none
+    };
+    let mo = facial_hair(&mean, tri, &moustache).expect("a moustache");
+    assert!(
+        moved(&mo, philtrum) > 2.5,
+        "upper lip moved {}",
+        moved(&mo, philtrum)
+    );
+    assert!(moved(&mo, 33) < 1e-4 && moved(&mo, 114) < 1e-4);
+    // Another topology: no landmarks to grow it on.
+    assert!(facial_hair(&mean[..mean.len() - 3], tri, &full).is_none());
+
+    // On the stone: the bearded profile's chin stands out further, in the hair layer; the
+    // brow is the same.
+    let builder = |hair| {
+        gem::CameoBuilder::new(&CameoParams {
+            hair,
+            ..CameoParams::default()
+        })
+        .unwrap()
+    };
+    let shaven = builder(none).relief(&mean, tri).unwrap();
+    let bearded = builder(full).relief(&mean, tri).unwrap();
+    save_relief(&bearded, "relief-bearded.png");
+    let at = |r: &gem::Relief, v: usize| {
+        let g = r.model_to_gem([mean[3 * v], mean[3 * v + 1], mean[3 * v + 2]]);
+        let col = ((g[0] - r.origin[0]) / r.cell).round() as usize;
+        let row = ((g[1] - r.origin[1]) / r.cell).round() as usize;
+        row * r.cols + col
+    };
+    // The jaw's angle, on the near side (the beard stands on it).
+    let jaw = at(&shaven, 805);
+    assert!(
+        bearded.height[jaw] > shaven.height[jaw] + 0.05,
+        "jaw {} vs {}",
+        bearded.height[jaw],
+        shaven.height[jaw]
+    );
+    assert!(bearded.hair[jaw] > 0.5, "hair layer {}", bearded.hair[jaw]);
+    let brow = at(&shaven, 2842);
+    assert!(shaven.hair[brow] == 0.0 && bearded.hair[brow] == 0.0);
+    let covered = |r: &gem::Relief| r.portrait.iter().filter(|&&c| c > 0.0).count();
+    // The chin's outline moves out: the portrait covers more of the stone.
+    assert!(covered(&bearded) > covered(&shaven));
+}

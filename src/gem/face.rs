@@ -246,6 +246,135 @@ fn place_by_box(positions: &[f32], view: View) -> Placement {
     }
 }
 
+/// Surrey vertices (0-based) that bound facial hair, from `ibug_to_sfm.txt`: mouth corners
+/// (iBUG 49 right, 55 left), the nose's base (34), the upper lip's top (52), the lower lip's
+/// bottom (58), the chin (9); and the tragus (outline vertices 363 right, 780 left).
+const MOUTH_CORNERS: [usize; 2] = [398, 812];
+const SUBNASALE: usize = 270;
+const UPPER_LIP_TOP: usize = 329;
+const LOWER_LIP_BOTTOM: usize = 411;
+const TRAGI: [usize; 2] = [363, 780];
+
+/// A face with its facial hair: each vertex moved out along its normal by the hair's
+/// thickness there, and that thickness per vertex (model mm), for the carving of its locks.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FacialHair {
+    pub positions: Vec<f32>,
+    pub thickness: Vec<f32>,
+}
+
+/// Where a beard and a moustache grow on a Surrey face and how thick they stand, from the
+/// face's own mouth, lips, nose and ears (model mm; the face as fitted, pose removed, so its
+/// axes are the model's: x to the face's left, y up, z forward). The beard covers the chin
+/// below the lower lip and, by `style.beard_jaw`, the jaw and cheeks up to a line from above
+/// the mouth's corners to the sideburns; the moustache the upper lip between the nose and the
+/// lip. Edges fade over about 5 mm, as a carver rounds them. `None` for other meshes or when
+/// there is no facial hair.
+pub fn facial_hair(
+    positions: &[f32],
+    triangles: &[[u32; 3]],
+    style: &super::HairStyle,
+) -> Option<FacialHair> {
+    let beard = style.beard.max(0.0);
+    let moustache = style.moustache.max(0.0);
+    if positions.len() != 3 * SFM_VERTICES || beard + moustache <= 0.0 {
+        return None;
+    }
+    let [right, left] = MOUTH_CORNERS.map(|i| vertex(positions, i));
+    let [tragus_r, tragus_l] = TRAGI.map(|i| vertex(positions, i));
+    let (right, left, tragus_r, tragus_l) = (right?, left?, tragus_r?, tragus_l?);
+    let nose = vertex(positions, SUBNASALE)?;
+    let lip_top = vertex(positions, UPPER_LIP_TOP)?[1];
+    let lip_bottom = vertex(positions, LOWER_LIP_BOTTOM)?[1];
+    let jaw = style.beard_jaw.clamp(0.0, 1.0);
+    let smooth = super::template::smoothstep;
+    let weights = |p: [f32; 3]| -> (f32, f32) {
+        let (corner, tragus) = if p[0] < 0.0 {
+            (right, tragus_r)
+        } else {
+            (left, tragus_l)
+        };
+        let (ax, cx, tx) = (p[0].abs(), corner[0].abs(), tragus[0].abs());
+        // Below the lower lip, across the chin (a goatee reaches a little past the corners).
+        let chin = (1.0 - smooth(lip_bottom - 7.0, lip_bottom - 2.0, p[1]))
+            * (1.0 - smooth(cx + 2.0, cx + 12.0, ax));
+        // A full beard: below the line from above the mouth's corner to the sideburn, in
+        // front of the ear.
+        let t = ((ax - cx) / (tx - cx).max(1.0)).clamp(0.0, 1.0);
+        let top = corner[1] + 8.0 + t * (tragus[1] + 2.0 - corner[1] - 8.0);
+        let cheeks = (1.0 - smooth(top - 6.0, top, p[1]))
+            * smooth(cx - 4.0, cx + 4.0, ax)
+            * (1.0 - smooth(tragus[2] + 4.0, tragus[2] - 4.0, p[2]).min(smooth(tx - 6.0, tx, ax)));
+        let b = chin.max(jaw * cheeks);
+        // The upper lip: between the lip and the nose's base, out to the corners.
+        let m = smooth(lip_top - 2.0, lip_top + 1.0, p[1])
+            * (1.0 - smooth(nose[1] - 5.0, nose[1] - 1.0, p[1]))
+            * (1.0 - smooth(cx, cx + 5.0, ax));
+        (b, m)
+    };
+    let normals = vertex_normals(positions, triangles);
+    let mut out = positions.to_vec();
+    let mut thickness = vec![0f32; SFM_VERTICES];
+    for v in 0..SFM_VERTICES {
+        let Some(p) = vertex(positions, v) else {
+            continue;
+        };
+        let (b, m) = weights(p);
+        let t = (beard * b).max(moustache * m);
+        if t > 0.0 {
+            thickness[v] = t;
+            for k in 0..3 {
+                out[3 * v + k] += t * normals[v][k];
+            }
+        }
+    }
+    Some(FacialHair {
+        positions: out,
+        thickness,
+    })
+}
+
+/// Unit vertex normals, the area-weighted mean of the normals of the triangles around each
+/// vertex (counter-clockwise seen from outside: outward). Zero where none is defined.
+pub fn vertex_normals(positions: &[f32], triangles: &[[u32; 3]]) -> Vec<[f32; 3]> {
+    let n = positions.len() / 3;
+    let mut acc = vec![[0f32; 3]; n];
+    for t in triangles {
+        let ids = t.map(|i| i as usize);
+        if ids.iter().any(|&i| i >= n) {
+            continue;
+        }
+        let p = ids.map(|i| [positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]]);
+        let (a, b) = (
+            [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]],
+            [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]],
+        );
+        let c = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
+        if !c.iter().all(|v| v.is_finite()) {
+            continue;
+        }
+        for &i in &ids {
+            for k in 0..3 {
+                acc[i][k] += c[k];
+            }
+        }
+    }
+    acc.into_iter()
+        .map(|c| {
+            let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+            if l > 1e-12 {
+                c.map(|v| v / l)
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect()
+}
+
 /// An eye as the cutter shapes it, in the canonical plane: an almond from `front` to `back`
 /// (u), centred at height `centre` (v), opening `upper` above and `lower` below, with `mirror`
 /// set when it runs towards decreasing u.

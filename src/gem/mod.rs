@@ -208,10 +208,32 @@ const EYES_V: f32 = 30.0;
 /// length (below the nape it falls behind the neck and over the shoulders); its locks from its
 /// curl (straight hair in long locks, curls in short ones).
 pub fn hair_style(person: &crate::person::Person) -> HairStyle {
+    let smooth = template::smoothstep;
+    // Facial hair: a beard as thick as it is full (3 mm of stubble-length beard on a chin
+    // alone, 12 mm when it covers the whole jaw densely), a moustache a little thinner.
+    let (beard, beard_jaw) = if person.has_beard() {
+        (
+            3.0 + 9.0 * smooth(0.6, 0.95, person.beard_jaw),
+            smooth(0.4, 0.8, person.beard_jaw),
+        )
+    } else {
+        (0.0, 0.0)
+    };
+    let moustache = if person.has_moustache() {
+        2.0 + 0.2 * beard
+    } else {
+        0.0
+    };
+    let facial = HairStyle {
+        beard,
+        beard_jaw,
+        moustache,
+        ..HairStyle::default()
+    };
     let Some(h) = person.hair else {
         return HairStyle {
             bald: true,
-            ..HairStyle::default()
+            ..facial
         };
     };
     let stand = h.top.max(0.7 * h.sides);
@@ -220,6 +242,7 @@ pub fn hair_style(person: &crate::person::Person) -> HairStyle {
         volume: (3.0 + 0.75 * FACE_LENGTH_MM * stand).clamp(3.0, 32.0),
         end: (EYES_V - h.length * FACE_LENGTH_MM).clamp(-290.0, -20.0),
         curl: (0.15 + 0.85 * h.curl).clamp(0.0, 1.0),
+        ..facial
     }
 }
 
@@ -373,8 +396,12 @@ impl CameoBuilder {
         let n = cols * rows;
         let view = p.view;
         let placement = face::place(positions, view);
+        // The beard and moustache stand on the face (placed by the face's own shape: a full
+        // beard does not make a smaller face).
+        let bearded = face::facial_hair(positions, triangles, &p.hair);
+        let surface = bearded.as_ref().map_or(positions, |f| &f.positions[..]);
         // Face vertices -> grid coordinates and canonical height.
-        let points: Vec<Option<[f32; 3]>> = positions
+        let points: Vec<Option<[f32; 3]>> = surface
             .chunks_exact(3)
             .map(|v| {
                 let c = placement.to_canonical(view, [v[0], v[1], v[2]]);
@@ -383,7 +410,14 @@ impl CameoBuilder {
                 g.iter().all(|c| c.is_finite()).then_some(g)
             })
             .collect();
-        let raw = relief::rasterise(&points, triangles, cols, rows);
+        // The facial hair's thickness per node (empty without any).
+        let (raw, fuzz) = match &bearded {
+            Some(f) => relief::rasterise_attribute(&points, triangles, &f.thickness, cols, rows),
+            None => (
+                relief::rasterise(&points, triangles, cols, rows),
+                Vec::new(),
+            ),
+        };
         let face: Vec<bool> = (0..n)
             .map(|i| raw[i].is_finite() && self.allowed[i])
             .collect();
@@ -462,12 +496,20 @@ impl CameoBuilder {
             if share > 0.0 {
                 let [u, v] = canonical(i);
                 let carved: f32 = eyes.iter().map(|e| e.carve(u, v)).sum();
-                let f = (smooth[i] + carved).max(0.0);
+                // Facial hair carved in locks, as deep as it is thick (up to 4 mm).
+                let thick = fuzz.get(i).copied().unwrap_or(0.0);
+                let locks = if thick > 0.05 {
+                    (thick / 4.0).min(1.0) * template::beard_locks(u, v, p.hair.curl)
+                } else {
+                    0.0
+                };
+                let f = (smooth[i] + carved + locks).max(0.0);
                 if face[i] {
                     face_height[i] = f;
                 }
                 portrait[i] = share * f + (1.0 - share) * head_height;
-                hair[i] = (1.0 - share) * head.hair[i];
+                hair[i] =
+                    (1.0 - share) * head.hair[i] + share * template::smoothstep(0.5, 2.0, thick);
                 mask[i] = true;
             } else if head_here {
                 portrait[i] = head_height;

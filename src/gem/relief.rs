@@ -28,7 +28,37 @@ pub fn rasterise(
     cols: usize,
     rows: usize,
 ) -> Vec<f32> {
+    rasterise_with(points, triangles, None, cols, rows).0
+}
+
+/// [`rasterise`], and a per-vertex attribute interpolated on the surface it keeps (0 where
+/// no triangle covers a node, or a vertex has no value).
+pub fn rasterise_attribute(
+    points: &[Option<[f32; 3]>],
+    triangles: &[[u32; 3]],
+    attribute: &[f32],
+    cols: usize,
+    rows: usize,
+) -> (Vec<f32>, Vec<f32>) {
+    rasterise_with(points, triangles, Some(attribute), cols, rows)
+}
+
+fn rasterise_with(
+    points: &[Option<[f32; 3]>],
+    triangles: &[[u32; 3]],
+    attribute: Option<&[f32]>,
+    cols: usize,
+    rows: usize,
+) -> (Vec<f32>, Vec<f32>) {
     let mut h = vec![f32::NAN; cols * rows];
+    let mut values = vec![0f32; if attribute.is_some() { cols * rows } else { 0 }];
+    let value = |i: u32| {
+        attribute
+            .and_then(|a| a.get(i as usize))
+            .copied()
+            .filter(|v| v.is_finite())
+            .unwrap_or(0.0)
+    };
     for t in triangles {
         let Some(([a, b, c], area)) = near_triangle(points, t) else {
             continue;
@@ -59,12 +89,16 @@ pub fn rasterise(
                     let cell = &mut h[y * cols + x];
                     if !(cell.is_finite() && *cell >= z) {
                         *cell = z;
+                        if attribute.is_some() {
+                            values[y * cols + x] =
+                                w0 * value(t[0]) + w1 * value(t[1]) + w2 * value(t[2]);
+                        }
                     }
                 }
             }
         }
     }
-    h
+    (h, values)
 }
 
 /// Sub-samples per node side for [`coverage`].

@@ -66,6 +66,14 @@ pub struct HairStyle {
     pub end: f32,
     /// 0 straight (long parallel locks) .. 1 tight curls (short locks in narrow rows).
     pub curl: f32,
+    /// How thick the beard stands over the chin, mm (0: none; carved on the face by
+    /// [`super::face::facial_hair`]).
+    pub beard: f32,
+    /// How far the beard reaches: 0 the chin below the lip only, 1 the jaw and cheeks up to
+    /// the sideburns.
+    pub beard_jaw: f32,
+    /// How thick the moustache stands, mm (0: none).
+    pub moustache: f32,
 }
 
 impl Default for HairStyle {
@@ -75,6 +83,9 @@ impl Default for HairStyle {
             volume: 11.0,
             end: -45.0,
             curl: 0.5,
+            beard: 0.0,
+            beard_jaw: 0.0,
+            moustache: 0.0,
         }
     }
 }
@@ -210,6 +221,18 @@ fn swept_locks(
     let j = a.floor();
     let t = a - j;
     lock(s, t, hash2(row as i32, j as i32))
+}
+
+/// A beard's or moustache's locks at canonical (u, v), mm (about -0.8..2 around 0): rows of
+/// short locks hanging down, narrower and shorter the curlier the hair (`curl` as
+/// [`HairStyle::curl`]).
+pub fn beard_locks(u: f32, v: f32, curl: f32) -> f32 {
+    let c = curl.clamp(0.0, 1.0);
+    let (width, length, wave) = (7.0 - 3.0 * c, 16.0 - 8.0 * c, 0.5 + 2.0 * c);
+    let s = (u + wave * (v / 6.0).sin()) / width;
+    let row = s.floor();
+    let t = -v / length + hash2(row as i32, 23);
+    0.4 * lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32))
 }
 
 /// The template at canonical point (u, v).
@@ -633,12 +656,14 @@ mod tests {
                 volume: 32.0,
                 end: -290.0,
                 curl: 1.0,
+                ..HairStyle::default()
             },
             HairStyle {
                 bald: false,
                 volume: 3.0,
                 end: -120.0,
                 curl: 0.0,
+                ..HairStyle::default()
             },
         ];
         for style in &styles {
