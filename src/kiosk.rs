@@ -99,6 +99,9 @@ pub struct KioskConfig {
     pub lamp: bool,
     /// Agate: the hair cut from a third, brown layer.
     pub hair_layer: bool,
+    /// The visitor's own hair, beard and moustache, read from the camera (off: the classical
+    /// hair for everyone).
+    pub visitor_hair: bool,
     /// Window size when not full-screen, logical pixels.
     pub width: u32,
     pub height: u32,
@@ -122,6 +125,7 @@ impl Default for KioskConfig {
             engraving: false,
             lamp: false,
             hair_layer: true,
+            visitor_hair: true,
             width: 800,
             height: 1000,
             render_scale: 1.0,

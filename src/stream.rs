@@ -10,6 +10,11 @@
 //! With a [`CameoBuilder`] the face thread also rebuilds the cameo mesh after each fit (stage
 //! "gem"), so the render thread only draws: it never builds geometry.
 //!
+//! With [`StreamOptions::hair`] a person thread reads the visitor's hair, beard and moustache
+//! ([`crate::person`]) from the newest frame with a face whenever it is free (one frame at a
+//! time: it never holds up the face thread), and [`HairSmoother`] settles what it finds, so a
+//! new hairstyle reaches the updates ([`FaceUpdate::hair`]) only when several frames agree.
+//!
 //! Units: milliseconds for stage times and latency, seconds for frame times.
 
 use std::sync::Arc;
@@ -17,8 +22,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use std::collections::VecDeque;
+
+use image::RgbImage;
+
 use crate::capture::{Capture, CaptureEvent, CaptureSummary, Frame, LatestReceiver, latest};
-use crate::gem::CameoBuilder;
+use crate::gem::{CameoBuilder, CameoParams, HairStyle};
 use crate::pipeline::Stage;
 use crate::render::Mesh;
 use crate::track::{TrackStep, TrackedFace, Tracker};
@@ -38,6 +47,154 @@ pub struct FaceUpdate {
     /// Why there is no face (or why the track was lost on this frame).
     pub note: Option<String>,
     pub stages: Vec<Stage>,
+    /// The visitor's hair as the person thread has settled it (with [`StreamOptions::hair`],
+    /// once some frames have been read; on every update with a face from then on).
+    pub hair: Option<HairStyle>,
+}
+
+/// Settles the hair styles read from a stream of frames: a style is taken when most of the
+/// last [`HairSmoother::WINDOW`] readings agree on bald or not, beard or not and moustache or
+/// not, its sizes the median of the readings that agree; and it replaces the one in use only
+/// when it differs visibly (so the cameo is not rebuilt for noise).
+#[derive(Clone, Debug, Default)]
+pub struct HairSmoother {
+    readings: VecDeque<HairStyle>,
+    settled: Option<HairStyle>,
+}
+
+impl HairSmoother {
+    /// Readings weighed together.
+    pub const WINDOW: usize = 5;
+    /// Readings needed before a first style.
+    pub const FIRST: usize = 3;
+
+    /// Forgets the readings (a new visitor).
+    pub fn reset(&mut self) {
+        self.readings.clear();
+        self.settled = None;
+    }
+
+    /// The style in use.
+    pub fn settled(&self) -> Option<HairStyle> {
+        self.settled
+    }
+
+    /// Adds a reading; returns the new style when the one in use changes.
+    pub fn push(&mut self, style: HairStyle) -> Option<HairStyle> {
+        let finite = [
+            style.volume,
+            style.end,
+            style.curl,
+            style.beard,
+            style.beard_jaw,
+            style.moustache,
+        ]
+        .iter()
+        .all(|v| v.is_finite());
+        if !finite {
+            return None;
+        }
+        if self.readings.len() == Self::WINDOW {
+            self.readings.pop_front();
+        }
+        self.readings.push_back(style);
+        if self.readings.len() < Self::FIRST {
+            return None;
+        }
+        let n = self.readings.len();
+        let most =
+            |f: &dyn Fn(&HairStyle) -> bool| 2 * self.readings.iter().filter(|s| f(s)).count() > n;
+        let bald = most(&|s| s.bald);
+        let beard = most(&|s| s.beard > 0.0);
+        let moustache = most(&|s| s.moustache > 0.0);
+        let median = |keep: &dyn Fn(&HairStyle) -> bool, get: &dyn Fn(&HairStyle) -> f32| {
+            let mut v: Vec<f32> = self.readings.iter().filter(|s| keep(s)).map(get).collect();
+            v.sort_by(f32::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(0.0)
+        };
+        let scalp = |s: &HairStyle| s.bald == bald;
+        let bearded = |s: &HairStyle| (s.beard > 0.0) == beard;
+        let new = HairStyle {
+            bald,
+            volume: median(&scalp, &|s| s.volume),
+            end: median(&scalp, &|s| s.end),
+            curl: median(&scalp, &|s| s.curl),
+            beard: if beard {
+                median(&bearded, &|s| s.beard)
+            } else {
+                0.0
+            },
+            beard_jaw: if beard {
+                median(&bearded, &|s| s.beard_jaw)
+            } else {
+                0.0
+            },
+            moustache: if moustache {
+                median(&|s| s.moustache > 0.0, &|s| s.moustache)
+            } else {
+                0.0
+            },
+        };
+        let visible = |a: &HairStyle, b: &HairStyle| {
+            a.bald != b.bald
+                || (a.beard > 0.0) != (b.beard > 0.0)
+                || (a.moustache > 0.0) != (b.moustache > 0.0)
+                || (a.volume - b.volume).abs() > 3.0
+                || (a.end - b.end).abs() > 15.0
+                || (a.curl - b.curl).abs() > 0.2
+                || (a.beard - b.beard).abs() > 2.0
+                || (a.beard_jaw - b.beard_jaw).abs() > 0.25
+                || (a.moustache - b.moustache).abs() > 1.5
+        };
+        if self.settled.is_none_or(|old| visible(&old, &new)) {
+            self.settled = Some(new);
+            return Some(new);
+        }
+        None
+    }
+}
+
+/// What the face thread does besides tracking.
+#[derive(Clone, Debug, Default)]
+pub struct StreamOptions {
+    /// Build each fitted face's cameo with this builder (stage "gem").
+    pub builder: Option<CameoBuilder>,
+    /// Read the visitor's hair on a person thread ([`FaceUpdate::hair`]); with a builder, the
+    /// cameo then carries it.
+    pub hair: bool,
+}
+
+/// The person thread: reads hair from frames handed to it one at a time.
+struct PersonWorker {
+    jobs: crate::capture::LatestSender<(Arc<RgbImage>, Vec<[f32; 2]>)>,
+    results: LatestReceiver<Option<HairStyle>>,
+    busy: bool,
+}
+
+impl PersonWorker {
+    fn spawn() -> Option<Self> {
+        let (jobs, inbox) = latest::<(Arc<RgbImage>, Vec<[f32; 2]>)>();
+        let (send, results) = latest();
+        std::thread::Builder::new()
+            .name("person".into())
+            .spawn(move || {
+                while let Ok((image, landmarks)) = inbox.recv() {
+                    // A frame the person cannot be read from is no reading.
+                    let style = crate::person::analyse(&image, &landmarks)
+                        .ok()
+                        .map(|p| crate::gem::hair_style(&p));
+                    if send.send(style).is_err() {
+                        return;
+                    }
+                }
+            })
+            .ok()?;
+        Some(PersonWorker {
+            jobs,
+            results,
+            busy: false,
+        })
+    }
 }
 
 impl FaceUpdate {
@@ -56,6 +213,7 @@ impl FaceUpdate {
             gem: None,
             note,
             stages: step.stages,
+            hair: None,
         }
     }
 }
@@ -138,6 +296,19 @@ impl FaceStream {
         tracker: Tracker,
         builder: Option<CameoBuilder>,
     ) -> FaceStream {
+        Self::spawn_with(
+            capture,
+            tracker,
+            StreamOptions {
+                builder,
+                hair: false,
+            },
+        )
+    }
+
+    /// [`FaceStream::spawn`] with the given [`StreamOptions`].
+    pub fn spawn_with(capture: Capture, tracker: Tracker, options: StreamOptions) -> FaceStream {
+        let StreamOptions { mut builder, hair } = options;
         let (tx, updates) = latest();
         let (etx, events) = crossbeam_channel::bounded(256);
         let stop = Arc::new(AtomicBool::new(false));
@@ -149,6 +320,9 @@ impl FaceStream {
                 let mut summary = StreamSummary::default();
                 let mut warm = Vec::new();
                 let detections_before = tracker.detections();
+                let mut person = if hair { PersonWorker::spawn() } else { None };
+                let mut smoother = HairSmoother::default();
+                let mut had_face = false;
                 while !flag.load(Ordering::Relaxed) {
                     for e in capture.events().try_iter() {
                         let _ = etx.try_send(StreamEvent::Capture(e));
@@ -163,6 +337,35 @@ impl FaceStream {
                         Ok(step) => {
                             summary.with_face += u64::from(step.face.is_some());
                             let mut update = FaceUpdate::new(&frame, step);
+                            let found = update.face.is_some();
+                            if let (Some(worker), Some(face)) = (&mut person, &update.face) {
+                                // A face found after none: perhaps a new visitor, whose hair is
+                                // read afresh (as the tracker starts a new identity).
+                                if !had_face {
+                                    smoother.reset();
+                                }
+                                if let Ok(Some(reading)) = worker.results.try_recv() {
+                                    worker.busy = false;
+                                    let changed = reading.and_then(|s| smoother.push(s));
+                                    if let (Some(style), Some(b)) = (changed, &builder) {
+                                        let params = CameoParams {
+                                            hair: style,
+                                            ..b.params().clone()
+                                        };
+                                        if let Ok(nb) = CameoBuilder::new(&params) {
+                                            builder = Some(nb);
+                                        }
+                                    }
+                                }
+                                if !worker.busy {
+                                    worker.busy = worker
+                                        .jobs
+                                        .send((frame.image.clone(), face.landmarks.clone()))
+                                        .is_ok();
+                                }
+                                update.hair = smoother.settled();
+                            }
+                            had_face = found;
                             if let Some(b) = &builder {
                                 update.build_gem(b, tracker.triangles(), &mut warm);
                             }
@@ -183,6 +386,7 @@ impl FaceStream {
                                 gem: None,
                                 note: Some(e.to_string()),
                                 stages: Vec::new(),
+                                hair: None,
                             }
                         }
                     };
@@ -229,5 +433,50 @@ impl Drop for FaceStream {
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn style(beard: f32, volume: f32) -> HairStyle {
+        HairStyle {
+            beard,
+            beard_jaw: if beard > 0.0 { 1.0 } else { 0.0 },
+            volume,
+            ..HairStyle::default()
+        }
+    }
+
+    /// A first style after three readings; one odd reading in five changes nothing; a change
+    /// most readings agree on is taken; noise below what shows is not; NaN readings are
+    /// ignored; a reset starts over.
+    #[test]
+    fn hair_settles_on_what_most_readings_agree_on() {
+        let mut s = HairSmoother::default();
+        assert_eq!(s.push(style(8.0, 11.0)), None);
+        assert_eq!(s.push(style(8.0, 12.0)), None);
+        let first = s.push(style(0.0, 11.5)).expect("three readings");
+        assert_eq!(first.beard, 8.0, "two bearded of three");
+        assert_eq!(first.volume, 11.5);
+        // Noise and a single shaven reading: nothing to rebuild.
+        assert_eq!(s.push(style(8.5, 12.5)), None);
+        assert_eq!(s.push(style(0.0, 11.0)), None);
+        assert_eq!(s.settled(), Some(first));
+        // The beard goes (the visitor turned, or it was never there): taken once most of the
+        // last five agree (8, 0, 8.5, 0, 0).
+        let shaven = s.push(style(0.0, 11.0)).expect("three shaven of five");
+        assert_eq!((shaven.beard, shaven.beard_jaw), (0.0, 0.0));
+        // Big hair: the volume's median moves past 3 mm.
+        let mut big = None;
+        for _ in 0..3 {
+            big = big.or(s.push(style(0.0, 25.0)));
+        }
+        assert!(big.is_some_and(|b| b.volume == 25.0), "{big:?}");
+        assert_eq!(s.push(style(f32::NAN, 11.0)), None);
+        s.reset();
+        assert_eq!(s.settled(), None);
+        assert_eq!(s.push(style(0.0, 11.0)), None);
     }
 }

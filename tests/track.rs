@@ -284,3 +284,57 @@ fn the_face_thread_hands_over_a_built_cameo() {
         "{with_gem} with a gem, {without} without"
     );
 }
+
+/// The kiosk's live hair: with `StreamOptions::hair` a person thread reads the visitor's beard
+/// from the frames (breakingbad: a goatee; his moustache is on the threshold at this size), the
+/// readings are settled, and the updates carry them. The face thread does not wait for it: the first updates
+/// with a face come before any hair is settled (that takes several readings).
+#[test]
+fn the_face_thread_reads_the_visitors_beard_without_waiting() {
+    use glyptic::capture::{Capture, CaptureOptions, MemorySource};
+    use glyptic::stream::{FaceStream, HairSmoother, StreamOptions};
+    let (still, _, _) = common::framed("breakingbad.jpg", 640, 480);
+    let frames: Vec<image::RgbImage> = (0..90).map(|_| still.clone()).collect();
+    let tracker = tracker(TrackOptions::default());
+    let builder = glyptic::gem::CameoBuilder::new(&Default::default()).expect("builder");
+    let capture = Capture::spawn(
+        move || Box::new(MemorySource::new("breakingbad", frames, FPS)),
+        CaptureOptions::default(),
+    );
+    let stream = FaceStream::spawn_with(
+        capture,
+        tracker,
+        StreamOptions {
+            builder: Some(builder),
+            hair: true,
+        },
+    );
+    let (mut before_hair, mut hair) = (0, None);
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while std::time::Instant::now() < deadline && hair.is_none() {
+        match stream
+            .updates()
+            .recv_timeout(std::time::Duration::from_millis(200))
+        {
+            Ok(Some(u)) if u.face.is_some() => {
+                assert!(u.gem.is_some(), "{:?}", u.note);
+                match u.hair {
+                    Some(h) => hair = Some(h),
+                    None => before_hair += 1,
+                }
+            }
+            Ok(_) => {}
+            Err(_) => break,
+        }
+    }
+    let hair = hair.expect("the hair was settled");
+    println!(
+        "{before_hair} updates before the hair ({} readings needed): {hair:?}",
+        HairSmoother::FIRST
+    );
+    assert!(
+        before_hair >= 1,
+        "the first face came with its hair already read"
+    );
+    assert!(hair.beard > 0.0, "{hair:?}");
+}

@@ -21,7 +21,7 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Fullscreen, Window, WindowId};
 
 use glyptic::capture::latest::{LatestReceiver, LatestSender, latest};
-use glyptic::gem::CameoBuilder;
+use glyptic::gem::{CameoBuilder, CameoParams, HairStyle};
 use glyptic::kiosk::{Controls, KioskConfig, Orbit, Portrait, blend_faces, idle_weight};
 use glyptic::render::{Material, Mesh, RenderParams, Renderer};
 
@@ -184,10 +184,18 @@ enum GemNote {
     Failed(String),
 }
 
+/// A cameo to build: a face (model mm) and its hair (the classical style for the default face
+/// or before the visitor's hair is known).
+struct GemJob {
+    face: Vec<f32>,
+    hair: HairStyle,
+}
+
 /// The gem thread: builds a cameo for each face mesh it is given (the newest wins) and starts
-/// with the model's mean face.
+/// with the model's mean face. A job with other hair than the last costs a new
+/// [`CameoBuilder`] (the sculpted head under the new hair, ~35 ms), on this thread.
 struct GemThread {
-    faces: LatestSender<Vec<f32>>,
+    faces: LatestSender<GemJob>,
     /// Each cameo built, or why a face made none (newest wins).
     out: LatestReceiver<Result<BuiltGem, String>>,
     /// Notes that the newest cameo must not replace.
@@ -196,7 +204,7 @@ struct GemThread {
 
 impl GemThread {
     fn spawn(portrait: Portrait) -> Result<Self> {
-        let (faces, jobs) = latest::<Vec<f32>>();
+        let (faces, jobs) = latest::<GemJob>();
         let (send, out) = latest::<Result<BuiltGem, String>>();
         let (note_tx, notes) = crossbeam_channel::bounded(4);
         std::thread::Builder::new()
@@ -214,7 +222,7 @@ impl GemThread {
                         builder,
                     ))
                 })();
-                let (mean, triangles, builder) = match setup {
+                let (mean, triangles, mut builder) = match setup {
                     Ok(s) => s,
                     Err(e) => {
                         let _ = note_tx.try_send(GemNote::Failed(format!("{e:#}")));
@@ -225,8 +233,20 @@ impl GemThread {
                     default_face: Arc::new(mean.clone()),
                 });
                 let mut face = mean.clone();
+                let mut hair = params.hair;
                 let mut warm = Vec::new();
                 loop {
+                    if hair != builder.params().hair {
+                        let with_hair = CameoParams {
+                            hair,
+                            ..params.clone()
+                        };
+                        // Parameters that passed once pass again; should they not, the
+                        // previous hair stays.
+                        if let Ok(b) = CameoBuilder::new(&with_hair) {
+                            builder = b;
+                        }
+                    }
                     // A visitor's faces follow each other: each solve starts from the last.
                     // The default face starts cold, so it is always the same gem.
                     if face == mean {
@@ -244,7 +264,7 @@ impl GemThread {
                         return;
                     }
                     match jobs.recv() {
-                        Ok(next) => face = next,
+                        Ok(next) => (face, hair) = (next.face, next.hair),
                         Err(_) => return,
                     }
                 }
@@ -268,6 +288,8 @@ mod live {
         /// the stream and its latency from capture, ms.
         Update {
             face: Option<Vec<f32>>,
+            /// The visitor's hair once the person thread has settled it.
+            hair: Option<glyptic::gem::HairStyle>,
             frame: u64,
             latency_ms: f64,
         },
@@ -318,9 +340,17 @@ mod live {
                         let mut stages = Vec::new();
                         let pipeline = glyptic::pipeline::FacePipeline::load_default(&mut stages)?;
                         let tracker = Tracker::new(pipeline, TrackOptions::default());
+                        let hair = config.visitor_hair;
                         let capture =
                             Capture::spawn(move || open_source(&config), CaptureOptions::default());
-                        Ok(FaceStream::spawn(capture, tracker))
+                        Ok(FaceStream::spawn_with(
+                            capture,
+                            tracker,
+                            glyptic::stream::StreamOptions {
+                                builder: None,
+                                hair,
+                            },
+                        ))
                     })();
                     let _ = tx.send(started.map_err(|e| format!("{e:#}")));
                 })
@@ -373,6 +403,7 @@ mod live {
             }
             if let Ok(Some(u)) = stream.updates().try_recv() {
                 news.push(FaceNews::Update {
+                    hair: u.hair,
                     face: u.face.map(|f| f.portrait),
                     frame: u.frame_index,
                     latency_ms: u.latency_ms,
@@ -443,6 +474,10 @@ struct Running {
     #[cfg(feature = "face")]
     live: live::Live,
     default_face: Option<Arc<Vec<f32>>>,
+    /// The hair of the cameo's default face, and the visitor's as last read (the default's
+    /// until then).
+    default_hair: HairStyle,
+    visitor_hair: HairStyle,
     /// The last face seen and when.
     last_face: Option<(Vec<f32>, Instant)>,
     /// The idle weight last sent to the gem thread.
@@ -553,6 +588,8 @@ impl Running {
             #[cfg(feature = "face")]
             live,
             default_face: None,
+            default_hair: config.portrait.cameo().hair,
+            visitor_hair: config.portrait.cameo().hair,
             last_face: None,
             sent_weight: 1.0,
             gem: None,
@@ -640,9 +677,13 @@ impl Running {
             match news {
                 FaceNews::Update {
                     face,
+                    hair,
                     frame,
                     latency_ms,
                 } => {
+                    if let Some(h) = hair {
+                        self.visitor_hair = h;
+                    }
                     self.face_rate.tick();
                     self.face_updates += 1;
                     self.face_frame = frame;
@@ -655,7 +696,10 @@ impl Running {
                     .into();
                     if let Some(face) = face {
                         if !self.controls.frozen {
-                            let _ = self.gems.faces.send(face.clone());
+                            let _ = self.gems.faces.send(GemJob {
+                                face: face.clone(),
+                                hair: self.visitor_hair,
+                            });
                             self.sent_weight = 0.0;
                         }
                         self.last_face = Some((face, Instant::now()));
@@ -686,7 +730,14 @@ impl Running {
             return false;
         }
         if let Some(blend) = blend_faces(face, default, w) {
-            let _ = self.gems.faces.send(blend);
+            // Back at the default face, the classical hair again.
+            if w >= 1.0 {
+                self.visitor_hair = self.default_hair;
+            }
+            let _ = self.gems.faces.send(GemJob {
+                face: blend,
+                hair: self.visitor_hair,
+            });
             self.sent_weight = w;
         }
         true
@@ -732,7 +783,10 @@ impl Running {
         if before.0.frozen && !self.controls.frozen {
             // Unfrozen: show the newest face again.
             if let Some((face, _)) = &self.last_face {
-                let _ = self.gems.faces.send(face.clone());
+                let _ = self.gems.faces.send(GemJob {
+                    face: face.clone(),
+                    hair: self.visitor_hair,
+                });
                 self.sent_weight = 0.0;
             }
         }

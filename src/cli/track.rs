@@ -225,7 +225,13 @@ pub fn track(args: &TrackArgs) -> Result<()> {
             move || open_source(&make_args).unwrap_or_else(|e| Box::new(Failed(e.to_string()))),
             CaptureOptions::default(),
         );
-        let stream = FaceStream::spawn_with_gem(capture, tracker, builder);
+        // The visitor's hair is read on a person thread, as in the kiosk (with --gem).
+        let hair = builder.is_some() && args.choice.hair == super::HairArg::Photo;
+        let stream = FaceStream::spawn_with(
+            capture,
+            tracker,
+            glyptic::stream::StreamOptions { builder, hair },
+        );
         while processed < limit {
             for e in stream.events().try_iter() {
                 match e {
