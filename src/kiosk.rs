@@ -102,6 +102,8 @@ pub struct KioskConfig {
     /// The visitor's own hair, beard and moustache, read from the camera (off: the classical
     /// hair for everyone).
     pub visitor_hair: bool,
+    /// With `visitor_hair`: glasses found on the visitor are carved (off: left out).
+    pub glasses: bool,
     /// Window size when not full-screen, logical pixels.
     pub width: u32,
     pub height: u32,
@@ -126,6 +128,7 @@ impl Default for KioskConfig {
             lamp: false,
             hair_layer: true,
             visitor_hair: true,
+            glasses: true,
             width: 800,
             height: 1000,
             render_scale: 1.0,

@@ -53,8 +53,8 @@ pub struct FaceUpdate {
 }
 
 /// Settles the hair styles read from a stream of frames: a style is taken when most of the
-/// last [`HairSmoother::WINDOW`] readings agree on bald or not, beard or not and moustache or
-/// not, its sizes the median of the readings that agree; and it replaces the one in use only
+/// last [`HairSmoother::WINDOW`] readings agree on bald or not, beard or not, moustache or
+/// not and glasses or not, its sizes the median of the readings that agree; and it replaces the one in use only
 /// when it differs visibly (so the cameo is not rebuilt for noise).
 #[derive(Clone, Debug, Default)]
 pub struct HairSmoother {
@@ -107,6 +107,7 @@ impl HairSmoother {
         let bald = most(&|s| s.bald);
         let beard = most(&|s| s.beard > 0.0);
         let moustache = most(&|s| s.moustache > 0.0);
+        let glasses = most(&|s| s.glasses);
         let median = |keep: &dyn Fn(&HairStyle) -> bool, get: &dyn Fn(&HairStyle) -> f32| {
             let mut v: Vec<f32> = self.readings.iter().filter(|s| keep(s)).map(get).collect();
             v.sort_by(f32::total_cmp);
@@ -134,11 +135,13 @@ impl HairSmoother {
             } else {
                 0.0
             },
+            glasses,
         };
         let visible = |a: &HairStyle, b: &HairStyle| {
             a.bald != b.bald
                 || (a.beard > 0.0) != (b.beard > 0.0)
                 || (a.moustache > 0.0) != (b.moustache > 0.0)
+                || a.glasses != b.glasses
                 || (a.volume - b.volume).abs() > 3.0
                 || (a.end - b.end).abs() > 15.0
                 || (a.curl - b.curl).abs() > 0.2

@@ -539,3 +539,56 @@ fn facial_hair_grows_where_a_beard_and_a_moustache_grow() {
     // The chin's outline moves out: the portrait covers more of the stone.
     assert!(covered(&bearded) > covered(&shaven));
 }
+
+/// Glasses carved: frontal, rims round both eyes and the bridge between them raise the face
+/// there and nowhere near the chin; in profile the temple runs back from the eye. Without
+/// `glasses` the same face is carved as before.
+#[test]
+fn glasses_are_carved_round_the_eyes() {
+    let m = model();
+    let mean = m.instance(&[], &[]);
+    let tri = &m.shape.triangles;
+    for base in [CameoParams::frontal(), CameoParams::default()] {
+        let with = |glasses| {
+            let p = CameoParams {
+                hair: gem::HairStyle {
+                    glasses,
+                    ..base.hair
+                },
+                ..base.clone()
+            };
+            gem::CameoBuilder::new(&p)
+                .unwrap()
+                .relief(&mean, tri)
+                .unwrap()
+        };
+        let (bare, glasses) = (with(false), with(true));
+        let view = base.view;
+        let node = |v: usize| {
+            let g = bare.model_to_gem([mean[3 * v], mean[3 * v + 1], mean[3 * v + 2]]);
+            let col = ((g[0] - bare.origin[0]) / bare.cell).round() as usize;
+            let row = ((g[1] - bare.origin[1]) / bare.cell).round() as usize;
+            (col, row)
+        };
+        // The largest rise within 12 mm (gem: about 1.3 mm) of a vertex.
+        let rise = |v: usize| {
+            let (c, r) = node(v);
+            let k = (1.3 / bare.cell).ceil() as usize;
+            let mut best = 0f32;
+            for y in r.saturating_sub(k)..=(r + k).min(bare.rows - 1) {
+                for x in c.saturating_sub(k)..=(c + k).min(bare.cols - 1) {
+                    best = best.max(glasses.at(x, y) - bare.at(x, y));
+                }
+            }
+            best
+        };
+        // Near eye outer corner 610 (the profile's eye), nasion 2842; chin 33.
+        let (eye, nasion, chin) = (rise(610), rise(2842), rise(33));
+        println!("{view:?}: rise at eye {eye:.3}, nasion {nasion:.3}, chin {chin:.3} mm");
+        assert!(eye > 0.05, "{view:?}: no rim by the eye ({eye})");
+        if view == gem::View::Frontal {
+            assert!(nasion > 0.05, "no bridge ({nasion})");
+        }
+        assert!(chin < 0.02, "{view:?}: the chin changed ({chin})");
+    }
+}

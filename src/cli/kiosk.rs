@@ -478,6 +478,9 @@ struct Running {
     /// until then).
     default_hair: HairStyle,
     visitor_hair: HairStyle,
+    /// Glasses found on a visitor are carved (config key `glasses`).
+    #[cfg_attr(not(feature = "face"), allow(dead_code))]
+    carve_glasses: bool,
     /// The last face seen and when.
     last_face: Option<(Vec<f32>, Instant)>,
     /// The idle weight last sent to the gem thread.
@@ -590,6 +593,7 @@ impl Running {
             default_face: None,
             default_hair: config.portrait.cameo().hair,
             visitor_hair: config.portrait.cameo().hair,
+            carve_glasses: config.glasses,
             last_face: None,
             sent_weight: 1.0,
             gem: None,
@@ -682,7 +686,10 @@ impl Running {
                     latency_ms,
                 } => {
                     if let Some(h) = hair {
-                        self.visitor_hair = h;
+                        self.visitor_hair = HairStyle {
+                            glasses: h.glasses && self.carve_glasses,
+                            ..h
+                        };
                     }
                     self.face_rate.tick();
                     self.face_updates += 1;

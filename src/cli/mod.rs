@@ -296,6 +296,16 @@ pub struct ChoiceArgs {
     /// its large ones. `1,0` carves the fitted face as it is.
     #[arg(long, value_parser = parse_caricature, default_value = "1,0.5")]
     pub caricature: glyptic::shapemodel::Caricature,
+    /// Glasses found on the photo: carved as a cutter would (the rims and temples as ridges on
+    /// the face), or left out.
+    #[arg(long, value_enum, default_value_t = GlassesArg::Carve)]
+    pub glasses: GlassesArg,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum GlassesArg {
+    Carve,
+    Leave,
 }
 
 fn parse_caricature(s: &str) -> Result<glyptic::shapemodel::Caricature, String> {
@@ -343,18 +353,28 @@ pub fn person_cameo(
         || glyptic::person::analyse(img, landmarks),
         |p| match p.hair {
             Some(h) => format!(
-                "hair: stands {:.2}, ends {:.2} face lengths below the eyes, curl {:.2}; beard {:.0} %",
+                "hair: stands {:.2}, ends {:.2} face lengths below the eyes, curl {:.2}; beard {:.0} %, moustache {:.0} %, glasses {}",
                 h.top.max(0.7 * h.sides),
                 h.length,
                 h.curl,
-                100.0 * p.beard
+                100.0 * p.beard,
+                100.0 * p.moustache,
+                if p.has_glasses() { "yes" } else { "no" }
             ),
-            None => format!("bald; beard {:.0} %", 100.0 * p.beard),
+            None => format!(
+                "bald; beard {:.0} %, moustache {:.0} %, glasses {}",
+                100.0 * p.beard,
+                100.0 * p.moustache,
+                if p.has_glasses() { "yes" } else { "no" }
+            ),
         },
     );
     match person {
         Ok(p) => CameoParams {
-            hair: gem::hair_style(&p),
+            hair: gem::HairStyle {
+                glasses: p.has_glasses() && choice.glasses == GlassesArg::Carve,
+                ..gem::hair_style(&p)
+            },
             ..cameo
         },
         Err(e) => {
@@ -771,6 +791,7 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
                 prefer: PreferArg::Largest,
                 hair: HairArg::Photo,
                 caricature: glyptic::shapemodel::Caricature::default(),
+                glasses: GlassesArg::Carve,
             },
             landmarks_out: None,
             obj: None,

@@ -441,6 +441,73 @@ pub fn eyes(positions: &[f32], view: View, placement: &Placement) -> Vec<Eye> {
     out
 }
 
+/// Glasses as a carver cuts them, canonical mm added to the face at (u, v): in profile the
+/// frame's front seen edge-on before the eye and the temple running back towards the ear;
+/// frontal, a rim round each eye, the bridge between them and the temples out to the face's
+/// sides. Rounded ridges about 2 mm high and 3 mm wide.
+pub fn glasses(eyes: &[Eye], view: View, u: f32, v: f32) -> f32 {
+    let ridge = |d: f32, half: f32, height: f32| {
+        let t = d / half;
+        if t.abs() < 1.0 {
+            height * (1.0 - t * t)
+        } else {
+            0.0
+        }
+    };
+    let mut h = 0f32;
+    match view {
+        View::Profile => {
+            for e in eyes {
+                let front = e.front.min(e.back) - 4.0;
+                let back = e.front.max(e.back);
+                if (e.centre - 13.0..e.centre + 11.0).contains(&v) {
+                    h = h.max(ridge(u - front, 1.6, 2.2));
+                }
+                if u > front && u < back + 45.0 {
+                    h = h.max(ridge(v - (e.centre + 5.0), 1.5, 1.8));
+                }
+            }
+        }
+        View::Frontal => {
+            let rims: Vec<(f32, f32, f32, f32, f32)> = eyes
+                .iter()
+                .map(|e| {
+                    let a = 0.5 * (e.back - e.front).abs() + 7.0;
+                    (
+                        0.5 * (e.front + e.back),
+                        e.centre,
+                        a,
+                        0.75 * a + 2.0,
+                        e.front,
+                    )
+                })
+                .collect();
+            for &(uc, vc, a, b, inner) in &rims {
+                let r = ((u - uc) / a).hypot((v - vc) / b);
+                h = h.max(ridge((r - 1.0) * a.min(b), 1.5, 2.0));
+                // The temple, from the rim's outer side outwards.
+                let out = (uc - inner).signum();
+                let x = (u - (uc + out * a)) * out;
+                if (0.0..25.0).contains(&x) {
+                    h = h.max(ridge(v - (vc + 3.0), 1.3, 1.8));
+                }
+            }
+            if let [l, r] = rims[..] {
+                // The bridge between the rims' inner sides.
+                let (lo, hi) = if l.0 < r.0 {
+                    (l.0 + l.2, r.0 - r.2)
+                } else {
+                    (r.0 + r.2, l.0 - l.2)
+                };
+                if u > lo - 1.0 && u < hi + 1.0 {
+                    h = h.max(ridge(v - (0.5 * (l.1 + r.1) + 2.0), 1.2, 1.8));
+                }
+            }
+        }
+    }
+    h
+}
+
 impl Eye {
     /// Height added to the face at canonical point (u, v), canonical mm: the eyeball set back
     /// under thick lids, a rolled upper lid with the crease above it, a thinner lower lid.

@@ -228,6 +228,7 @@ pub fn hair_style(person: &crate::person::Person) -> HairStyle {
         beard,
         beard_jaw,
         moustache,
+        glasses: person.has_glasses(),
         ..HairStyle::default()
     };
     let Some(h) = person.hair else {
@@ -495,7 +496,10 @@ impl CameoBuilder {
             };
             if share > 0.0 {
                 let [u, v] = canonical(i);
-                let carved: f32 = eyes.iter().map(|e| e.carve(u, v)).sum();
+                let mut carved: f32 = eyes.iter().map(|e| e.carve(u, v)).sum();
+                if p.hair.glasses {
+                    carved += face::glasses(&eyes, view, u, v);
+                }
                 // Facial hair carved in locks, as deep as it is thick (up to 4 mm).
                 let thick = fuzz.get(i).copied().unwrap_or(0.0);
                 let locks = if thick > 0.05 {

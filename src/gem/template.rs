@@ -74,6 +74,9 @@ pub struct HairStyle {
     pub beard_jaw: f32,
     /// How thick the moustache stands, mm (0: none).
     pub moustache: f32,
+    /// Glasses carved on the face ([`super::face::glasses`]): not hair, but read from the photo
+    /// with it and carried with it.
+    pub glasses: bool,
 }
 
 impl Default for HairStyle {
@@ -86,6 +89,7 @@ impl Default for HairStyle {
             beard: 0.0,
             beard_jaw: 0.0,
             moustache: 0.0,
+            glasses: false,
         }
     }
 }
