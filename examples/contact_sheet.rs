@@ -18,8 +18,8 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use image::{Rgb, RgbImage, imageops};
 
-const W: u32 = 120;
-const H: u32 = 150;
+const W: u32 = 150;
+const H: u32 = 180;
 const GAP: u32 = 6;
 
 /// The image scaled to fit W x H, centred on white.
@@ -72,7 +72,10 @@ fn main() -> Result<()> {
     );
     for (k, name) in faces.iter().enumerate() {
         let Some(name) = name else { continue };
-        let img = image::open(dataset.join(name))
+        // By content: some of the set's ".jpg" files are WebP.
+        let img = image::ImageReader::open(dataset.join(name))?
+            .with_guessed_format()?
+            .decode()
             .with_context(|| format!("{name}: cannot read"))?
             .to_rgb8();
         let x = GAP + k as u32 * (W + GAP);
@@ -81,9 +84,19 @@ fn main() -> Result<()> {
     let mut key =
         String::from("# row col (below the photos) -> person (column of their photo) and gem\n");
     for (k, (gem, id)) in tiles.iter().enumerate() {
-        let img = image::open(gems.join(gem))
+        let full = image::open(gems.join(gem))
             .with_context(|| format!("{gem}: cannot read"))?
             .to_rgb8();
+        // The head, as the stone's middle shows it (the default framing).
+        let (fw, fh) = (full.width() as f32, full.height() as f32);
+        let img = imageops::crop_imm(
+            &full,
+            (0.22 * fw) as u32,
+            (0.08 * fh) as u32,
+            (0.56 * fw) as u32,
+            (0.56 * fh) as u32,
+        )
+        .to_image();
         let (r, c) = (k as u32 / cols, k as u32 % cols);
         let (x, y) = (GAP + c * (W + GAP), 3 * GAP + (r + 1) * (H + GAP));
         imageops::replace(&mut sheet, &tile(&img), x.into(), y.into());
