@@ -653,8 +653,18 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
 
     // Hair over less than a third of the crown: a bald head (perhaps with a fringe of hair
     // at the sides, which a carver leaves out at this size).
+    // The scalp's hair is measured without the face, nor a beard's (below the nose's base,
+    // within the jaw's breadth, where it joins the sideburns and hangs under the chin; long
+    // hair falls beside the face and behind).
+    let cheeks = head[33][1];
+    let not_scalp: Vec<bool> = (0..w * h)
+        .map(|i| {
+            let p = pos(i);
+            in_face[i] || (beard > BEARD_SHARE && p[1] > cheeks && p[0].abs() < 1.15 * half)
+        })
+        .collect();
     let hair_traits = (!bald)
-        .then(|| traits(&labels, &col, w, h, &pos, &in_face, &skull, chin, half))
+        .then(|| traits(&labels, &col, w, h, &pos, &not_scalp, &skull, chin, half))
         .flatten()
         .filter(|h| h.crown >= 0.33);
     Ok(Person {
@@ -912,6 +922,26 @@ mod tests {
         assert!(!shaven.has_beard(), "beard {:.2}", shaven.beard);
         let bearded = analyse(&photo(hair_to(12.0, 0.0), BROWN, true), &lm).unwrap();
         assert!(bearded.has_beard(), "beard {:.2}", bearded.beard);
+        // A full beard joined to the hair by sideburns, hanging below the chin, is not the
+        // scalp's hair: short hair stays short (sideburns to the nose's base; hair that ends
+        // two-thirds of a face length below the eyes starts to fall behind the neck).
+        let scalp = hair_to(12.0, 0.0);
+        let full_beard = move |x: f32, y: f32| {
+            let dx = (x - 200.0).abs();
+            let below = ((x - 200.0) / 86.0).powi(2) + ((y - 205.0) / 139.0).powi(2) < 1.0;
+            scalp(x, y)
+                || (dx > 62.0 && dx < 78.0 && y > 150.0 && y < 300.0)
+                || (below && y > 285.0)
+        };
+        let full = analyse(&photo(full_beard, BROWN, false), &lm).unwrap();
+        assert!(full.has_beard(), "beard {:.2}", full.beard);
+        let length = |p: &Person| p.hair.map_or(f32::NAN, |h| h.length);
+        assert!(
+            length(&full) < 0.5,
+            "hair length {:.2} with the beard, {:.2} without",
+            length(&full),
+            length(&shaven)
+        );
     }
 
     /// Glasses: a dark frame's bridge across the nose between the eyes is found; the same
