@@ -538,6 +538,17 @@ fn facial_hair_grows_where_a_beard_and_a_moustache_grow() {
     let covered = |r: &gem::Relief| r.portrait.iter().filter(|&&c| c > 0.0).count();
     // The chin's outline moves out: the portrait covers more of the stone.
     assert!(covered(&bearded) > covered(&shaven));
+    // The beard hangs below the face under the chin: hair-layer nodes that are not the face,
+    // below the chin and within 2 mm of it across.
+    let chin = bearded.model_to_gem([mean[3 * 33], mean[3 * 33 + 1], mean[3 * 33 + 2]]);
+    let hanging = (0..bearded.cols * bearded.rows)
+        .filter(|&i| {
+            let x = bearded.origin[0] + (i % bearded.cols) as f32 * bearded.cell;
+            let y = bearded.origin[1] + (i / bearded.cols) as f32 * bearded.cell;
+            !bearded.face[i] && bearded.hair[i] > 0.3 && y < chin[1] && (x - chin[0]).abs() < 2.0
+        })
+        .count();
+    assert!(hanging > 10, "{hanging} nodes of beard under the chin");
 }
 
 /// Glasses carved: frontal, rims round both eyes and the bridge between them raise the face

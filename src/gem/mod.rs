@@ -522,6 +522,39 @@ impl CameoBuilder {
             }
             face_share[i] = share;
         }
+        // A beard hangs below the face's lower edge (under the chin and the jaw): in each
+        // column, below the lowest bearded node of the face, half again its thickness more
+        // beard, thinning and curling under, over whatever the template has there.
+        if !fuzz.is_empty() {
+            let canonical_cell = cell * self.scale;
+            for x in portrait_box.x0..=portrait_box.x1 {
+                let Some(r0) = (portrait_box.y0..=portrait_box.y1)
+                    .find(|&y| face[y * cols + x] && fuzz[y * cols + x] > 0.5)
+                else {
+                    continue;
+                };
+                let top = r0 * cols + x;
+                let thick = fuzz[top];
+                let reach = ((1.5 * thick / canonical_cell).round() as usize).min(r0);
+                for k in 1..=reach {
+                    let i = (r0 - k) * cols + x;
+                    if face[i] || !self.allowed[i] || r0 - k < portrait_box.y0 {
+                        break;
+                    }
+                    let s = k as f32 / (reach + 1) as f32;
+                    let [u, v] = canonical(i);
+                    let locks = (thick / 4.0).min(1.0) * template::beard_locks(u, v, p.hair.curl);
+                    let below = if mask[i] { portrait[i] } else { 0.0 };
+                    let hanging = portrait[top] * (1.0 - 0.6 * s * s) + (1.0 - s) * locks;
+                    if hanging > below {
+                        portrait[i] = hanging;
+                        mask[i] = true;
+                        cover[i] = cover[i].max(1.0 - template::smoothstep(0.75, 1.0, s));
+                        hair[i] = hair[i].max(1.0 - s);
+                    }
+                }
+            }
+        }
         // The face keeps its compressed gradients; the sculpted head and bust are carved a
         // little lower, so the face gets more of the stone's depth.
         let emphasis: Vec<f32> = face_share
