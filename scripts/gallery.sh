@@ -9,8 +9,8 @@
 # Writes out/gallery/NAME-{profile,frontal}-{marble,agate}.png, out/gallery/sheet.png (photo |
 # four gems per row; it holds the photos, so it is never committed) and, for the default faces,
 # docs/gallery-NAME.png (the four gems alone) and the README's pictures of SSS, the surface
-# effects and a gallery style (docs/cameo-*.png), and what the person pass finds on the
-# astronaut's photo (docs/person-astronaut.png).
+# effects and a gallery style (docs/cameo-*.png); and what the person pass finds on the
+# astronaut's photo (out/gallery/person/astronaut.png, an overlay on the photo: not committed).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -76,10 +76,9 @@ if [ "$readme" = 1 ]; then
     --material agate --engraving on --lamp on >/dev/null
   "$GLYPTIC" photo "$astronaut" -o docs/cameo-astronaut-marble-painterly.png "${view[@]}" \
     --style painterly >/dev/null
-  # What the person pass finds (hair tinted orange, background dimmed), on the one photo here
-  # that may be redistributed (NASA's portrait is public domain); the others stay local.
+  # What the person pass finds (hair tinted orange, background dimmed) on the astronaut's
+  # portrait: an overlay on a photo, so it stays in out/ and is never committed.
   mkdir -p "$OUT/person"
   ./target/release/examples/person_view "$OUT/person" "$astronaut" > "$OUT/person/traits.md"
-  cp "$OUT/person/astronaut.png" docs/person-astronaut.png
-  echo "wrote docs/gallery-*.png, docs/cameo-*.png and docs/person-astronaut.png"
+  echo "wrote docs/gallery-*.png, docs/cameo-*.png and $OUT/person/astronaut.png"
 fi
