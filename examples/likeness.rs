@@ -93,6 +93,17 @@ fn distance(kind: &str, a: &Descriptor, b: &Descriptor) -> f64 {
     }
 }
 
+/// For each of `n` items, the nearest other one by `dist` (`None` when there is no other).
+fn nearest_others(n: usize, dist: impl Fn(usize, usize) -> f64) -> Vec<Option<usize>> {
+    (0..n)
+        .map(|i| {
+            (0..n)
+                .filter(|&j| j != i)
+                .min_by(|&a, &b| dist(i, a).total_cmp(&dist(i, b)))
+        })
+        .collect()
+}
+
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
     let mut dir = None;
@@ -127,7 +138,7 @@ fn main() -> Result<()> {
         std::fs::create_dir_all(d)?;
     }
     let mut gems: Vec<(String, usize, Descriptor)> = Vec::new();
-    let mut identities: Vec<(usize, Vec<f32>)> = Vec::new();
+    let mut fitted: Vec<(usize, Vec<f32>)> = Vec::new();
     let mut per_photo_ms = Vec::new();
     for (name, &id) in &ids {
         let path = dir.join(name);
@@ -166,7 +177,7 @@ fn main() -> Result<()> {
             )?;
         }
         gems.push((name.clone(), id, describe(&relief)));
-        identities.push((id, face.fit.shape.clone()));
+        fitted.push((id, face.fit.shape.clone()));
     }
     let people = gems
         .iter()
@@ -183,13 +194,9 @@ fn main() -> Result<()> {
     for kind in ["relief", "outline", "face"] {
         let mut right = 0;
         let mut misses = Vec::new();
-        for (i, (name, id, d)) in gems.iter().enumerate() {
-            let nearest = gems
-                .iter()
-                .enumerate()
-                .filter(|(j, _)| *j != i)
-                .min_by(|a, b| distance(kind, d, &a.1.2).total_cmp(&distance(kind, d, &b.1.2)));
-            if let Some((_, (other, oid, _))) = nearest {
+        let nearest = nearest_others(gems.len(), |i, j| distance(kind, &gems[i].2, &gems[j].2));
+        for ((name, id, _), j) in gems.iter().zip(nearest) {
+            if let Some((other, oid, _)) = j.map(|j| &gems[j]) {
                 if oid == id {
                     right += 1;
                 } else {
@@ -214,26 +221,23 @@ fn main() -> Result<()> {
         .map(|v| v.sqrt())
         .collect();
     for (label, scale) in [("standard deviations", None), ("millimetres", Some(&sd))] {
-        let d = |a: &[f32], b: &[f32]| -> f32 {
+        let d = |i: usize, j: usize| -> f64 {
+            let (a, b) = (&fitted[i].1, &fitted[j].1);
             a.iter()
                 .zip(b)
                 .enumerate()
-                .map(|(k, (x, y))| ((x - y) * scale.map_or(1.0, |s| s[k])).powi(2))
+                .map(|(k, (x, y))| f64::from((x - y) * scale.map_or(1.0, |s| s[k])).powi(2))
                 .sum()
         };
-        let right = (0..identities.len())
-            .filter(|&i| {
-                let nearest = (0..identities.len()).filter(|&j| j != i).min_by(|&a, &b| {
-                    d(&identities[i].1, &identities[a].1)
-                        .total_cmp(&d(&identities[i].1, &identities[b].1))
-                });
-                nearest.is_some_and(|j| identities[j].0 == identities[i].0)
-            })
+        let right = nearest_others(fitted.len(), d)
+            .into_iter()
+            .enumerate()
+            .filter(|(i, j)| j.is_some_and(|j| fitted[j].0 == fitted[*i].0))
             .count();
         println!(
             "fitted identity by {label:19}: nearest the same person's for {right} / {} = {:.1} % (not a gem descriptor)",
-            identities.len(),
-            100.0 * right as f64 / identities.len().max(1) as f64
+            fitted.len(),
+            100.0 * right as f64 / fitted.len().max(1) as f64
         );
     }
     per_photo_ms.sort_by(f64::total_cmp);

