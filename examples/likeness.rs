@@ -14,17 +14,20 @@
 //!
 //! The figure is the share of gems whose nearest other gem is the same person's (chance is
 //! about 1 / number of people). `--dump DIR` writes each relief (f32, little-endian, cols x
-//! rows) for further study.
+//! rows) and its face footprint (one byte per cell) for further study.
 //!
 //! `--classical` gives everyone the template's classical hair (the gems before issue #17);
 //! `--caricature GAIN,DETAIL` sets the portrait's caricature (`1,0`: the fitted face as it is;
-//! see [`glyptic::shapemodel::Caricature`]).
+//! see [`glyptic::shapemodel::Caricature`]); `--prior LAMBDA` the portrait fit's identity
+//! prior ([`glyptic::pipeline::FacePipeline::portrait_prior`]; 1: the mesh's fit).
 //!
 //! Also printed, for comparison and not a descriptor of the gem: the same test on the fitted
-//! identities themselves, by standard deviations of the model and by millimetres of the mesh.
+//! identities themselves, by standard deviations of the model and by millimetres of the mesh,
+//! and on the portrait fit's identities (under the portrait's firmer prior) by standard
+//! deviations.
 //!
 //! `cargo run --release --example likeness -- DATASET_DIR [--frontal] [--classical]
-//! [--caricature G,D] [--dump DIR]`
+//! [--caricature G,D] [--prior LAMBDA] [--dump DIR]`
 
 use std::path::PathBuf;
 
@@ -111,6 +114,7 @@ fn main() -> Result<()> {
     let mut params = CameoParams::default();
     let mut classical = false;
     let mut caricature = Caricature::default();
+    let mut prior = None;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--frontal" => params = CameoParams::frontal(),
@@ -123,6 +127,7 @@ fn main() -> Result<()> {
                     detail: d.parse()?,
                 };
             }
+            "--prior" => prior = Some(args.next().context("--prior LAMBDA")?.parse()?),
             "--dump" => dump = Some(PathBuf::from(args.next().context("--dump DIR")?)),
             _ => dir = Some(PathBuf::from(a)),
         }
@@ -132,6 +137,9 @@ fn main() -> Result<()> {
     let mut stages = Vec::new();
     let mut pipeline = FacePipeline::load_default(&mut stages)?;
     pipeline.caricature = caricature;
+    if let Some(p) = prior {
+        pipeline.portrait_prior = p;
+    }
     let builder = gem::CameoBuilder::new(&params)?;
     let triangles = pipeline.model.shape.triangles.clone();
     if let Some(d) = &dump {
@@ -139,6 +147,7 @@ fn main() -> Result<()> {
     }
     let mut gems: Vec<(String, usize, Descriptor)> = Vec::new();
     let mut fitted: Vec<(usize, Vec<f32>)> = Vec::new();
+    let mut portraits: Vec<(usize, Vec<f32>)> = Vec::new();
     let mut per_photo_ms = Vec::new();
     for (name, &id) in &ids {
         let path = dir.join(name);
@@ -175,9 +184,16 @@ fn main() -> Result<()> {
                 d.join(format!("{name}.{}x{}.f32", relief.cols, relief.rows)),
                 bytes,
             )?;
+            let face: Vec<u8> = relief.face.iter().map(|&f| u8::from(f)).collect();
+            std::fs::write(
+                d.join(format!("{name}.{}x{}.face", relief.cols, relief.rows)),
+                face,
+            )?;
         }
         gems.push((name.clone(), id, describe(&relief)));
         fitted.push((id, face.fit.shape.clone()));
+        let (firm, _) = pipeline.portrait_coefficients(&face.landmarks, &face.fit, &mut stages);
+        portraits.push((id, firm));
     }
     let people = gems
         .iter()
@@ -220,7 +236,11 @@ fn main() -> Result<()> {
         .iter()
         .map(|v| v.sqrt())
         .collect();
-    for (label, scale) in [("standard deviations", None), ("millimetres", Some(&sd))] {
+    for (label, scale, fitted) in [
+        ("standard deviations", None, &fitted),
+        ("millimetres", Some(&sd), &fitted),
+        ("SD, portrait's prior", None, &portraits),
+    ] {
         let d = |i: usize, j: usize| -> f64 {
             let (a, b) = (&fitted[i].1, &fitted[j].1);
             a.iter()
@@ -235,7 +255,7 @@ fn main() -> Result<()> {
             .filter(|(i, j)| j.is_some_and(|j| fitted[j].0 == fitted[*i].0))
             .count();
         println!(
-            "fitted identity by {label:19}: nearest the same person's for {right} / {} = {:.1} % (not a gem descriptor)",
+            "fitted identity by {label:20}: nearest the same person's for {right} / {} = {:.1} % (not a gem descriptor)",
             fitted.len(),
             100.0 * right as f64 / fitted.len().max(1) as f64
         );

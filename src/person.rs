@@ -39,7 +39,8 @@ pub enum PersonError {
 pub struct Hair {
     /// Share of the crown (where a full head of hair grows, above the forehead) that is hair.
     pub crown: f32,
-    /// How far the hair stands above the skull's top, in face lengths (eyes to chin).
+    /// How far the hair stands above the skull's top, in face lengths (eyes to chin, the mouth
+    /// closed).
     pub top: f32,
     /// How far it stands out beside the temples beyond the skull, in face lengths.
     pub sides: f32,
@@ -363,8 +364,15 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
         axis,
     };
     let head: Vec<[f32; 2]> = landmarks.iter().map(|p| frame.to_head(*p)).collect();
-    // Face length (eyes to chin) and half-breadth at the temples, IOD.
-    let chin = head[8][1].max(1.0);
+    // Where the chin is, and the face's length (eyes to chin) with the mouth closed, which
+    // sizes the skull: an open mouth drops the chin, not the crown (IOD).
+    let chin_y = head[8][1].max(1.0);
+    let gap = [(61, 67), (62, 66), (63, 65)]
+        .iter()
+        .map(|&(u, l)| head[l][1] - head[u][1])
+        .sum::<f32>()
+        / 3.0;
+    let chin = (chin_y - gap.max(0.0)).max(0.5 * chin_y);
     let half = (0.5 * (head[16][0] - head[0][0]).abs()).max(0.7);
 
     // The canvas.
@@ -438,7 +446,7 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
             let p = pos(i);
             // The photo's edges away from the head (a tight crop cuts through the hair).
             valid[i]
-                && (border[i] && p[1] < chin && skull(p) > 1.5
+                && (border[i] && p[1] < chin_y && skull(p) > 1.5
                     || skull(p) > 2.1 && p[1] < 0.5 * chin)
         })
         .map(|i| col[i])
@@ -476,7 +484,7 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
             let r = skull(p);
             if in_face[i] {
                 [0.04, 0.86, 0.10]
-            } else if p[1] > chin * 1.05 {
+            } else if p[1] > chin_y * 1.05 {
                 // Below the chin: neck near the middle, clothes and background, long hair.
                 let neck = (p[0].abs() < 0.75 * half) as u8 as f32;
                 [0.55 - 0.2 * neck, 0.1 + 0.3 * neck, 0.35 - 0.1 * neck]
@@ -564,7 +572,7 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
         ];
         for j in around.into_iter().flatten() {
             // Hair stands at most about 0.8 skull radii out (a big afro); beyond is a wall.
-            let far = skull(pos(j)) > 1.8 && pos(j)[1] < chin;
+            let far = skull(pos(j)) > 1.8 && pos(j)[1] < chin_y;
             if !keep[j] && labels[j] == Label::Hair && !in_face[j] && !far {
                 keep[j] = true;
                 stack.push(j);
@@ -582,10 +590,6 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
     // (0.72 of its median lightness) or greyer (under half its median chroma per lightness):
     // stubble, dark beards and grey or white ones alike. Regions clear of the lips' edges and
     // the nostrils, whose shadows are dark on every face.
-    let median = |mut v: Vec<f32>| {
-        v.sort_by(f32::total_cmp);
-        v.get(v.len() / 2).copied()
-    };
     let chroma = |c: Colour| c[1].hypot(c[2]) / c[0].max(0.02);
     let skin_l = median(skin_seed.iter().map(|c| c[0]).collect()).unwrap_or(0.5);
     let skin_chroma = median(skin_seed.iter().map(|c| chroma(*c)).collect()).unwrap_or(0.1);
@@ -679,6 +683,12 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
             frame,
         },
     })
+}
+
+/// The middle value (the upper of the two for an even count); `None` when empty.
+fn median(mut v: Vec<f32>) -> Option<f32> {
+    v.sort_by(f32::total_cmp);
+    v.get(v.len() / 2).copied()
 }
 
 /// The hair's traits from its labelled pixels.
@@ -906,6 +916,32 @@ mod tests {
         assert!(sb.bald && !ss.bald && !sl.bald);
         assert!(sl.end < ss.end - 100.0, "{sl:?} {ss:?}");
         assert!(sg.volume > ss.volume + 5.0, "{sg:?} {ss:?}");
+    }
+
+    /// An open mouth drops the chin and the jaw, not the crown: the hair's reading holds.
+    #[test]
+    fn an_open_mouth_does_not_move_the_crown() {
+        let closed = landmarks();
+        let mut open = closed.clone();
+        // The jaw's lower points, the lower lip and the chin 30 px down (the mouth open by a
+        // quarter of the face's length); the photo is the same.
+        for (k, q) in open.iter_mut().enumerate() {
+            let lower_lip = (55..=59).contains(&k) || (65..=67).contains(&k);
+            if (4..=12).contains(&k) || lower_lip {
+                q[1] += 30.0 * if (4..=12).contains(&k) { 1.0 } else { 0.9 };
+            }
+        }
+        let img = photo(hair_to(12.0, 0.0), BROWN, false);
+        let a = analyse(&img, &closed)
+            .unwrap()
+            .hair
+            .expect("hair, mouth closed");
+        let b = analyse(&img, &open)
+            .unwrap()
+            .hair
+            .expect("hair, mouth open");
+        assert!(b.crown > 0.6, "{b:?}");
+        assert!((a.top - b.top).abs() < 0.05, "{a:?} vs {b:?}");
     }
 
     #[test]

@@ -95,7 +95,8 @@ pub struct TrackedFace {
     pub identity_frames: usize,
     /// Face mesh from `shape` and `expression`, model mm, pose removed.
     pub mesh: Vec<f32>,
-    /// The face the gem carves: `mesh` with the pipeline's caricature (see
+    /// The face the gem carves: the mean of the learning frames' portrait identities
+    /// ([`FacePipeline::portrait_coefficients`]) with `expression`, caricatured (see
     /// [`FacePipeline::portrait`]).
     pub portrait: Vec<f32>,
 }
@@ -113,6 +114,8 @@ struct TrackState {
     landmarks: Vec<[f32; 2]>,
     fit: Fit,
     identity_sum: Vec<f64>,
+    /// The same frames' portrait identities ([`FacePipeline::portrait_coefficients`]).
+    portrait_sum: Vec<f64>,
     identity_n: usize,
     angles: OneEuro,
     position: OneEuro,
@@ -162,7 +165,7 @@ impl Tracker {
             match self.follow(img, &state, &mut stages) {
                 Ok((landmarks, fit, verified)) => {
                     state.unverified = if verified { 0 } else { state.unverified + 1 };
-                    let face = self.update(state, landmarks, fit, time_s, false);
+                    let face = self.update(state, landmarks, fit, time_s, false, &mut stages);
                     return Ok(TrackStep {
                         face: Some(face),
                         lost: None,
@@ -185,13 +188,14 @@ impl Tracker {
             landmarks: Vec::new(),
             fit: fit.clone(),
             identity_sum: vec![0.0; fit.shape.len()],
+            portrait_sum: vec![0.0; fit.shape.len()],
             identity_n: 0,
             angles: OneEuro::new(o.angle_filter),
             position: OneEuro::new(o.position_filter),
             expression: OneEuro::new(o.expression_filter),
             unverified: 0,
         };
-        let face = self.update(state, found.points, fit, time_s, true);
+        let face = self.update(state, found.points, fit, time_s, true, &mut stages);
         Ok(TrackStep {
             face: Some(face),
             lost,
@@ -255,7 +259,7 @@ impl Tracker {
             self.options.identity_frames > 0 && state.identity_n >= self.options.identity_frames;
         let mut previous = state.fit.clone();
         if hold {
-            previous.shape = mean_identity(state);
+            previous.shape = mean_identity(state, &state.identity_sum);
         }
         let fit = timed(
             stages,
@@ -326,18 +330,32 @@ impl Tracker {
         fit: Fit,
         time_s: f64,
         detected: bool,
+        stages: &mut Vec<Stage>,
     ) -> TrackedFace {
         let o = &self.options;
-        if o.identity_frames == 0 {
-            state.identity_sum = fit.shape.iter().map(|&c| f64::from(c)).collect();
-            state.identity_n = 1;
-        } else if state.identity_n < o.identity_frames {
-            for (s, &c) in state.identity_sum.iter_mut().zip(&fit.shape) {
-                *s += f64::from(c);
+        let accumulate = o.identity_frames == 0 || state.identity_n < o.identity_frames;
+        if accumulate {
+            // The portrait's identity is fitted only while the identity is still being
+            // learnt (a second fit on those frames, none once it holds).
+            let (firm, _) = self
+                .pipeline
+                .portrait_coefficients(&landmarks, &fit, stages);
+            if o.identity_frames == 0 {
+                state.identity_sum = fit.shape.iter().map(|&c| f64::from(c)).collect();
+                state.portrait_sum = firm.iter().map(|&c| f64::from(c)).collect();
+                state.identity_n = 1;
+            } else {
+                for (s, &c) in state.identity_sum.iter_mut().zip(&fit.shape) {
+                    *s += f64::from(c);
+                }
+                for (s, &c) in state.portrait_sum.iter_mut().zip(&firm) {
+                    *s += f64::from(c);
+                }
+                state.identity_n += 1;
             }
-            state.identity_n += 1;
         }
-        let shape = mean_identity(&state);
+        let shape = mean_identity(&state, &state.identity_sum);
+        let portrait_shape = mean_identity(&state, &state.portrait_sum);
         let (pose, expression) = if o.smoothing {
             let angles = state.angles.filter(time_s, &fit.pose.yaw_pitch_roll_deg());
             let t = fit.pose.translation;
@@ -357,7 +375,7 @@ impl Tracker {
             (fit.pose, fit.expression.clone())
         };
         let mesh = self.pipeline.model.instance(&shape, &expression);
-        let portrait = self.pipeline.portrait(&shape, &expression);
+        let portrait = self.pipeline.portrait(&portrait_shape, &expression);
         let identity_frames = state.identity_n;
         state.landmarks = landmarks.clone();
         state.fit = fit.clone();
@@ -376,12 +394,13 @@ impl Tracker {
     }
 }
 
-fn mean_identity(state: &TrackState) -> Vec<f32> {
+/// The mean of `sum` over the frames learnt so far (the last fit's identity before any).
+fn mean_identity(state: &TrackState, sum: &[f64]) -> Vec<f32> {
     if state.identity_n == 0 {
         return state.fit.shape.clone();
     }
     let n = state.identity_n as f64;
-    state.identity_sum.iter().map(|s| (s / n) as f32).collect()
+    sum.iter().map(|s| (s / n) as f32).collect()
 }
 
 /// Standard deviation of the grey levels inside the box (sampled on a grid of at most 32 x 32).

