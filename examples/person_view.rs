@@ -2,8 +2,13 @@
 //! orange, the skin model's skin left as it is, background dimmed; and the traits as a table
 //! (hair, the beard's, jaw's and moustache's shares, the glasses' dip).
 //!
-//! `cargo run --release --example person_view -- OUT_DIR PHOTO...` writes OUT_DIR/NAME.png
-//! (at most 360 pixels high) and prints a Markdown table.
+//! `cargo run --release --example person_view -- OUT_DIR [--labels] PHOTO...` writes
+//! OUT_DIR/NAME.png (360 pixels high) and prints a Markdown table.
+//!
+//! `--labels` draws the labels alone, without the photo's pixels (hair orange, skin beige,
+//! background slate, beyond the canvas dark; the 68 landmarks white), and puts them side by
+//! side in OUT_DIR/labels.png: a picture of what was found that holds nothing of the photo
+//! (scripts/gallery.sh makes docs/person-labels.png so, from photos it only links to).
 
 use std::path::PathBuf;
 
@@ -14,7 +19,16 @@ use glyptic::pipeline::FacePipeline;
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
     let out = PathBuf::from(args.next().context("usage: person_view OUT_DIR PHOTO...")?);
-    let photos: Vec<PathBuf> = args.map(PathBuf::from).collect();
+    let mut labels_only = false;
+    let photos: Vec<PathBuf> = args
+        .filter(|a| {
+            let flag = a == "--labels";
+            labels_only |= flag;
+            !flag
+        })
+        .map(PathBuf::from)
+        .collect();
+    let mut sheet: Vec<image::RgbImage> = Vec::new();
     std::fs::create_dir_all(&out)?;
     let mut stages = Vec::new();
     let mut pipeline = FacePipeline::load_default(&mut stages)?;
@@ -46,13 +60,60 @@ fn main() -> Result<()> {
         let mut view = img.clone();
         for (x, y, px) in view.enumerate_pixels_mut() {
             let [r, g, b] = px.0.map(f32::from);
-            let c = match p.labels.at_pixel(x as f32, y as f32) {
-                Label::Hair => [0.35 * r + 0.65 * 255.0, 0.35 * g + 0.65 * 120.0, 0.35 * b],
-                Label::Skin => [r, g, b],
-                Label::Background => [0.35 * r, 0.35 * g, 0.35 * b + 60.0],
-                Label::Outside => [0.2 * r, 0.2 * g, 0.2 * b],
+            let label = p.labels.at_pixel(x as f32, y as f32);
+            let c = if labels_only {
+                match label {
+                    Label::Hair => [235.0, 120.0, 30.0],
+                    Label::Skin => [232.0, 200.0, 170.0],
+                    Label::Background => [70.0, 84.0, 110.0],
+                    Label::Outside => [25.0, 25.0, 30.0],
+                }
+            } else {
+                match label {
+                    Label::Hair => [0.35 * r + 0.65 * 255.0, 0.35 * g + 0.65 * 120.0, 0.35 * b],
+                    Label::Skin => [r, g, b],
+                    Label::Background => [0.35 * r, 0.35 * g, 0.35 * b + 60.0],
+                    Label::Outside => [0.2 * r, 0.2 * g, 0.2 * b],
+                }
             };
             px.0 = c.map(|v| v.clamp(0.0, 255.0) as u8);
+        }
+        if labels_only {
+            // The landmarks, a dot each, sized to the face (IOD / 25).
+            let iod = (face.landmarks[45][0] - face.landmarks[36][0])
+                .hypot(face.landmarks[45][1] - face.landmarks[36][1]);
+            let r = (iod / 25.0).max(1.5) as i64;
+            for q in &face.landmarks {
+                let (cx, cy) = (q[0] as i64, q[1] as i64);
+                for y in cy - r..=cy + r {
+                    for x in cx - r..=cx + r {
+                        let inside = (x - cx).pow(2) + (y - cy).pow(2) <= r * r;
+                        if inside
+                            && x >= 0
+                            && y >= 0
+                            && (x as u32) < view.width()
+                            && (y as u32) < view.height()
+                        {
+                            view.put_pixel(x as u32, y as u32, image::Rgb([255, 255, 255]));
+                        }
+                    }
+                }
+            }
+        }
+        if labels_only {
+            // Cropped to the canvas the labels cover (a big photo's head is small in it).
+            let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);
+            for y in 0..img.height() {
+                for x in 0..img.width() {
+                    if p.labels.at_pixel(x as f32, y as f32) != Label::Outside {
+                        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+                    }
+                }
+            }
+            if x1 > x0 && y1 > y0 {
+                view =
+                    image::imageops::crop_imm(&view, x0, y0, x1 - x0 + 1, y1 - y0 + 1).to_image();
+            }
         }
         let scale = 360.0 / view.height() as f32;
         let small = image::imageops::resize(
@@ -62,6 +123,9 @@ fn main() -> Result<()> {
             image::imageops::FilterType::Triangle,
         );
         small.save(out.join(format!("{name}.png")))?;
+        if labels_only {
+            sheet.push(small);
+        }
         let hair = p.hair.map_or("bald".to_string(), |_| "yes".into());
         let f = |v: Option<f32>| v.map_or("-".into(), |v| format!("{v:.2}"));
         let h = p.hair;
@@ -78,6 +142,17 @@ fn main() -> Result<()> {
             p.moustache,
             p.glasses
         );
+    }
+    if !sheet.is_empty() {
+        let gap = 8;
+        let width = sheet.iter().map(|i| i.width() + gap).sum::<u32>() - gap;
+        let mut all = image::RgbImage::from_pixel(width, 360, image::Rgb([255, 255, 255]));
+        let mut x = 0;
+        for i in &sheet {
+            image::imageops::replace(&mut all, i, i64::from(x), 0);
+            x += i.width() + gap;
+        }
+        all.save(out.join("labels.png"))?;
     }
     Ok(())
 }

@@ -9,8 +9,9 @@
 # Writes out/gallery/NAME-{profile,frontal}-{marble,agate}.png, out/gallery/sheet.png (photo |
 # four gems per row; it holds the photos, so it is never committed) and, for the default faces,
 # docs/gallery-NAME.png (the four gems alone) and the README's pictures of SSS, the surface
-# effects and a gallery style (docs/cameo-*.png); and what the person pass finds on the
-# astronaut's photo (out/gallery/person/astronaut.png, an overlay on the photo: not committed).
+# effects and a gallery style (docs/cameo-*.png); what the person pass finds on the five faces
+# as labels alone (docs/person-labels.png and .md) and as an overlay on the astronaut's photo
+# (out/gallery/person/astronaut.png: it holds the photo, so it is not committed).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -78,7 +79,12 @@ if [ "$readme" = 1 ]; then
     --style painterly >/dev/null
   # What the person pass finds (hair tinted orange, background dimmed) on the astronaut's
   # portrait: an overlay on a photo, so it stays in out/ and is never committed.
-  mkdir -p "$OUT/person"
+  mkdir -p "$OUT/person" "$OUT/labels"
   ./target/release/examples/person_view "$OUT/person" "$astronaut" > "$OUT/person/traits.md"
-  echo "wrote docs/gallery-*.png, docs/cameo-*.png and $OUT/person/astronaut.png"
+  # The same labels alone (no photo pixels) for the five faces: docs/person-labels.png and the
+  # traits beside it, docs/person-labels.md.
+  ./target/release/examples/person_view "$OUT/labels" --labels "${photos[@]}" \
+    > docs/person-labels.md
+  cp "$OUT/labels/labels.png" docs/person-labels.png
+  echo "wrote docs/gallery-*.png, docs/cameo-*.png, docs/person-labels.{png,md} and $OUT/person/astronaut.png"
 fi
