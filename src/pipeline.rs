@@ -172,8 +172,9 @@ pub struct FacePipeline {
     /// the mesh's). The caricature amplifies the person's difference from the mean face, so
     /// what it amplifies should be what the landmarks say firmly: on real photos dlib's
     /// landmark errors are larger and correlated, and a firmer prior than the one that is best
-    /// on synthetic faces with white noise (1) keeps the same person's portraits alike (2: the
-    /// likeness test's face descriptor 72 -> 79 %, BENCHMARKS.md). Equal to
+    /// on synthetic faces with white noise (1) keeps the same person's fitted identities
+    /// apart from others' (2: 82 -> 85 % on deepface's photos; the gems' nearest-neighbour
+    /// figure 72 -> 77 %, their pairwise one unchanged at 83 %: BENCHMARKS.md). Equal to
     /// `fit_options.lambda_shape`: the portrait is the mesh's fit, no second fit.
     pub portrait_prior: f64,
 }
