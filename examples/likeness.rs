@@ -15,8 +15,10 @@
 //! The figure is the share of gems whose nearest other gem is the same person's (chance is
 //! about 1 / number of people); with 61 gems one gem is 1.6 % and the figure's standard error
 //! about 5 %, so a steadier figure is printed beside it: how often a gem's fellow (another of
-//! the same person's) is nearer to it than a stranger's gem (50 % is chance). `--dump DIR` writes each relief (f32, little-endian, cols x
-//! rows) and its face footprint (one byte per cell) for further study.
+//! the same person's) is nearer to it than a stranger's gem (50 % is chance).
+//!
+//! `--dump DIR` writes each relief (f32, little-endian, cols x rows) and its face footprint
+//! (one byte per cell) for further study.
 //!
 //! `--classical` gives everyone the template's classical hair (the gems before issue #17);
 //! `--caricature GAIN,DETAIL` sets the portrait's caricature (`1,0`: the fitted face as it is;

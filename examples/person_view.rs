@@ -58,9 +58,15 @@ fn main() -> Result<()> {
         let p = person::analyse(&img, &face.landmarks)?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         let mut view = img.clone();
+        // The box the labels' canvas covers (`--labels` crops to it: a big photo's head is
+        // small in it).
+        let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);
         for (x, y, px) in view.enumerate_pixels_mut() {
             let [r, g, b] = px.0.map(f32::from);
             let label = p.labels.at_pixel(x as f32, y as f32);
+            if label != Label::Outside {
+                (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+            }
             let c = if labels_only {
                 match label {
                     Label::Hair => [235.0, 120.0, 30.0],
@@ -96,17 +102,6 @@ fn main() -> Result<()> {
                         {
                             view.put_pixel(x as u32, y as u32, image::Rgb([255, 255, 255]));
                         }
-                    }
-                }
-            }
-        }
-        if labels_only {
-            // Cropped to the canvas the labels cover (a big photo's head is small in it).
-            let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);
-            for y in 0..img.height() {
-                for x in 0..img.width() {
-                    if p.labels.at_pixel(x as f32, y as f32) != Label::Outside {
-                        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
                     }
                 }
             }

@@ -294,7 +294,6 @@ impl FacePipeline {
         })
     }
 
-    /// The face the gem carves for these coefficients: the identity with
     /// The portrait of a photo's face: [`FacePipeline::portrait_coefficients`], caricatured.
     pub fn portrait_fit(
         &self,
@@ -341,6 +340,7 @@ impl FacePipeline {
         }
     }
 
+    /// The face the gem carves for these coefficients: the identity with
     /// [`FacePipeline::caricature`] applied, model mm, pose removed.
     pub fn portrait(&self, shape: &[f32], expression: &[f32]) -> Vec<f32> {
         let shape = self.model.shape.caricature(shape, self.caricature);
