@@ -1,8 +1,11 @@
 //! The likeness test (issue #17): can a person's gems be told from other people's?
 //!
-//! Photos of several people, several photos each (deepface's `tests/unit/dataset`, whose
-//! `master.csv` and `face-recognition-pivot.csv` say which photos show the same person; used
-//! for measurement only, never committed). Every photo is made into a gem (the relief as the
+//! Photos of several people, several photos each, used for measurement only and never
+//! committed: deepface's `tests/unit/dataset` (61 photos of 13 people; its `master.csv` and
+//! `face-recognition-pivot.csv` say which photos show the same person), or any folder with one
+//! sub-folder of photos per person, such as the ten people of Labeled Faces in the Wild with ten
+//! photos each in krasserm/face-recognition's `images/` (ten men of similar age, hair and
+//! dress, 250 x 250 pixels: a much harder test). Every photo is made into a gem (the relief as the
 //! photo path builds it, profile or frontal) and every gem's nearest other gem is looked up by
 //! a descriptor of the gem alone:
 //!
@@ -23,7 +26,10 @@
 //! `--classical` gives everyone the template's classical hair (the gems before issue #17);
 //! `--caricature GAIN,DETAIL` sets the portrait's caricature (`1,0`: the fitted face as it is;
 //! see [`glyptic::shapemodel::Caricature`]); `--prior LAMBDA` the portrait fit's identity
-//! prior ([`glyptic::pipeline::FacePipeline::portrait_prior`]; 1: the mesh's fit).
+//! prior ([`glyptic::pipeline::FacePipeline::portrait_prior`]; 1: the mesh's fit);
+//! `--expression SHARE` how much of the expression the portrait carves
+//! ([`glyptic::pipeline::FacePipeline::portrait_expression`]); `--single-landmarks` finds the landmarks on the photo alone, not also on its mirror image
+//! ([`glyptic::pipeline::LandmarkPipeline::mirror_average`]).
 //!
 //! Also printed, for comparison and not a descriptor of the gem: the same test on the fitted
 //! identities themselves, by standard deviations of the model and by millimetres of the mesh,
@@ -31,7 +37,7 @@
 //! deviations.
 //!
 //! `cargo run --release --example likeness -- DATASET_DIR [--frontal] [--classical]
-//! [--caricature G,D] [--prior LAMBDA] [--dump DIR]`
+//! [--caricature G,D] [--prior LAMBDA] [--expression SHARE] [--single-landmarks] [--dump DIR]`
 
 use std::path::PathBuf;
 
@@ -103,12 +109,12 @@ fn distance(kind: &str, a: &Descriptor, b: &Descriptor) -> f64 {
 /// How often, over every gem and every pair (one of the same person's other gems, one of
 /// another person's), the same person's is the nearer: a steadier figure than the nearest
 /// neighbour's share (0.5 is chance, ties count half).
-fn same_nearer(gems: &[(String, usize, Descriptor)], dist: impl Fn(usize, usize) -> f64) -> f64 {
+fn same_nearer(ids: &[usize], dist: impl Fn(usize, usize) -> f64) -> f64 {
     let (mut wins, mut pairs) = (0.0, 0.0);
-    for i in 0..gems.len() {
-        let (same, other): (Vec<usize>, Vec<usize>) = (0..gems.len())
+    for i in 0..ids.len() {
+        let (same, other): (Vec<usize>, Vec<usize>) = (0..ids.len())
             .filter(|&j| j != i)
-            .partition(|&j| gems[j].1 == gems[i].1);
+            .partition(|&j| ids[j] == ids[i]);
         let d_other: Vec<f64> = other.iter().map(|&j| dist(i, j)).collect();
         for &s in &same {
             let ds = dist(i, s);
@@ -146,6 +152,8 @@ fn main() -> Result<()> {
     let mut classical = false;
     let mut caricature = Caricature::default();
     let mut prior = None;
+    let mut single_landmarks = false;
+    let mut expression = None;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--frontal" => params = CameoParams::frontal(),
@@ -159,6 +167,10 @@ fn main() -> Result<()> {
                 };
             }
             "--prior" => prior = Some(args.next().context("--prior LAMBDA")?.parse()?),
+            "--single-landmarks" => single_landmarks = true,
+            "--expression" => {
+                expression = Some(args.next().context("--expression SHARE")?.parse()?)
+            }
             "--dump" => dump = Some(PathBuf::from(args.next().context("--dump DIR")?)),
             _ => dir = Some(PathBuf::from(a)),
         }
@@ -168,6 +180,10 @@ fn main() -> Result<()> {
     let mut stages = Vec::new();
     let mut pipeline = FacePipeline::load_default(&mut stages)?;
     pipeline.caricature = caricature;
+    pipeline.faces.mirror_average = !single_landmarks;
+    if let Some(e) = expression {
+        pipeline.portrait_expression = e;
+    }
     if let Some(p) = prior {
         pipeline.portrait_prior = p;
     }
@@ -210,6 +226,7 @@ fn main() -> Result<()> {
         };
         per_photo_ms.push(t.elapsed().as_secs_f64() * 1e3);
         if let Some(d) = &dump {
+            let name = name.replace('/', "__");
             let bytes: Vec<u8> = relief.height.iter().flat_map(|v| v.to_le_bytes()).collect();
             std::fs::write(
                 d.join(format!("{name}.{}x{}.f32", relief.cols, relief.rows)),
@@ -238,6 +255,7 @@ fn main() -> Result<()> {
         dir.display(),
         100.0 / people as f64
     );
+    let gem_ids: Vec<usize> = gems.iter().map(|g| g.1).collect();
     for kind in ["relief", "outline", "face"] {
         let mut right = 0;
         let mut misses = Vec::new();
@@ -256,7 +274,7 @@ fn main() -> Result<()> {
              same person nearer than another {:.1} % of the time",
             gems.len(),
             100.0 * right as f64 / gems.len().max(1) as f64,
-            100.0 * same_nearer(&gems, |i, j| distance(kind, &gems[i].2, &gems[j].2))
+            100.0 * same_nearer(&gem_ids, |i, j| distance(kind, &gems[i].2, &gems[j].2))
         );
         println!("  misses: {}", misses.join(" "));
     }
@@ -287,10 +305,13 @@ fn main() -> Result<()> {
             .enumerate()
             .filter(|(i, j)| j.is_some_and(|j| fitted[j].0 == fitted[*i].0))
             .count();
+        let ids: Vec<usize> = fitted.iter().map(|f| f.0).collect();
+        let pairwise = same_nearer(&ids, d);
         println!(
-            "fitted identity by {label:20}: nearest the same person's for {right} / {} = {:.1} % (not a gem descriptor)",
+            "fitted identity by {label:20}: nearest the same person's for {right} / {} = {:.1} %; same person nearer {:.1} % (not a gem descriptor)",
             fitted.len(),
-            100.0 * right as f64 / fitted.len().max(1) as f64
+            100.0 * right as f64 / fitted.len().max(1) as f64,
+            100.0 * pairwise
         );
     }
     per_photo_ms.sort_by(f64::total_cmp);

@@ -168,3 +168,38 @@ fn the_portrait_is_fitted_under_a_firmer_prior() {
     assert_eq!(own, face.fit.shape);
     assert!(stages.is_empty());
 }
+
+/// The portrait carves the chosen share of the fitted expression: none is the neutral face,
+/// all is the caricatured identity with the fit's expression, and the default lies halfway
+/// (the blendshapes are linear); a share outside 0..1 is clamped.
+#[test]
+fn the_portrait_carves_its_share_of_the_expression() {
+    let mut p = pipeline();
+    let shape = vec![0.8f32; 10];
+    let expression = vec![0.6f32, -0.4, 0.3];
+    let share = |p: &mut glyptic::pipeline::FacePipeline, k: f32| {
+        p.portrait_expression = k;
+        p.portrait(&shape, &expression)
+    };
+    let none = share(&mut p, 0.0);
+    let all = share(&mut p, 1.0);
+    let half = share(&mut p, glyptic::pipeline::PORTRAIT_EXPRESSION);
+    assert_eq!(glyptic::pipeline::PORTRAIT_EXPRESSION, 0.5);
+    assert_eq!(none, p.portrait(&shape, &[]));
+    let caricatured = p.model.shape.caricature(&shape, p.caricature);
+    assert_eq!(all, p.model.instance(&caricatured, &expression));
+    let moved = none
+        .iter()
+        .zip(&all)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f32::max);
+    assert!(moved > 0.5, "the expression moves the face: {moved} mm");
+    for ((h, n), a) in half.iter().zip(&none).zip(&all) {
+        assert!(
+            (h - 0.5 * (n + a)).abs() < 1e-3,
+            "{h} is not halfway between {n} and {a}"
+        );
+    }
+    assert_eq!(share(&mut p, 7.0), all);
+    assert_eq!(share(&mut p, f32::NAN), half);
+}

@@ -1,12 +1,17 @@
-//! deepface's identity lists, shared by the likeness examples.
+//! Who is in which photo, for the likeness examples: deepface's identity lists, or one folder
+//! per person (LFW's layout, `Person_Name/Person_Name_0001.jpg`).
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::Result;
 
-/// Identities from the "Yes" rows of deepface's pair lists: photo name -> person number.
+/// Photo path (relative to `dir`) -> person number: from the "Yes" rows of deepface's pair
+/// lists when `dir` has them, else from one sub-folder per person.
 pub fn identities(dir: &Path) -> Result<BTreeMap<String, usize>> {
+    if !dir.join("master.csv").exists() && !dir.join("face-recognition-pivot.csv").exists() {
+        return folders(dir);
+    }
     let mut parent: BTreeMap<String, String> = BTreeMap::new();
     fn find(p: &mut BTreeMap<String, String>, x: &str) -> String {
         let mut x = x.to_string();
@@ -50,5 +55,42 @@ pub fn identities(dir: &Path) -> Result<BTreeMap<String, usize>> {
         let id = *roots.entry(r).or_insert(k);
         out.insert(n, id);
     }
+    Ok(out)
+}
+
+/// One sub-folder per person: every JPEG or PNG in `dir/PERSON/` is PERSON's (people with
+/// fewer than two photos are left out: they cannot have a fellow).
+fn folders(dir: &Path) -> Result<BTreeMap<String, usize>> {
+    let mut people: Vec<_> = std::fs::read_dir(dir)?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().is_dir())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    people.sort();
+    let mut out = BTreeMap::new();
+    let mut id = 0;
+    for person in people {
+        let mut photos: Vec<String> = std::fs::read_dir(dir.join(&person))?
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| {
+                let n = n.to_ascii_lowercase();
+                n.ends_with(".jpg") || n.ends_with(".jpeg") || n.ends_with(".png")
+            })
+            .collect();
+        if photos.len() < 2 {
+            continue;
+        }
+        photos.sort();
+        for p in photos {
+            out.insert(format!("{person}/{p}"), id);
+        }
+        id += 1;
+    }
+    anyhow::ensure!(
+        !out.is_empty(),
+        "{}: no identity lists (deepface's master.csv) and no folders of two or more photos per person",
+        dir.display()
+    );
     Ok(out)
 }

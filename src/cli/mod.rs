@@ -296,6 +296,10 @@ pub struct ChoiceArgs {
     /// its large ones. `1,0` carves the fitted face as it is.
     #[arg(long, value_parser = parse_caricature, default_value = "1,0.5")]
     pub caricature: glyptic::shapemodel::Caricature,
+    /// How much of the photo's expression the portrait carves: 0 a calm, neutral face (as
+    /// classical cameos have), 1 all of it.
+    #[arg(long, value_parser = parse_expression, default_value = "0.5")]
+    pub expression: f32,
     /// Glasses found on the photo: carved as a cutter would (the rims and temples as ridges on
     /// the face), or left out.
     #[arg(long, value_enum, default_value_t = GlassesArg::Carve)]
@@ -306,6 +310,14 @@ pub struct ChoiceArgs {
 pub enum GlassesArg {
     Carve,
     Leave,
+}
+
+fn parse_expression(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        Ok(v) => Err(format!("{v}: the expression's share must be 0..1")),
+        Err(e) => Err(format!("{s:?} is not a number ({e})")),
+    }
 }
 
 fn parse_caricature(s: &str) -> Result<glyptic::shapemodel::Caricature, String> {
@@ -399,11 +411,12 @@ impl ChoiceArgs {
         };
     }
 
-    /// The subject's choice and the portrait's caricature.
+    /// The subject's choice, the portrait's caricature and its share of the expression.
     #[cfg(feature = "face")]
     pub fn apply_face(&self, pipeline: &mut glyptic::pipeline::FacePipeline) {
         self.apply(&mut pipeline.faces.detect_options);
         pipeline.caricature = self.caricature;
+        pipeline.portrait_expression = self.expression;
     }
 }
 
@@ -791,6 +804,7 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
                 prefer: PreferArg::Largest,
                 hair: HairArg::Photo,
                 caricature: glyptic::shapemodel::Caricature::default(),
+                expression: 0.5,
                 glasses: GlassesArg::Carve,
             },
             landmarks_out: None,
