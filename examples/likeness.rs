@@ -5,9 +5,9 @@
 //! `face-recognition-pivot.csv` say which photos show the same person), or any folder with one
 //! sub-folder of photos per person, such as the ten people of Labeled Faces in the Wild with ten
 //! photos each in krasserm/face-recognition's `images/` (ten men of similar age, hair and
-//! dress, 250 x 250 pixels: a much harder test). Every photo is made into a gem (the relief as the
-//! photo path builds it, profile or frontal) and every gem's nearest other gem is looked up by
-//! a descriptor of the gem alone:
+//! dress, 250 x 250 pixels: a much harder test). Every photo is made into a gem (the relief as
+//! the photo path builds it, profile or frontal) and every gem's nearest other gem is looked up
+//! by a descriptor of the gem alone:
 //!
 //! * `relief`: the relief's heights (gem mm) averaged over 1 mm squares of the stone, compared
 //!   by root-mean-square difference: what the eye sees of the carving, outline and depth;
@@ -28,7 +28,8 @@
 //! see [`glyptic::shapemodel::Caricature`]); `--prior LAMBDA` the portrait fit's identity
 //! prior ([`glyptic::pipeline::FacePipeline::portrait_prior`]; 1: the mesh's fit);
 //! `--expression SHARE` how much of the expression the portrait carves
-//! ([`glyptic::pipeline::FacePipeline::portrait_expression`]); `--single-landmarks` finds the landmarks on the photo alone, not also on its mirror image
+//! ([`glyptic::pipeline::FacePipeline::portrait_expression`]); `--single-landmarks` finds the
+//! landmarks on the photo alone, not also on its mirror image
 //! ([`glyptic::pipeline::LandmarkPipeline::mirror_average`]).
 //!
 //! Also printed, for comparison and not a descriptor of the gem: the same test on the fitted
@@ -106,9 +107,10 @@ fn distance(kind: &str, a: &Descriptor, b: &Descriptor) -> f64 {
     }
 }
 
-/// How often, over every gem and every pair (one of the same person's other gems, one of
-/// another person's), the same person's is the nearer: a steadier figure than the nearest
-/// neighbour's share (0.5 is chance, ties count half).
+/// How often, over every item (gem or fitted identity; `ids[i]` its person) and every pair
+/// (one of the same person's other items, one of another person's), the same person's is the
+/// nearer: a steadier figure than the nearest neighbour's share (0.5 is chance, ties count
+/// half).
 fn same_nearer(ids: &[usize], dist: impl Fn(usize, usize) -> f64) -> f64 {
     let (mut wins, mut pairs) = (0.0, 0.0);
     for i in 0..ids.len() {

@@ -804,7 +804,7 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
                 prefer: PreferArg::Largest,
                 hair: HairArg::Photo,
                 caricature: glyptic::shapemodel::Caricature::default(),
-                expression: 0.5,
+                expression: glyptic::pipeline::PORTRAIT_EXPRESSION,
                 glasses: GlassesArg::Carve,
             },
             landmarks_out: None,

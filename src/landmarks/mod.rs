@@ -174,14 +174,20 @@ pub const FIVE_POINT_GROUPS: [&[usize]; 5] = [
     &[54],
 ];
 
+/// An error unless `points` is an iBUG 68-point shape.
+fn check_68(points: &[[f32; 2]]) -> Result<(), LandmarkError> {
+    if points.len() == 68 {
+        return Ok(());
+    }
+    Err(LandmarkError::Input {
+        what: "points",
+        problem: format!("{} points, expected 68", points.len()),
+    })
+}
+
 /// The five detector-style points ([`FIVE_POINT_GROUPS`]) of a 68-point shape.
 pub fn five_points(points: &[[f32; 2]]) -> Result<[[f32; 2]; 5], LandmarkError> {
-    if points.len() != 68 {
-        return Err(LandmarkError::Input {
-            what: "points",
-            problem: format!("{} points, expected 68", points.len()),
-        });
-    }
+    check_68(points)?;
     let mut out = [[0.0f32; 2]; 5];
     for (o, group) in out.iter_mut().zip(FIVE_POINT_GROUPS) {
         let k = group.len() as f32;
@@ -204,9 +210,7 @@ impl ShapePredictor {
             .collect();
         self.box_for_points(&targets)
     }
-}
 
-impl ShapePredictor {
     /// The landmarks of the face at the detector's `five` points (image pixels, in the order
     /// of [`FIVE_POINT_GROUPS`]) found on the image's mirror image ([`Mirrored`]) and mapped
     /// back ([`unmirror68`]), refined `rounds` times ([`ShapePredictor::predict_refined`]).
@@ -387,12 +391,7 @@ impl<G: GreyPixels + ?Sized> GreyPixels for Mirrored<'_, G> {
 /// 68 points of a mirrored image of width `width` (pixels) as points of the original image:
 /// x reflected, and each point renamed to its mirror landmark ([`IBUG68_MIRROR`]).
 pub fn unmirror68(points: &[[f32; 2]], width: u32) -> Result<Vec<[f32; 2]>, LandmarkError> {
-    if points.len() != 68 {
-        return Err(LandmarkError::Input {
-            what: "points",
-            problem: format!("{} points, expected 68", points.len()),
-        });
-    }
+    check_68(points)?;
     let w = width as f32 - 1.0;
     Ok(IBUG68_MIRROR
         .iter()
