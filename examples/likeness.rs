@@ -23,6 +23,7 @@
 //! `--dump DIR` writes each relief (f32, little-endian, cols x rows) and its face footprint
 //! (one byte per cell) for further study.
 //!
+//! `--colour-only` reads the hair without the person segmentation network;
 //! `--classical` gives everyone the template's classical hair (the gems before issue #17);
 //! `--caricature GAIN,DETAIL` sets the portrait's caricature (`1,0`: the fitted face as it is;
 //! see [`glyptic::shapemodel::Caricature`]); `--prior LAMBDA` the portrait fit's identity
@@ -152,6 +153,7 @@ fn main() -> Result<()> {
     let mut dump = None;
     let mut params = CameoParams::default();
     let mut classical = false;
+    let mut colour_only = false;
     let mut caricature = Caricature::default();
     let mut prior = None;
     let mut single_landmarks = false;
@@ -160,6 +162,7 @@ fn main() -> Result<()> {
         match a.as_str() {
             "--frontal" => params = CameoParams::frontal(),
             "--classical" => classical = true,
+            "--colour-only" => colour_only = true,
             "--caricature" => {
                 let v = args.next().context("--caricature GAIN,DETAIL")?;
                 let (g, d) = v.split_once(',').context("--caricature GAIN,DETAIL")?;
@@ -194,6 +197,14 @@ fn main() -> Result<()> {
     if let Some(d) = &dump {
         std::fs::create_dir_all(d)?;
     }
+    let mut segmenter = if colour_only {
+        None
+    } else {
+        Some(glyptic::detect::PersonSegmenter::load(
+            &glyptic::assets::segmenter_model(),
+            &glyptic::assets::onnxruntime_lib(),
+        )?)
+    };
     let mut gems: Vec<(String, usize, Descriptor)> = Vec::new();
     let mut fitted: Vec<(usize, Vec<f32>)> = Vec::new();
     let mut portraits: Vec<(usize, Vec<f32>)> = Vec::new();
@@ -219,7 +230,11 @@ fn main() -> Result<()> {
         let relief = if classical {
             builder.relief(&face.portrait, &triangles)?
         } else {
-            let person = glyptic::person::analyse(&img, &face.landmarks)?;
+            let mask = match segmenter.as_mut() {
+                Some(s) => Some(s.segment(&img, &face.landmarks)?),
+                None => None,
+            };
+            let person = glyptic::person::analyse_with(&img, &face.landmarks, mask.as_ref())?;
             let own = CameoParams {
                 hair: gem::hair_style(&person),
                 ..params.clone()

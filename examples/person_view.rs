@@ -5,6 +5,9 @@
 //! `cargo run --release --example person_view -- OUT_DIR [--labels] PHOTO...` writes
 //! OUT_DIR/NAME.png (360 pixels high) and prints a Markdown table.
 //!
+//! The person segmentation network helps (set-up installs it); `--colour-only` leaves it out,
+//! as before it was there.
+//!
 //! `--labels` draws the labels alone, without the photo's pixels (hair orange, skin beige,
 //! background slate, beyond the canvas dark; the 68 landmarks white), and puts them side by
 //! side in OUT_DIR/labels.png: a picture of what was found that holds nothing of the photo
@@ -13,18 +16,19 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
+use glyptic::detect::PersonSegmenter;
 use glyptic::person::{self, Label};
 use glyptic::pipeline::FacePipeline;
 
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
     let out = PathBuf::from(args.next().context("usage: person_view OUT_DIR PHOTO...")?);
-    let mut labels_only = false;
+    let (mut labels_only, mut colour_only) = (false, false);
     let photos: Vec<PathBuf> = args
         .filter(|a| {
-            let flag = a == "--labels";
-            labels_only |= flag;
-            !flag
+            labels_only |= a == "--labels";
+            colour_only |= a == "--colour-only";
+            !a.starts_with("--")
         })
         .map(PathBuf::from)
         .collect();
@@ -32,6 +36,14 @@ fn main() -> Result<()> {
     std::fs::create_dir_all(&out)?;
     let mut stages = Vec::new();
     let mut pipeline = FacePipeline::load_default(&mut stages)?;
+    let mut segmenter = if colour_only {
+        None
+    } else {
+        Some(PersonSegmenter::load(
+            &glyptic::assets::segmenter_model(),
+            &glyptic::assets::onnxruntime_lib(),
+        )?)
+    };
     println!(
         "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | ms |"
     );
@@ -55,7 +67,11 @@ fn main() -> Result<()> {
             }
         };
         let t = std::time::Instant::now();
-        let p = person::analyse(&img, &face.landmarks)?;
+        let mask = match segmenter.as_mut() {
+            Some(s) => Some(s.segment(&img, &face.landmarks)?),
+            None => None,
+        };
+        let p = person::analyse_with(&img, &face.landmarks, mask.as_ref())?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         let mut view = img.clone();
         // The box the labels' canvas covers (`--labels` crops to it: a big photo's head is

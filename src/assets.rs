@@ -16,6 +16,8 @@ pub const ORT_ENV: &str = "ORT_DYLIB_PATH";
 
 /// File name of the face detector model in `models/`.
 const DETECTOR_FILE: &str = "centerface.onnx";
+/// File name of the person segmentation model in [`models_dir`].
+const SEGMENTER_FILE: &str = "selfie_segmentation.onnx";
 
 fn looks_like_root(dir: &Path) -> bool {
     dir.join("models").join(DETECTOR_FILE).is_file() || dir.join("shapemodel").join("sfm").is_dir()
@@ -59,6 +61,12 @@ pub fn models_dir() -> PathBuf {
 /// The CenterFace detector model set-up puts in [`models_dir`].
 pub fn detector_model() -> PathBuf {
     models_dir().join(DETECTOR_FILE)
+}
+
+/// The person segmentation model set-up converts into [`models_dir`] (MediaPipe's selfie
+/// segmentation, see `scripts/setup.sh`).
+pub fn segmenter_model() -> PathBuf {
+    models_dir().join(SEGMENTER_FILE)
 }
 
 /// The ONNX Runtime shared library (`ORT_DYLIB_PATH` or the copy set-up made).

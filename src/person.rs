@@ -3,10 +3,12 @@
 //! beard or a moustache. 68 landmarks say nothing of these, and at a cameo's size they are
 //! most of what makes a person recognisable.
 //!
-//! Method (no trained segmentation model is available, see `docs/likeness.md`): the photo is
-//! resampled into the *head frame*, then every pixel is labelled background, skin or hair by
-//! colour models (Gaussian mixtures, refitted a few times as in GrabCut) weighted by where each
-//! is likely to be around a head, with the posteriors smoothed before each decision. Skin is
+//! Method: the photo is resampled into the *head frame*, then every pixel is labelled
+//! background, skin or hair by colour models (Gaussian mixtures, refitted a few times as in
+//! GrabCut) weighted by where each is likely to be around a head and, when there is one, by a
+//! person segmentation ([`PersonMask`], MediaPipe's selfie network run by
+//! `detect::PersonSegmenter`: it knows a wall from hair of the same colour, though not a hat or
+//! a hand from the person), with the posteriors smoothed before each decision. Skin is
 //! learnt from the cheeks and nose, background from the frame's far corners and the photo's
 //! edges, hair from the crown and temples where they are neither. Facial hair is what is
 //! hair-labelled, darker or greyer than the skin inside the chin's, jaw's and upper lip's
@@ -128,6 +130,87 @@ impl Labels {
         }
         self.labels[r as usize * self.width + c as usize]
     }
+}
+
+/// Where the person (head, hair, body, hat, hands) is in the photo as opposed to the background,
+/// from a segmentation network: a square grid of probabilities laid axis-aligned over the
+/// photo (see [`mask_window`]). It tells hair from a wall of the same colour, which colour
+/// alone cannot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PersonMask {
+    /// Cells per side.
+    pub size: usize,
+    /// Photo position (pixels) of the grid's top-left corner.
+    pub origin: [f32; 2],
+    /// A cell's side, photo pixels.
+    pub step: f32,
+    /// Probability of the person, row-major, `size * size` values in 0..1.
+    pub prob: Vec<f32>,
+}
+
+impl PersonMask {
+    /// The probability at photo pixel `p` (bilinear between cell centres); `None` off the grid
+    /// or when the grid is malformed.
+    pub fn at(&self, p: [f32; 2]) -> Option<f32> {
+        if self.prob.len() != self.size * self.size || self.size == 0 || self.step <= 0.0 {
+            return None;
+        }
+        let gx = (p[0] - self.origin[0]) / self.step - 0.5;
+        let gy = (p[1] - self.origin[1]) / self.step - 0.5;
+        let last = (self.size - 1) as f32;
+        if !(gx >= -0.5 && gy >= -0.5 && gx <= last + 0.5 && gy <= last + 0.5) {
+            return None;
+        }
+        let (gx, gy) = (gx.clamp(0.0, last), gy.clamp(0.0, last));
+        let (x0, y0) = (gx as usize, gy as usize);
+        let (x1, y1) = ((x0 + 1).min(self.size - 1), (y0 + 1).min(self.size - 1));
+        let (fx, fy) = (gx - x0 as f32, gy - y0 as f32);
+        let v = |x: usize, y: usize| self.prob[y * self.size + x];
+        let top = v(x0, y0) * (1.0 - fx) + v(x1, y0) * fx;
+        let bottom = v(x0, y1) * (1.0 - fx) + v(x1, y1) * fx;
+        let q = top * (1.0 - fy) + bottom * fy;
+        q.is_finite().then(|| q.clamp(0.0, 1.0))
+    }
+}
+
+/// The photo square a person segmentation should see for this face: centre and side, photo
+/// pixels. It covers the analysis canvas (head, hair standing out, shoulders) and is upright,
+/// as portrait segmentation networks are trained.
+pub fn mask_window(landmarks: &[[f32; 2]]) -> Result<([f32; 2], f32), PersonError> {
+    let frame = head_frame(landmarks)?;
+    let centre = frame.to_pixel([0.0, 0.5 * (T_RANGE.0 + T_RANGE.1)]);
+    let iod = frame.axis[0].hypot(frame.axis[1]);
+    Ok((centre, (T_RANGE.1 - T_RANGE.0) * iod))
+}
+
+/// The head frame from 68 landmarks, checked.
+fn head_frame(landmarks: &[[f32; 2]]) -> Result<Frame, PersonError> {
+    if landmarks.len() != 68 {
+        return Err(PersonError::Landmarks(landmarks.len()));
+    }
+    if let Some(i) = landmarks
+        .iter()
+        .position(|p| !p.iter().all(|v| v.is_finite()))
+    {
+        return Err(PersonError::NonFinite(i));
+    }
+    let centre = |r: std::ops::Range<usize>| {
+        let n = r.len() as f32;
+        let (x, y) = landmarks[r]
+            .iter()
+            .fold((0.0, 0.0), |(x, y), p| (x + p[0], y + p[1]));
+        [x / n, y / n]
+    };
+    let (le, re) = (centre(36..42), centre(42..48));
+    let axis = [re[0] - le[0], re[1] - le[1]];
+    let iod = axis[0].hypot(axis[1]);
+    if iod < 8.0 {
+        return Err(PersonError::TooSmall(iod));
+    }
+    Ok(Frame {
+        origin: [(le[0] + re[0]) / 2.0, (le[1] + re[1]) / 2.0],
+        axis,
+    })
 }
 
 /// Photo pixels <-> head frame.
@@ -335,34 +418,20 @@ fn box_blur(f: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
 }
 
 /// Reads the person around the face from an RGB photo and the face's 68 iBUG landmarks
-/// (photo pixels).
+/// (photo pixels), by colour alone.
 pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonError> {
-    if landmarks.len() != 68 {
-        return Err(PersonError::Landmarks(landmarks.len()));
-    }
-    if let Some(i) = landmarks
-        .iter()
-        .position(|p| !p.iter().all(|v| v.is_finite()))
-    {
-        return Err(PersonError::NonFinite(i));
-    }
-    let centre = |r: std::ops::Range<usize>| {
-        let n = r.len() as f32;
-        let (x, y) = landmarks[r]
-            .iter()
-            .fold((0.0, 0.0), |(x, y), p| (x + p[0], y + p[1]));
-        [x / n, y / n]
-    };
-    let (le, re) = (centre(36..42), centre(42..48));
-    let axis = [re[0] - le[0], re[1] - le[1]];
-    let iod = axis[0].hypot(axis[1]);
-    if iod < 8.0 {
-        return Err(PersonError::TooSmall(iod));
-    }
-    let frame = Frame {
-        origin: [(le[0] + re[0]) / 2.0, (le[1] + re[1]) / 2.0],
-        axis,
-    };
+    analyse_with(img, landmarks, None)
+}
+
+/// [`analyse`], with a person segmentation where there is one: what it calls background is
+/// not hair nor skin, whatever its colour (a light wall beside white hair, a dark doorway
+/// beside dark hair), and the background's colours are learnt from it.
+pub fn analyse_with(
+    img: &RgbImage,
+    landmarks: &[[f32; 2]],
+    mask: Option<&PersonMask>,
+) -> Result<Person, PersonError> {
+    let frame = head_frame(landmarks)?;
     let head: Vec<[f32; 2]> = landmarks.iter().map(|p| frame.to_head(*p)).collect();
     // Where the chin is, and the face's length (eyes to chin) with the mouth closed, which
     // sizes the skull: an open mouth drops the chin, not the crown (IOD).
@@ -410,6 +479,15 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
         border[i] = x < m || y < m || x > iw - 1.0 - m || y > ih - 1.0 - m;
     }
     let col: Vec<Colour> = rgb.iter().map(|p| colour(*p)).collect();
+    // The segmentation's probability of the person per canvas pixel (NaN: not known).
+    let person: Vec<f32> = (0..w * h)
+        .map(|i| {
+            mask.and_then(|m| m.at(frame.to_pixel(pos(i))))
+                .unwrap_or(f32::NAN)
+        })
+        .collect();
+    // Unknown (NaN) counts as maybe.
+    let maybe_person = |i: usize| person[i].is_nan() || person[i] >= 0.5;
 
     // Regions from the landmarks.
     let face_poly: Vec<[f32; 2]> = (0..=16).chain((17..=26).rev()).map(|k| head[k]).collect();
@@ -445,6 +523,8 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
         .filter(|&i| {
             let p = pos(i);
             // The photo's edges away from the head (a tight crop cuts through the hair).
+            // (Seeding the background from what a segmentation calls background as well
+            // thins the model's dark colours, and dark clothes below the chin become hair.)
             valid[i]
                 && (border[i] && p[1] < chin_y && skull(p) > 1.5
                     || skull(p) > 2.1 && p[1] < 0.5 * chin)
@@ -462,7 +542,10 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
         .count();
     let enough = (crown_pixels / 12).max(30);
     let unlike_skin = |i: usize| {
-        valid[i] && crown_band(pos(i)) && skin0.as_ref().is_none_or(|g| g.d2(col[i]) > 14.0)
+        valid[i]
+            && maybe_person(i)
+            && crown_band(pos(i))
+            && skin0.as_ref().is_none_or(|g| g.d2(col[i]) > 14.0)
     };
     // Hair is what is neither skin nor background there; when that leaves too little, hair
     // and background share a colour and only skin is ruled out (where it lies then decides).
@@ -477,13 +560,14 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
             .collect();
     }
 
-    // Where each class is likely to be, before colour: [background, skin, hair].
+    // Where each class is likely to be, before colour: [background, skin, hair]; a
+    // segmentation's verdict weighs on it outside the face (softly: its own edge is blurred).
     let prior: Vec<[f32; 3]> = (0..w * h)
         .map(|i| {
             let p = pos(i);
             let r = skull(p);
-            if in_face[i] {
-                [0.04, 0.86, 0.10]
+            let [b, s, h] = if in_face[i] {
+                return [0.04, 0.86, 0.10];
             } else if p[1] > chin_y * 1.05 {
                 // Below the chin: neck near the middle, clothes and background, long hair.
                 let neck = (p[0].abs() < 0.75 * half) as u8 as f32;
@@ -493,7 +577,22 @@ pub fn analyse(img: &RgbImage, landmarks: &[[f32; 2]]) -> Result<Person, PersonE
             } else {
                 let hair = (0.5 - 0.5 * (r - 1.0)).clamp(0.12, 0.5);
                 [0.92 - hair, 0.08, hair]
+            };
+            let q = person[i];
+            if !q.is_finite() {
+                return [b, s, h];
             }
+            // Below the chin the person is mostly clothes, which count as background here (no
+            // colour model tells dark clothes from dark hair): there only what the segmentation
+            // is sure is background rules hair and skin out.
+            let (b, s, h) = if p[1] > chin_y * 1.05 {
+                let f = (10.0 * q).clamp(0.05, 1.0);
+                (b, s * f, h * f)
+            } else {
+                (b * (1.02 - q), s * (q + 0.02), h * (q + 0.02))
+            };
+            let z = b + s + h;
+            [b / z, s / z, h / z]
         })
         .collect();
 
@@ -942,6 +1041,104 @@ mod tests {
             .expect("hair, mouth open");
         assert!(b.crown > 0.6, "{b:?}");
         assert!((a.top - b.top).abs() < 0.05, "{a:?} vs {b:?}");
+    }
+
+    /// A segmentation of the synthetic photo: the head with `stand` px of hair, the neck, and
+    /// the body below y = 420 are the person.
+    fn person_mask(stand: f32) -> PersonMask {
+        let size = 130;
+        let step = 4.0;
+        let prob = (0..size * size)
+            .map(|i| {
+                let (x, y) = (
+                    ((i % size) as f32 + 0.5) * step,
+                    ((i / size) as f32 + 0.5) * step,
+                );
+                let head = ((x - 200.0) / (72.0 + stand)).powi(2)
+                    + ((y - 205.0) / (125.0 + stand)).powi(2)
+                    < 1.0;
+                let neck = (x - 200.0).abs() < 45.0 && y > 300.0;
+                f32::from(u8::from(head || neck || y > 420.0))
+            })
+            .collect();
+        PersonMask {
+            size,
+            origin: [0.0, 0.0],
+            step,
+            prob,
+        }
+    }
+
+    #[test]
+    fn a_person_mask_is_read_bilinearly_and_not_beyond_its_grid() {
+        let m = PersonMask {
+            size: 2,
+            origin: [10.0, 20.0],
+            step: 5.0,
+            prob: vec![0.0, 1.0, 0.0, 1.0],
+        };
+        // Cell centres at x = 12.5 and 17.5: halfway between them is 0.5.
+        assert_eq!(m.at([15.0, 22.5]), Some(0.5));
+        assert_eq!(m.at([12.5, 25.0]), Some(0.0));
+        assert_eq!(m.at([19.9, 29.9]), Some(1.0));
+        assert_eq!(m.at([9.0, 25.0]), None);
+        assert_eq!(m.at([15.0, 31.0]), None);
+        assert_eq!(m.at([f32::NAN, 25.0]), None);
+        let broken = PersonMask {
+            prob: vec![0.5; 3],
+            ..m
+        };
+        assert_eq!(broken.at([15.0, 22.5]), None);
+    }
+
+    #[test]
+    fn the_mask_window_covers_the_analysis_canvas() {
+        let lm = landmarks();
+        let (centre, side) = mask_window(&lm).unwrap();
+        // Eyes 60 px apart at y = 200: the canvas runs from 3.4 IOD above the eyes to 6 below.
+        assert!((side - 9.4 * 60.0).abs() < 1.0, "{side}");
+        assert!((centre[0] - 200.0).abs() < 0.5, "{centre:?}");
+        assert!((centre[1] - (200.0 + 1.3 * 60.0)).abs() < 1.0, "{centre:?}");
+        assert!(mask_window(&lm[..60]).is_err());
+    }
+
+    /// A wall the colour of the hair beside the head: colour alone cannot tell them apart, the
+    /// segmentation can.
+    #[test]
+    fn a_segmentation_keeps_a_wall_the_colour_of_the_hair_out_of_it() {
+        let lm = landmarks();
+        let hair = hair_to(12.0, 0.0);
+        let wall = |x: f32, y: f32| x > 282.0 && y > 60.0 && y < 240.0;
+        let img = photo(|x, y| hair(x, y) || wall(x, y), BROWN, false);
+        let plain = analyse(&photo(&hair, BROWN, false), &lm).unwrap();
+        let p = plain.hair.expect("hair on the plain ground");
+        let colour = analyse(&img, &lm).unwrap();
+        let c = colour.hair.expect("hair beside the wall");
+        let mask = person_mask(12.0);
+        let seg = analyse_with(&img, &lm, Some(&mask)).unwrap();
+        let s = seg.hair.expect("hair with the segmentation");
+        assert!(
+            c.sides > p.sides + 0.1,
+            "the wall joins the hair by colour: {c:?} vs {p:?}"
+        );
+        assert!((s.sides - p.sides).abs() < 0.05, "{s:?} vs {p:?}");
+        let wall_hair = |q: &Person| {
+            (290..400)
+                .step_by(4)
+                .flat_map(|x| (80..220).step_by(4).map(move |y| (x, y)))
+                .filter(|&(x, y)| q.labels.at_pixel(x as f32, y as f32) == Label::Hair)
+                .count()
+        };
+        assert_eq!(wall_hair(&seg), 0);
+        assert!(wall_hair(&colour) > 100, "{}", wall_hair(&colour));
+        // Without a wall the segmentation changes nothing that matters.
+        let same = analyse_with(&photo(&hair, BROWN, false), &lm, Some(&mask)).unwrap();
+        let q = same.hair.expect("hair");
+        assert!(
+            (q.sides - p.sides).abs() < 0.05 && (q.top - p.top).abs() < 0.05,
+            "{q:?} {p:?}"
+        );
+        assert!(same.beard < BEARD_SHARE && !same.has_glasses());
     }
 
     #[test]

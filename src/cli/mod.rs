@@ -346,8 +346,26 @@ pub enum HairArg {
     Classical,
 }
 
-/// The cameo's parameters with the subject's own hair (stage "person"); when the photo cannot
-/// be read for it, a warning and the classical hair: the gem is still made.
+/// The person segmentation network for the hair pass, when the photo's hair is wanted; when
+/// it is missing or broken, a warning and `None`: the hair is then read by colour alone.
+#[cfg(feature = "face")]
+pub fn load_segmenter(choice: &ChoiceArgs) -> Option<glyptic::detect::PersonSegmenter> {
+    if choice.hair == HairArg::Classical {
+        return None;
+    }
+    glyptic::detect::PersonSegmenter::load(
+        &glyptic::assets::segmenter_model(),
+        &glyptic::assets::onnxruntime_lib(),
+    )
+    .map_err(|e| {
+        eprintln!("warning: {e}; the hair is read by colour alone (run scripts/setup.sh)");
+    })
+    .ok()
+}
+
+/// The cameo's parameters with the subject's own hair (stage "person", the segmentation's
+/// share as stage "segment"); when the photo cannot be read for it, a warning and the classical
+/// hair: the gem is still made.
 #[cfg(feature = "face")]
 pub fn person_cameo(
     stages: &mut Vec<Stage>,
@@ -355,14 +373,25 @@ pub fn person_cameo(
     landmarks: &[[f32; 2]],
     cameo: CameoParams,
     choice: &ChoiceArgs,
+    segmenter: Option<&mut glyptic::detect::PersonSegmenter>,
 ) -> CameoParams {
     if choice.hair == HairArg::Classical {
         return cameo;
     }
+    let mask = segmenter.and_then(|s| {
+        timed(
+            stages,
+            "segment",
+            || s.segment(img, landmarks),
+            |_| "person / background".into(),
+        )
+        .map_err(|e| eprintln!("warning: {e}; the hair is read by colour alone"))
+        .ok()
+    });
     let person = timed(
         stages,
         "person",
-        || glyptic::person::analyse(img, landmarks),
+        || glyptic::person::analyse_with(img, landmarks, mask.as_ref()),
         |p| match p.hair {
             Some(h) => format!(
                 "hair: stands {:.2}, ends {:.2} face lengths below the eyes, curl {:.2}; beard {:.0} %, moustache {:.0} %, glasses {}",
@@ -949,12 +978,14 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     let mut pipeline = glyptic::pipeline::FacePipeline::load_default(&mut stages)?;
     args.choice.apply_face(&mut pipeline);
     let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
+    let mut segmenter = load_segmenter(&args.choice);
     let cameo = person_cameo(
         &mut stages,
         &img,
         &face.landmarks,
         args.view.portrait.cameo(),
         &args.choice,
+        segmenter.as_mut(),
     );
     let mesh = build_gem(
         &mut stages,

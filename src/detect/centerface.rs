@@ -15,7 +15,7 @@ use std::sync::Mutex;
 use ort::environment::Environment;
 use ort::logging::LogLevel;
 use ort::session::Session;
-use ort::session::builder::GraphOptimizationLevel;
+use ort::session::builder::{GraphOptimizationLevel, SessionBuilder};
 
 use super::DetectError;
 use super::onnx_dims::{self, DimSpec};
@@ -132,6 +132,25 @@ pub fn prepare_model(bytes: &[u8], path: &Path) -> Result<Vec<u8>, DetectError> 
     Ok(model)
 }
 
+/// A session builder with glyptic's settings: warnings only, `config`'s threads inside an
+/// operator, one between operators, every graph optimisation.
+pub fn session_builder(
+    env: &Environment,
+    config: &SessionConfig,
+) -> Result<SessionBuilder, String> {
+    let builder = Session::builder(env).map_err(|e| e.to_string())?;
+    let builder = builder
+        .with_log_level(LogLevel::Warning)
+        .map_err(|e| e.to_string())?;
+    let builder = builder
+        .with_intra_threads(config.intra_threads.max(1))
+        .map_err(|e| e.to_string())?;
+    let builder = builder.with_inter_threads(1).map_err(|e| e.to_string())?;
+    builder
+        .with_optimization_level(GraphOptimizationLevel::All)
+        .map_err(|e| e.to_string())
+}
+
 /// Creates the ONNX Runtime session from prepared model bytes.
 pub fn session(
     env: &Environment,
@@ -143,19 +162,7 @@ pub fn session(
         path: path.to_path_buf(),
         reason,
     };
-    let builder = Session::builder(env).map_err(|e| session_err(e.to_string()))?;
-    let builder = builder
-        .with_log_level(LogLevel::Warning)
-        .map_err(|e| session_err(e.to_string()))?;
-    let builder = builder
-        .with_intra_threads(config.intra_threads.max(1))
-        .map_err(|e| session_err(e.to_string()))?;
-    let builder = builder
-        .with_inter_threads(1)
-        .map_err(|e| session_err(e.to_string()))?;
-    let mut builder = builder
-        .with_optimization_level(GraphOptimizationLevel::All)
-        .map_err(|e| session_err(e.to_string()))?;
+    let mut builder = session_builder(env, config).map_err(session_err)?;
     let session = builder
         .commit_from_memory(model)
         .map_err(|e| session_err(e.to_string()))?;

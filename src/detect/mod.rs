@@ -28,6 +28,7 @@ pub mod decode;
 pub mod nms;
 pub mod onnx_dims;
 pub mod preprocess;
+pub mod segment;
 
 use std::path::{Path, PathBuf};
 
@@ -39,6 +40,7 @@ pub use self::centerface::{SessionConfig, ort_environment};
 pub use self::decode::{CenterFaceMaps, decode};
 pub use self::nms::{iou, nms};
 pub use self::preprocess::Letterbox;
+pub use self::segment::{PersonSegmenter, SegmentError};
 
 /// Tuning for [`FaceDetector::detect`].
 #[derive(Clone, Debug)]

@@ -1,0 +1,176 @@
+//! Person segmentation: MediaPipe's selfie segmentation network (general model, Apache-2.0),
+//! converted from TFLite to ONNX at set-up (`scripts/tflite_to_onnx.py`), run with ONNX
+//! Runtime.
+//!
+//! # Assumptions
+//! * Input `input_1`: 1 x 256 x 256 x 3 (NHWC), RGB in 0..1; output `activation_10`:
+//!   1 x 256 x 256 x 1, the probability of the person (head, hair, body, whatever they hold
+//!   or wear) against the background.
+//! * It is trained on upright head-and-shoulders views, so it is shown an upright square
+//!   around the face ([`crate::person::mask_window`]), resampled bilinearly; where the square
+//!   leaves the photo the photo's edge pixels are repeated (a body cut by the frame goes on).
+//!
+//! The sampling ([`sample_window`]) is pure; the session is the only I/O.
+
+use std::path::{Path, PathBuf};
+
+use image::RgbImage;
+use ort::session::Session;
+use ort::value::TensorRef;
+
+use super::{DetectError, SessionConfig, ort_environment};
+use crate::person::{PersonError, PersonMask, mask_window};
+
+/// Graph input name.
+pub const INPUT: &str = "input_1";
+/// Graph output name.
+pub const OUTPUT: &str = "activation_10";
+/// The network's square input side, pixels.
+pub const SIDE: usize = 256;
+
+/// Why a person mask could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum SegmentError {
+    #[error("cannot read person segmentation model {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path} is not the person segmentation model: {reason}")]
+    Model { path: PathBuf, reason: String },
+    #[error(transparent)]
+    Runtime(#[from] DetectError),
+    #[error("person segmentation with model {path} failed: {reason}")]
+    Inference { path: PathBuf, reason: String },
+    #[error("person segmentation: {0}")]
+    Face(#[from] PersonError),
+}
+
+/// The segmentation network with an ONNX Runtime session, ready to run.
+pub struct PersonSegmenter {
+    session: Session,
+    model_path: PathBuf,
+}
+
+impl std::fmt::Debug for PersonSegmenter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PersonSegmenter")
+            .field("model_path", &self.model_path)
+            .finish_non_exhaustive()
+    }
+}
+
+impl PersonSegmenter {
+    /// Loads the model (see [`crate::assets::segmenter_model`]) with ONNX Runtime from
+    /// `ort_library`, on one thread.
+    pub fn load(model: &Path, ort_library: &Path) -> Result<Self, SegmentError> {
+        let bytes = std::fs::read(model).map_err(|source| SegmentError::Io {
+            path: model.to_path_buf(),
+            source,
+        })?;
+        let model_err = |reason: String| SegmentError::Model {
+            path: model.to_path_buf(),
+            reason,
+        };
+        let env = ort_environment(ort_library)?;
+        let session = super::centerface::session_builder(&env, &SessionConfig::default())
+            .and_then(|mut b| b.commit_from_memory(&bytes).map_err(|e| e.to_string()))
+            .map_err(model_err)?;
+        let has = |names: Vec<&str>, want: &str| names.contains(&want);
+        if !has(session.inputs().iter().map(|o| o.name()).collect(), INPUT)
+            || !has(session.outputs().iter().map(|o| o.name()).collect(), OUTPUT)
+        {
+            return Err(model_err(format!(
+                "expected input `{INPUT}` and output `{OUTPUT}`"
+            )));
+        }
+        Ok(PersonSegmenter {
+            session,
+            model_path: model.to_path_buf(),
+        })
+    }
+
+    /// The person's probability around the face with these 68 landmarks (photo pixels).
+    pub fn segment(
+        &mut self,
+        img: &RgbImage,
+        landmarks: &[[f32; 2]],
+    ) -> Result<PersonMask, SegmentError> {
+        let (centre, side) = mask_window(landmarks)?;
+        let input = sample_window(img, centre, side).ok_or_else(|| SegmentError::Inference {
+            path: self.model_path.clone(),
+            reason: format!("empty {}x{} image", img.width(), img.height()),
+        })?;
+        let infer_err = |reason: String| SegmentError::Inference {
+            path: self.model_path.clone(),
+            reason,
+        };
+        let tensor = TensorRef::from_array_view(&input).map_err(|e| infer_err(e.to_string()))?;
+        let outputs = self
+            .session
+            .run(ort::inputs![INPUT => tensor])
+            .map_err(|e| infer_err(e.to_string()))?;
+        let out = outputs
+            .get(OUTPUT)
+            .ok_or_else(|| infer_err(format!("no output `{OUTPUT}`")))?
+            .try_extract_array::<f32>()
+            .map_err(|e| infer_err(e.to_string()))?;
+        if out.len() != SIDE * SIDE {
+            return Err(infer_err(format!(
+                "output has {} values, expected {}",
+                out.len(),
+                SIDE * SIDE
+            )));
+        }
+        let prob: Vec<f32> = out
+            .iter()
+            .map(|v| {
+                if v.is_finite() {
+                    v.clamp(0.0, 1.0)
+                } else {
+                    0.5
+                }
+            })
+            .collect();
+        let step = side / SIDE as f32;
+        Ok(PersonMask {
+            size: SIDE,
+            origin: [centre[0] - side / 2.0, centre[1] - side / 2.0],
+            step,
+            prob,
+        })
+    }
+}
+
+/// The network's input: the upright square of side `side` (photo pixels) centred at `centre`,
+/// bilinear, edge pixels repeated beyond the photo, RGB 0..1, NHWC. `None` for an empty image.
+pub fn sample_window(img: &RgbImage, centre: [f32; 2], side: f32) -> Option<ndarray::Array4<f32>> {
+    let (w, h) = img.dimensions();
+    if w == 0 || h == 0 {
+        return None;
+    }
+    let step = side / SIDE as f32;
+    let x0 = centre[0] - side / 2.0;
+    let y0 = centre[1] - side / 2.0;
+    let (wf, hf) = ((w - 1) as f32, (h - 1) as f32);
+    let mut out = ndarray::Array4::<f32>::zeros((1, SIDE, SIDE, 3));
+    for r in 0..SIDE {
+        let y = (y0 + (r as f32 + 0.5) * step - 0.5).clamp(0.0, hf);
+        let (ya, fy) = (y as u32, y.fract());
+        let yb = (ya + 1).min(h - 1);
+        for c in 0..SIDE {
+            let x = (x0 + (c as f32 + 0.5) * step - 0.5).clamp(0.0, wf);
+            let (xa, fx) = (x as u32, x.fract());
+            let xb = (xa + 1).min(w - 1);
+            let (a, b) = (img.get_pixel(xa, ya).0, img.get_pixel(xb, ya).0);
+            let (cc, d) = (img.get_pixel(xa, yb).0, img.get_pixel(xb, yb).0);
+            for k in 0..3 {
+                let top = f32::from(a[k]) * (1.0 - fx) + f32::from(b[k]) * fx;
+                let bottom = f32::from(cc[k]) * (1.0 - fx) + f32::from(d[k]) * fx;
+                out[[0, r, c, k]] = (top * (1.0 - fy) + bottom * fy) / 255.0;
+            }
+        }
+    }
+    Some(out)
+}
