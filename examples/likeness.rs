@@ -200,10 +200,7 @@ fn main() -> Result<()> {
     let mut segmenter = if colour_only {
         None
     } else {
-        Some(glyptic::detect::PersonSegmenter::load(
-            &glyptic::assets::segmenter_model(),
-            &glyptic::assets::onnxruntime_lib(),
-        )?)
+        Some(glyptic::detect::PersonSegmenter::load_default()?)
     };
     let mut gems: Vec<(String, usize, Descriptor)> = Vec::new();
     let mut fitted: Vec<(usize, Vec<f32>)> = Vec::new();
@@ -230,10 +227,10 @@ fn main() -> Result<()> {
         let relief = if classical {
             builder.relief(&face.portrait, &triangles)?
         } else {
-            let mask = match segmenter.as_mut() {
-                Some(s) => Some(s.segment(&img, &face.landmarks)?),
-                None => None,
-            };
+            let mask = segmenter
+                .as_mut()
+                .map(|s| s.segment(&img, &face.landmarks))
+                .transpose()?;
             let person = glyptic::person::analyse_with(&img, &face.landmarks, mask.as_ref())?;
             let own = CameoParams {
                 hair: gem::hair_style(&person),

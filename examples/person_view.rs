@@ -39,10 +39,7 @@ fn main() -> Result<()> {
     let mut segmenter = if colour_only {
         None
     } else {
-        Some(PersonSegmenter::load(
-            &glyptic::assets::segmenter_model(),
-            &glyptic::assets::onnxruntime_lib(),
-        )?)
+        Some(PersonSegmenter::load_default()?)
     };
     println!(
         "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | ms |"
@@ -67,10 +64,10 @@ fn main() -> Result<()> {
             }
         };
         let t = std::time::Instant::now();
-        let mask = match segmenter.as_mut() {
-            Some(s) => Some(s.segment(&img, &face.landmarks)?),
-            None => None,
-        };
+        let mask = segmenter
+            .as_mut()
+            .map(|s| s.segment(&img, &face.landmarks))
+            .transpose()?;
         let p = person::analyse_with(&img, &face.landmarks, mask.as_ref())?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         let mut view = img.clone();

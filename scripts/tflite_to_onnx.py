@@ -157,32 +157,23 @@ class Converter:
                 raise SystemExit("DEQUANTIZE of a non-constant tensor")
             self.const[out] = self.const[ins[0]].astype(np.float32)
             return
-        if name == "CONV_2D":
-            p = options(tflite.Conv2DOptions)
-            w = self.const[ins[1]].astype(np.float32)  # O H W I
+        if name in ("CONV_2D", "DEPTHWISE_CONV_2D"):
+            depthwise = name == "DEPTHWISE_CONV_2D"
+            p = options(tflite.DepthwiseConv2DOptions if depthwise else tflite.Conv2DOptions)
+            w = self.const[ins[1]].astype(np.float32)  # conv: O H W I; depthwise: 1 H W C*M
             kh, kw = w.shape[1:3]
-            strides = [p.StrideH(), p.StrideW()]
-            dil = [p.DilationHFactor(), p.DilationWFactor()]
-            pads = self.conv_pads(p.Padding(), self.shape(ins[0])[1:3], [kh, kw], strides, dil)
-            args = [self.value(ins[0]), self.init(w.transpose(0, 3, 1, 2), "w")]
-            if len(ins) > 2 and ins[2] >= 0:
-                args.append(self.init(self.const[ins[2]].astype(np.float32), "b"))
-            self.node("Conv", args, [o], kernel_shape=[kh, kw], strides=strides, dilations=dil, pads=pads)
-            self.finish(p.FusedActivationFunction(), o, out)
-        elif name == "DEPTHWISE_CONV_2D":
-            p = options(tflite.DepthwiseConv2DOptions)
-            w = self.const[ins[1]].astype(np.float32)  # 1 H W C*M
-            kh, kw, cm = w.shape[1:4]
             c_in = self.shape(ins[0])[3]
+            if depthwise and w.shape[3] % c_in:
+                raise SystemExit(f"depthwise weights {w.shape} do not fit {c_in} input channels")
             strides = [p.StrideH(), p.StrideW()]
             dil = [p.DilationHFactor(), p.DilationWFactor()]
             pads = self.conv_pads(p.Padding(), self.shape(ins[0])[1:3], [kh, kw], strides, dil)
-            args = [self.value(ins[0]), self.init(w.transpose(3, 0, 1, 2), "w")]
+            w = w.transpose(3, 0, 1, 2) if depthwise else w.transpose(0, 3, 1, 2)
+            args = [self.value(ins[0]), self.init(w, "w")]
             if len(ins) > 2 and ins[2] >= 0:
                 args.append(self.init(self.const[ins[2]].astype(np.float32), "b"))
             self.node("Conv", args, [o], kernel_shape=[kh, kw], strides=strides, dilations=dil,
-                      pads=pads, group=c_in)
-            assert cm % c_in == 0
+                      pads=pads, group=c_in if depthwise else 1)
             self.finish(p.FusedActivationFunction(), o, out)
         elif name in ("MAX_POOL_2D", "AVERAGE_POOL_2D"):
             p = options(tflite.Pool2DOptions)

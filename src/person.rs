@@ -213,6 +213,21 @@ fn head_frame(landmarks: &[[f32; 2]]) -> Result<Frame, PersonError> {
     })
 }
 
+/// The photo's colour at (x, y), pixel centres at whole numbers, bilinear, RGB in 0..1; a
+/// point beyond the photo takes its nearest edge. The image must not be empty.
+pub fn bilinear_rgb(img: &RgbImage, x: f32, y: f32) -> [f32; 3] {
+    let (w, h) = img.dimensions();
+    let (x, y) = (x.clamp(0.0, (w - 1) as f32), y.clamp(0.0, (h - 1) as f32));
+    let (x0, y0) = (x as u32, y as u32);
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+    let px = |x: u32, y: u32| img.get_pixel(x, y).0.map(|v| f32::from(v) / 255.0);
+    let (a, b, c, d) = (px(x0, y0), px(x1, y0), px(x0, y1), px(x1, y1));
+    std::array::from_fn(|k| {
+        (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
+    })
+}
+
 /// Photo pixels <-> head frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Frame {
@@ -462,17 +477,7 @@ pub fn analyse_with(
         if !(x >= 0.0 && y >= 0.0 && x <= iw - 1.0 && y <= ih - 1.0) {
             continue;
         }
-        let (x0, y0) = (x as u32, y as u32);
-        let (x1, y1) = (
-            (x0 + 1).min(img.width() - 1),
-            (y0 + 1).min(img.height() - 1),
-        );
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let px = |x: u32, y: u32| img.get_pixel(x, y).0.map(|v| f32::from(v) / 255.0);
-        let (a, b, c, d) = (px(x0, y0), px(x1, y0), px(x0, y1), px(x1, y1));
-        rgb[i] = std::array::from_fn(|k| {
-            (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
-        });
+        rgb[i] = bilinear_rgb(img, x, y);
         valid[i] = true;
         // Within 2 % of the photo's edge: photographers frame the head with background.
         let m = 0.02 * iw.min(ih);

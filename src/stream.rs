@@ -182,11 +182,7 @@ impl PersonWorker {
             .name("person".into())
             .spawn(move || {
                 // The person segmentation, when set-up installed it (else colour alone).
-                let mut segmenter = crate::detect::PersonSegmenter::load(
-                    &crate::assets::segmenter_model(),
-                    &crate::assets::onnxruntime_lib(),
-                )
-                .ok();
+                let mut segmenter = crate::detect::PersonSegmenter::load_default().ok();
                 while let Ok((image, landmarks)) = inbox.recv() {
                     let mask = segmenter
                         .as_mut()

@@ -353,14 +353,11 @@ pub fn load_segmenter(choice: &ChoiceArgs) -> Option<glyptic::detect::PersonSegm
     if choice.hair == HairArg::Classical {
         return None;
     }
-    glyptic::detect::PersonSegmenter::load(
-        &glyptic::assets::segmenter_model(),
-        &glyptic::assets::onnxruntime_lib(),
-    )
-    .map_err(|e| {
-        eprintln!("warning: {e}; the hair is read by colour alone (run scripts/setup.sh)");
-    })
-    .ok()
+    glyptic::detect::PersonSegmenter::load_default()
+        .map_err(|e| {
+            eprintln!("warning: {e}; the hair is read by colour alone (run scripts/setup.sh)");
+        })
+        .ok()
 }
 
 /// The cameo's parameters with the subject's own hair (stage "person", the segmentation's

@@ -19,7 +19,7 @@ use ort::session::Session;
 use ort::value::TensorRef;
 
 use super::{DetectError, SessionConfig, ort_environment};
-use crate::person::{PersonError, PersonMask, mask_window};
+use crate::person::{PersonError, PersonMask, bilinear_rgb, mask_window};
 
 /// Graph input name.
 pub const INPUT: &str = "input_1";
@@ -91,6 +91,15 @@ impl PersonSegmenter {
         })
     }
 
+    /// [`PersonSegmenter::load`] with the model and the ONNX Runtime library set-up installed
+    /// ([`crate::assets`]).
+    pub fn load_default() -> Result<Self, SegmentError> {
+        Self::load(
+            &crate::assets::segmenter_model(),
+            &crate::assets::onnxruntime_lib(),
+        )
+    }
+
     /// The person's probability around the face with these 68 landmarks (photo pixels).
     pub fn segment(
         &mut self,
@@ -153,22 +162,14 @@ pub fn sample_window(img: &RgbImage, centre: [f32; 2], side: f32) -> Option<ndar
     let step = side / SIDE as f32;
     let x0 = centre[0] - side / 2.0;
     let y0 = centre[1] - side / 2.0;
-    let (wf, hf) = ((w - 1) as f32, (h - 1) as f32);
     let mut out = ndarray::Array4::<f32>::zeros((1, SIDE, SIDE, 3));
     for r in 0..SIDE {
-        let y = (y0 + (r as f32 + 0.5) * step - 0.5).clamp(0.0, hf);
-        let (ya, fy) = (y as u32, y.fract());
-        let yb = (ya + 1).min(h - 1);
+        let y = y0 + (r as f32 + 0.5) * step - 0.5;
         for c in 0..SIDE {
-            let x = (x0 + (c as f32 + 0.5) * step - 0.5).clamp(0.0, wf);
-            let (xa, fx) = (x as u32, x.fract());
-            let xb = (xa + 1).min(w - 1);
-            let (a, b) = (img.get_pixel(xa, ya).0, img.get_pixel(xb, ya).0);
-            let (cc, d) = (img.get_pixel(xa, yb).0, img.get_pixel(xb, yb).0);
-            for k in 0..3 {
-                let top = f32::from(a[k]) * (1.0 - fx) + f32::from(b[k]) * fx;
-                let bottom = f32::from(cc[k]) * (1.0 - fx) + f32::from(d[k]) * fx;
-                out[[0, r, c, k]] = (top * (1.0 - fy) + bottom * fy) / 255.0;
+            let x = x0 + (c as f32 + 0.5) * step - 0.5;
+            let rgb = bilinear_rgb(img, x, y);
+            for (k, v) in rgb.into_iter().enumerate() {
+                out[[0, r, c, k]] = v;
             }
         }
     }
