@@ -13,7 +13,10 @@
 //!   by root-mean-square difference: what the eye sees of the carving, outline and depth;
 //! * `outline`: the share of 1 mm squares inside one portrait's outline and not the other's:
 //!   the silhouette alone, as a shadow play would show it;
-//! * `face`: the relief over the union of both faces' footprints only.
+//! * `face`: the relief over the union of both faces' footprints only;
+//! * `shape`: the relief over the squares that are face in most gems of the set, each gem's
+//!   mean height there taken away first: the face's form, whatever depth the carving sets it
+//!   at (a head with big hair is compressed more, and sits lower in the stone).
 //!
 //! The figure is the share of gems whose nearest other gem is the same person's (chance is
 //! about 1 / number of people); with 61 gems one gem is 1.6 % and the figure's standard error
@@ -87,9 +90,25 @@ fn describe(r: &Relief) -> Descriptor {
     d
 }
 
-fn distance(kind: &str, a: &Descriptor, b: &Descriptor) -> f64 {
+/// The squares that are face in more than half of the gems.
+fn common_face(gems: &[&Descriptor]) -> Vec<bool> {
+    let n = gems.first().map_or(0, |g| g.face.len());
+    (0..n)
+        .map(|i| 2 * gems.iter().filter(|g| g.face[i]).count() > gems.len())
+        .collect()
+}
+
+fn distance(kind: &str, a: &Descriptor, b: &Descriptor, common: &[bool]) -> f64 {
     let n = a.heights.len();
     match kind {
+        "shape" => {
+            let d: Vec<f64> = (0..n)
+                .filter(|&i| common[i])
+                .map(|i| f64::from(a.heights[i] - b.heights[i]))
+                .collect();
+            let m = d.iter().sum::<f64>() / d.len().max(1) as f64;
+            (d.iter().map(|v| (v - m).powi(2)).sum::<f64>() / d.len().max(1) as f64).sqrt()
+        }
         "relief" => {
             let s: f64 = (0..n)
                 .map(|i| f64::from(a.heights[i] - b.heights[i]).powi(2))
@@ -270,10 +289,13 @@ fn main() -> Result<()> {
         100.0 / people as f64
     );
     let gem_ids: Vec<usize> = gems.iter().map(|g| g.1).collect();
-    for kind in ["relief", "outline", "face"] {
+    let common = common_face(&gems.iter().map(|g| &g.2).collect::<Vec<_>>());
+    for kind in ["relief", "outline", "face", "shape"] {
         let mut right = 0;
         let mut misses = Vec::new();
-        let nearest = nearest_others(gems.len(), |i, j| distance(kind, &gems[i].2, &gems[j].2));
+        let nearest = nearest_others(gems.len(), |i, j| {
+            distance(kind, &gems[i].2, &gems[j].2, &common)
+        });
         for ((name, id, _), j) in gems.iter().zip(nearest) {
             if let Some((other, oid, _)) = j.map(|j| &gems[j]) {
                 if oid == id {
@@ -288,7 +310,10 @@ fn main() -> Result<()> {
              same person nearer than another {:.1} % of the time",
             gems.len(),
             100.0 * right as f64 / gems.len().max(1) as f64,
-            100.0 * same_nearer(&gem_ids, |i, j| distance(kind, &gems[i].2, &gems[j].2))
+            100.0
+                * same_nearer(&gem_ids, |i, j| distance(
+                    kind, &gems[i].2, &gems[j].2, &common
+                ))
         );
         println!("  misses: {}", misses.join(" "));
     }

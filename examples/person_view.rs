@@ -23,10 +23,11 @@ use glyptic::pipeline::FacePipeline;
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
     let out = PathBuf::from(args.next().context("usage: person_view OUT_DIR PHOTO...")?);
-    let (mut labels_only, mut colour_only) = (false, false);
+    let (mut labels_only, mut colour_only, mut mask_only) = (false, false, false);
     let photos: Vec<PathBuf> = args
         .filter(|a| {
             labels_only |= a == "--labels";
+            mask_only |= a == "--mask";
             colour_only |= a == "--colour-only";
             !a.starts_with("--")
         })
@@ -71,6 +72,32 @@ fn main() -> Result<()> {
         let p = person::analyse_with(&img, &face.landmarks, mask.as_ref())?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         let mut view = img.clone();
+        if let (true, Some(m)) = (mask_only, &mask) {
+            // The segmentation's verdict: the photo in grey, the person tinted green by its
+            // probability, off the network's window dark.
+            for (x, y, px) in view.enumerate_pixels_mut() {
+                let [r, g, b] = px.0.map(f32::from);
+                let grey = 0.3 * r + 0.59 * g + 0.11 * b;
+                let c = match m.at([x as f32 + 0.5, y as f32 + 0.5]) {
+                    Some(q) => [
+                        grey * (1.0 - 0.5 * q),
+                        grey * (1.0 - 0.5 * q) + 140.0 * q,
+                        grey * (1.0 - 0.5 * q),
+                    ],
+                    None => [0.2 * grey; 3],
+                };
+                px.0 = c.map(|v| v.clamp(0.0, 255.0) as u8);
+            }
+            let scale = 360.0 / view.height() as f32;
+            image::imageops::resize(
+                &view,
+                ((view.width() as f32 * scale).round() as u32).max(1),
+                360,
+                image::imageops::FilterType::Triangle,
+            )
+            .save(out.join(format!("{name}.mask.png")))?;
+            view = img.clone();
+        }
         // The box the labels' canvas covers (`--labels` crops to it: a big photo's head is
         // small in it).
         let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);

@@ -23,6 +23,9 @@ use image::RgbImage;
 /// Head-frame extent of the analysis canvas, IOD.
 const S_RANGE: (f32, f32) = (-3.6, 3.6);
 const T_RANGE: (f32, f32) = (-3.4, 6.0);
+/// How far (squared Mahalanobis) from the hair's colours a chest colour must be to be learnt
+/// as clothes.
+const CLOTHES_NOT_HAIR: f32 = 9.0;
 /// Canvas pixel, IOD.
 const RES: f32 = 0.04;
 
@@ -565,6 +568,7 @@ pub fn analyse_with(
             .collect();
     }
 
+    let below_chin = |p: [f32; 2]| p[1] > chin_y * 1.05;
     // Where each class is likely to be, before colour: [background, skin, hair]; a
     // segmentation's verdict weighs on it outside the face (softly: its own edge is blurred).
     let prior: Vec<[f32; 3]> = (0..w * h)
@@ -573,7 +577,7 @@ pub fn analyse_with(
             let r = skull(p);
             let [b, s, h] = if in_face[i] {
                 return [0.04, 0.86, 0.10];
-            } else if p[1] > chin_y * 1.05 {
+            } else if below_chin(p) {
                 // Below the chin: neck near the middle, clothes and background, long hair.
                 let neck = (p[0].abs() < 0.75 * half) as u8 as f32;
                 [0.55 - 0.2 * neck, 0.1 + 0.3 * neck, 0.35 - 0.1 * neck]
@@ -590,7 +594,7 @@ pub fn analyse_with(
             // Below the chin the person is mostly clothes, which count as background here (no
             // colour model tells dark clothes from dark hair): there only what the segmentation
             // is sure is background rules hair and skin out.
-            let (b, s, h) = if p[1] > chin_y * 1.05 {
+            let (b, s, h) = if below_chin(p) {
                 let f = (10.0 * q).clamp(0.05, 1.0);
                 (b, s * f, h * f)
             } else {
@@ -608,14 +612,45 @@ pub fn analyse_with(
     // is bald or shaved.
     let bald = hair_seed.len() < enough;
     let mut hair = if bald { None } else { Gmm::fit(&hair_seed, 2) };
+    // Clothes: the middle of the chest below the neck, where the person is (or nothing says
+    // otherwise), neither the skin of the neck or a neckline nor the hair's colour (long hair
+    // falls beside the chest, and a colour shared with the hair is left to where it lies).
+    // Below the chin they count as background: a dark suit is not long hair. They weigh only
+    // on the last labelling, after the models are learnt (learning with them lets the
+    // background's model drift: a hoodie became hair).
+    let clothes_seed: Vec<Colour> = (0..w * h)
+        .filter(|&i| {
+            let p = pos(i);
+            valid[i]
+                && maybe_person(i)
+                && p[1] > chin_y + 0.8 * chin
+                && p[0].abs() < 0.8 * half
+                && skin0.as_ref().is_none_or(|g| g.d2(col[i]) > 14.0)
+                && hair
+                    .as_ref()
+                    .is_none_or(|g| g.d2(col[i]) > CLOTHES_NOT_HAIR)
+        })
+        .map(|i| col[i])
+        .collect();
+    let clothes = if clothes_seed.len() >= 30 {
+        Gmm::fit(&clothes_seed, 2)
+    } else {
+        None
+    };
     let mut labels = vec![Label::Outside; w * h];
     for round in 0..4 {
         let mut post = [vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]];
         for i in (0..w * h).filter(|&i| valid[i]) {
-            let ll = [&bg, &skin, &hair].map(|g| {
+            let mut ll = [&bg, &skin, &hair].map(|g| {
                 g.as_ref()
                     .map_or(f32::NEG_INFINITY, |g| g.log_pdf(col[i]).max(-60.0))
             });
+            if let Some(c) = clothes
+                .as_ref()
+                .filter(|_| round == 3 && below_chin(pos(i)))
+            {
+                ll[0] = ll[0].max(c.log_pdf(col[i]).max(-60.0));
+            }
             let lp: [f32; 3] = std::array::from_fn(|c| prior[i][c].ln() + ll[c]);
             let m = lp.iter().copied().fold(f32::NEG_INFINITY, f32::max);
             let e: [f32; 3] = std::array::from_fn(|c| (lp[c] - m).exp());
@@ -1144,6 +1179,51 @@ mod tests {
             "{q:?} {p:?}"
         );
         assert!(same.beard < BEARD_SHARE && !same.has_glasses());
+    }
+
+    /// Short grey hair over a charcoal suit whose collar rises beside the neck to the hair
+    /// (as the suit of a grey-haired man in deepface's img39 joined his hair through the
+    /// background): below the chin the suit is clothes, not hair falling to the shoulders;
+    /// long hair falling over the same suit is still long.
+    #[test]
+    fn a_suit_below_the_chin_is_not_long_hair() {
+        const GREY: [u8; 3] = [165, 162, 160];
+        const SUIT: [u8; 3] = [100, 98, 96];
+        let suit = |x: f32, y: f32| {
+            let dx = (x - 200.0).abs();
+            y > 400.0 || (y > 215.0 && dx > 45.0 && dx < 110.0)
+        };
+        let dressed = |hair: &dyn Fn(f32, f32) -> bool| {
+            let base = photo(hair, GREY, false);
+            RgbImage::from_fn(base.width(), base.height(), |x, y| {
+                let (fx, fy) = (x as f32, y as f32);
+                let head = ((fx - 200.0) / 72.0).powi(2) + ((fy - 205.0) / 125.0).powi(2) < 1.0;
+                if suit(fx, fy) && !head && !hair(fx, fy) {
+                    image::Rgb(SUIT)
+                } else {
+                    *base.get_pixel(x, y)
+                }
+            })
+        };
+        let lm = landmarks();
+        let short = analyse(&dressed(&hair_to(12.0, 0.0)), &lm).unwrap();
+        // The suit's share labelled hair on the shoulders (well below the chin at y = 320).
+        let (mut n, mut hair) = (0, 0);
+        for y in (400..500).step_by(4) {
+            for x in (20..380).step_by(4) {
+                if short.labels.at_pixel(x as f32, y as f32) != Label::Outside {
+                    n += 1;
+                    hair += usize::from(short.labels.at_pixel(x as f32, y as f32) == Label::Hair);
+                }
+            }
+        }
+        assert!(n > 500, "the shoulders are on the canvas: {n}");
+        assert!(hair * 20 < n, "{hair} of {n} suit samples are hair");
+        let h = short.hair.expect("short hair found");
+        assert!(h.length < 1.4, "the hair ends above the shoulders: {h:?}");
+        let long = analyse(&dressed(&hair_to(12.0, 470.0)), &lm).unwrap();
+        let l = long.hair.expect("long hair found");
+        assert!(l.length > 1.6, "long grey hair over the suit: {l:?}");
     }
 
     #[test]
