@@ -12,6 +12,9 @@
 //! background slate, beyond the canvas dark; the 68 landmarks white), and puts them side by
 //! side in OUT_DIR/labels.png: a picture of what was found that holds nothing of the photo
 //! (scripts/gallery.sh makes docs/person-labels.png so, from photos it only links to).
+//!
+//! `--mask` also writes OUT_DIR/NAME.mask.png: what the segmentation network says, the photo
+//! in grey with the person tinted green by its probability (beyond the network's window dark).
 
 use std::path::PathBuf;
 
@@ -19,6 +22,17 @@ use anyhow::{Context, Result};
 use glyptic::detect::PersonSegmenter;
 use glyptic::person::{self, Label};
 use glyptic::pipeline::FacePipeline;
+
+/// `view` scaled to 360 pixels high.
+fn small(view: &image::RgbImage) -> image::RgbImage {
+    let scale = 360.0 / view.height() as f32;
+    image::imageops::resize(
+        view,
+        ((view.width() as f32 * scale).round() as u32).max(1),
+        360,
+        image::imageops::FilterType::Triangle,
+    )
+}
 
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
@@ -71,10 +85,10 @@ fn main() -> Result<()> {
             .transpose()?;
         let p = person::analyse_with(&img, &face.landmarks, mask.as_ref())?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
-        let mut view = img.clone();
         if let (true, Some(m)) = (mask_only, &mask) {
             // The segmentation's verdict: the photo in grey, the person tinted green by its
             // probability, off the network's window dark.
+            let mut view = img.clone();
             for (x, y, px) in view.enumerate_pixels_mut() {
                 let [r, g, b] = px.0.map(f32::from);
                 let grey = 0.3 * r + 0.59 * g + 0.11 * b;
@@ -88,16 +102,9 @@ fn main() -> Result<()> {
                 };
                 px.0 = c.map(|v| v.clamp(0.0, 255.0) as u8);
             }
-            let scale = 360.0 / view.height() as f32;
-            image::imageops::resize(
-                &view,
-                ((view.width() as f32 * scale).round() as u32).max(1),
-                360,
-                image::imageops::FilterType::Triangle,
-            )
-            .save(out.join(format!("{name}.mask.png")))?;
-            view = img.clone();
+            small(&view).save(out.join(format!("{name}.mask.png")))?;
         }
+        let mut view = img.clone();
         // The box the labels' canvas covers (`--labels` crops to it: a big photo's head is
         // small in it).
         let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);
@@ -150,13 +157,7 @@ fn main() -> Result<()> {
                     image::imageops::crop_imm(&view, x0, y0, x1 - x0 + 1, y1 - y0 + 1).to_image();
             }
         }
-        let scale = 360.0 / view.height() as f32;
-        let small = image::imageops::resize(
-            &view,
-            ((view.width() as f32 * scale).round() as u32).max(1),
-            360,
-            image::imageops::FilterType::Triangle,
-        );
+        let small = small(&view);
         small.save(out.join(format!("{name}.png")))?;
         if labels_only {
             sheet.push(small);

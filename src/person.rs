@@ -549,12 +549,11 @@ pub fn analyse_with(
         .filter(|&i| valid[i] && crown_band(pos(i)))
         .count();
     let enough = (crown_pixels / 12).max(30);
-    let unlike_skin = |i: usize| {
-        valid[i]
-            && maybe_person(i)
-            && crown_band(pos(i))
-            && skin0.as_ref().is_none_or(|g| g.d2(col[i]) > 14.0)
+    // A person's pixel whose colour is not the face's skin.
+    let person_not_skin = |i: usize| {
+        valid[i] && maybe_person(i) && skin0.as_ref().is_none_or(|g| g.d2(col[i]) > 14.0)
     };
+    let unlike_skin = |i: usize| person_not_skin(i) && crown_band(pos(i));
     // Hair is what is neither skin nor background there; when that leaves too little, hair
     // and background share a colour and only skin is ruled out (where it lies then decides).
     let mut hair_seed: Vec<Colour> = (0..w * h)
@@ -591,9 +590,9 @@ pub fn analyse_with(
             if !q.is_finite() {
                 return [b, s, h];
             }
-            // Below the chin the person is mostly clothes, which count as background here (no
-            // colour model tells dark clothes from dark hair): there only what the segmentation
-            // is sure is background rules hair and skin out.
+            // Below the chin the person is mostly clothes, which count as background here (the
+            // clothes model below tells only clothes unlike the hair): there only what the
+            // segmentation is sure is background rules hair and skin out.
             let (b, s, h) = if below_chin(p) {
                 let f = (10.0 * q).clamp(0.05, 1.0);
                 (b, s * f, h * f)
@@ -621,11 +620,9 @@ pub fn analyse_with(
     let clothes_seed: Vec<Colour> = (0..w * h)
         .filter(|&i| {
             let p = pos(i);
-            valid[i]
-                && maybe_person(i)
+            person_not_skin(i)
                 && p[1] > chin_y + 0.8 * chin
                 && p[0].abs() < 0.8 * half
-                && skin0.as_ref().is_none_or(|g| g.d2(col[i]) > 14.0)
                 && hair
                     .as_ref()
                     .is_none_or(|g| g.d2(col[i]) > CLOTHES_NOT_HAIR)
@@ -638,17 +635,16 @@ pub fn analyse_with(
         None
     };
     let mut labels = vec![Label::Outside; w * h];
-    for round in 0..4 {
+    const ROUNDS: usize = 4;
+    for round in 0..ROUNDS {
+        let last = round + 1 == ROUNDS;
         let mut post = [vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]];
         for i in (0..w * h).filter(|&i| valid[i]) {
             let mut ll = [&bg, &skin, &hair].map(|g| {
                 g.as_ref()
                     .map_or(f32::NEG_INFINITY, |g| g.log_pdf(col[i]).max(-60.0))
             });
-            if let Some(c) = clothes
-                .as_ref()
-                .filter(|_| round == 3 && below_chin(pos(i)))
-            {
+            if let Some(c) = clothes.as_ref().filter(|_| last && below_chin(pos(i))) {
                 ll[0] = ll[0].max(c.log_pdf(col[i]).max(-60.0));
             }
             let lp: [f32; 3] = std::array::from_fn(|c| prior[i][c].ln() + ll[c]);
@@ -671,7 +667,7 @@ pub fn analyse_with(
                 Label::Background
             };
         }
-        if round == 3 {
+        if last {
             break;
         }
         let of = |l: Label, keep: &dyn Fn(usize) -> bool| -> Vec<Colour> {
@@ -1211,9 +1207,10 @@ mod tests {
         let (mut n, mut hair) = (0, 0);
         for y in (400..500).step_by(4) {
             for x in (20..380).step_by(4) {
-                if short.labels.at_pixel(x as f32, y as f32) != Label::Outside {
+                let label = short.labels.at_pixel(x as f32, y as f32);
+                if label != Label::Outside {
                     n += 1;
-                    hair += usize::from(short.labels.at_pixel(x as f32, y as f32) == Label::Hair);
+                    hair += usize::from(label == Label::Hair);
                 }
             }
         }
