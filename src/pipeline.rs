@@ -3,9 +3,9 @@
 //! Units: image pixels (0-based, y down) for detections and landmarks; model millimetres for
 //! the fitted mesh. Each stage's time is recorded so callers can report speed per stage.
 
-use std::path::Path;
 use std::sync::Arc;
 
+use crate::assets::ModelPaths;
 use crate::detect::{DetectError, DetectOptions, Detection, FaceDetector};
 use crate::fit::{Fit, FitError, FitOptions};
 use crate::landmarks::{LandmarkError, ShapePredictor};
@@ -70,22 +70,17 @@ pub struct FaceLandmarks {
 
 impl LandmarkPipeline {
     /// Loads the detector and the landmark model, timing each.
-    pub fn load(
-        detector_model: &Path,
-        ort_library: &Path,
-        landmark_model: &Path,
-        stages: &mut Vec<Stage>,
-    ) -> Result<Self, PipelineError> {
+    pub fn load(models: &ModelPaths, stages: &mut Vec<Stage>) -> Result<Self, PipelineError> {
         let detector = timed(
             stages,
             "load detector",
-            || FaceDetector::load(detector_model, ort_library),
-            |_| format!("{}", detector_model.display()),
+            || FaceDetector::load(&models.detector, &models.onnxruntime),
+            |_| format!("{}", models.detector.display()),
         )?;
         let predictor = timed(
             stages,
             "load landmarks",
-            || ShapePredictor::load(landmark_model),
+            || ShapePredictor::load(&models.landmarks),
             |p| format!("{} parts", p.num_parts()),
         )?;
         Ok(LandmarkPipeline {
@@ -94,16 +89,6 @@ impl LandmarkPipeline {
             detect_options: DetectOptions::default(),
             mirror_average: true,
         })
-    }
-
-    /// Loads the models from where set-up puts them ([`crate::assets`]).
-    pub fn load_default(stages: &mut Vec<Stage>) -> Result<Self, PipelineError> {
-        Self::load(
-            &crate::assets::detector_model(),
-            &crate::assets::onnxruntime_lib(),
-            &crate::landmarks::default_model_path(),
-            stages,
-        )
     }
 
     /// Every face the detector finds, subject first (largest or most central, as
@@ -207,18 +192,12 @@ pub const PORTRAIT_EXPRESSION: f32 = 0.5;
 
 impl FacePipeline {
     /// Loads the three models, timing each.
-    pub fn load(
-        detector_model: &Path,
-        ort_library: &Path,
-        landmark_model: &Path,
-        sfm_dir: &Path,
-        stages: &mut Vec<Stage>,
-    ) -> Result<Self, PipelineError> {
-        let faces = LandmarkPipeline::load(detector_model, ort_library, landmark_model, stages)?;
+    pub fn load(models: &ModelPaths, stages: &mut Vec<Stage>) -> Result<Self, PipelineError> {
+        let faces = LandmarkPipeline::load(models, stages)?;
         let model = timed(
             stages,
             "load face model",
-            || SurreyModel::load_dir(sfm_dir),
+            || SurreyModel::load_dir(&models.sfm_dir),
             |m| {
                 format!(
                     "{} vertices, {} shape + {} expression components",
@@ -238,23 +217,12 @@ impl FacePipeline {
         })
     }
 
-    /// Loads the models from where set-up puts them ([`crate::assets`]).
-    pub fn load_default(stages: &mut Vec<Stage>) -> Result<Self, PipelineError> {
-        Self::load(
-            &crate::assets::detector_model(),
-            &crate::assets::onnxruntime_lib(),
-            &crate::landmarks::default_model_path(),
-            &crate::assets::sfm_dir(),
-            stages,
-        )
-    }
-
     /// Another pipeline sharing this one's landmark and face models, with a detector of its
     /// own (ONNX Runtime sessions are not shared between threads here).
-    pub fn fork(&self, detector_model: &Path, ort_library: &Path) -> Result<Self, PipelineError> {
+    pub fn fork(&self, models: &ModelPaths) -> Result<Self, PipelineError> {
         Ok(FacePipeline {
             faces: LandmarkPipeline {
-                detector: FaceDetector::load(detector_model, ort_library)?,
+                detector: FaceDetector::load(&models.detector, &models.onnxruntime)?,
                 predictor: self.faces.predictor.clone(),
                 detect_options: self.faces.detect_options.clone(),
                 mirror_average: self.faces.mirror_average,

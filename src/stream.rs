@@ -165,6 +165,9 @@ pub struct StreamOptions {
     /// Read the visitor's hair on a person thread ([`FaceUpdate::hair`]); with a builder, the
     /// cameo then carries it.
     pub hair: bool,
+    /// Where the person thread loads the person segmentation from (`segmenter`, `onnxruntime`);
+    /// without it, or when it does not load, hair is read from colour alone.
+    pub models: Option<crate::assets::ModelPaths>,
 }
 
 /// The person thread: reads hair from frames handed to it one at a time.
@@ -175,14 +178,16 @@ struct PersonWorker {
 }
 
 impl PersonWorker {
-    fn spawn() -> Option<Self> {
+    fn spawn(models: Option<crate::assets::ModelPaths>) -> Option<Self> {
         let (jobs, inbox) = latest::<(Arc<RgbImage>, Vec<[f32; 2]>)>();
         let (send, results) = latest();
         std::thread::Builder::new()
             .name("person".into())
             .spawn(move || {
-                // The person segmentation, when set-up installed it (else colour alone).
-                let mut segmenter = crate::detect::PersonSegmenter::load_default().ok();
+                // The person segmentation, when it loads (else colour alone).
+                let mut segmenter = models.and_then(|m| {
+                    crate::detect::PersonSegmenter::load(&m.segmenter, &m.onnxruntime).ok()
+                });
                 while let Ok((image, landmarks)) = inbox.recv() {
                     let mask = segmenter
                         .as_mut()
@@ -310,13 +315,18 @@ impl FaceStream {
             StreamOptions {
                 builder,
                 hair: false,
+                models: None,
             },
         )
     }
 
     /// [`FaceStream::spawn`] with the given [`StreamOptions`].
     pub fn spawn_with(capture: Capture, tracker: Tracker, options: StreamOptions) -> FaceStream {
-        let StreamOptions { mut builder, hair } = options;
+        let StreamOptions {
+            mut builder,
+            hair,
+            models,
+        } = options;
         let (tx, updates) = latest();
         let (etx, events) = crossbeam_channel::bounded(256);
         let stop = Arc::new(AtomicBool::new(false));
@@ -328,7 +338,11 @@ impl FaceStream {
                 let mut summary = StreamSummary::default();
                 let mut warm = Vec::new();
                 let detections_before = tracker.detections();
-                let mut person = if hair { PersonWorker::spawn() } else { None };
+                let mut person = if hair {
+                    PersonWorker::spawn(models)
+                } else {
+                    None
+                };
                 let mut smoother = HairSmoother::default();
                 let mut had_face = false;
                 while !flag.load(Ordering::Relaxed) {

@@ -86,43 +86,41 @@ fn output_names(files: &[PathBuf], out_dir: &Path) -> Vec<PathBuf> {
         .collect()
 }
 
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
+/// The CSV: a header, then one row an image (RFC 4180 quoting by the `csv` crate).
 fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
-    let mut text = String::from("input,output,status,faces");
-    for s in CSV_STAGES {
-        text.push_str(&format!(",{s}_ms"));
-    }
-    text.push_str(",total_ms,error\n");
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut header: Vec<String> = ["input", "output", "status", "faces"]
+        .map(String::from)
+        .into();
+    header.extend(CSV_STAGES.iter().map(|s| format!("{s}_ms")));
+    header.extend(["total_ms", "error"].map(String::from));
+    w.write_record(&header)?;
     for r in rows {
-        let out = r
-            .output
-            .as_ref()
-            .map(|p| p.display().to_string())
-            .unwrap_or_default();
-        text.push_str(&format!(
-            "{},{},{},{}",
-            csv_field(&r.input.display().to_string()),
-            csv_field(&out),
-            r.status,
-            r.faces
-        ));
-        for s in CSV_STAGES {
-            match r.stages.iter().find(|(n, _)| *n == s) {
-                Some((_, ms)) => text.push_str(&format!(",{ms:.2}")),
-                None => text.push(','),
-            }
-        }
+        let mut record = vec![
+            r.input.display().to_string(),
+            r.output
+                .as_ref()
+                .map(|p| p.display().to_string())
+                .unwrap_or_default(),
+            r.status.to_string(),
+            r.faces.to_string(),
+        ];
+        record.extend(CSV_STAGES.iter().map(|s| {
+            r.stages
+                .iter()
+                .find(|(n, _)| n == s)
+                .map(|(_, ms)| format!("{ms:.2}"))
+                .unwrap_or_default()
+        }));
         let total = r.stages.iter().map(|(_, ms)| ms).fold(0.0, |a, b| a + b);
-        text.push_str(&format!(",{total:.2},{}\n", csv_field(&r.error)));
+        record.push(format!("{total:.2}"));
+        record.push(r.error.clone());
+        w.write_record(&record)?;
     }
-    super::write_atomic(path, text.as_bytes())
+    let bytes = w
+        .into_inner()
+        .map_err(|e| anyhow::anyhow!("writing the CSV: {}", e.error()))?;
+    super::write_atomic(path, &bytes)
 }
 
 /// Decode, detect, landmarks, fit and relief for one image.
@@ -188,14 +186,12 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     // The GPU comes up while the models load.
     let renderer_thread = super::spawn_renderer();
     let mut load = Vec::new();
-    let mut first = FacePipeline::load_default(&mut load)?;
+    let models = glyptic::assets::ModelPaths::locate();
+    let mut first = FacePipeline::load(&models, &mut load)?;
     args.choice.apply_face(&mut first);
     let mut pipelines = vec![first];
     for _ in 1..jobs {
-        let p = pipelines[0].fork(
-            &glyptic::assets::detector_model(),
-            &glyptic::assets::onnxruntime_lib(),
-        )?;
+        let p = pipelines[0].fork(&models)?;
         pipelines.push(p);
     }
     // One segmentation session per worker; a missing model is reported once.

@@ -338,7 +338,10 @@ mod live {
                             anyhow::bail!("{}: video not found", path.display());
                         }
                         let mut stages = Vec::new();
-                        let pipeline = glyptic::pipeline::FacePipeline::load_default(&mut stages)?;
+                        let pipeline = glyptic::pipeline::FacePipeline::load(
+                            &glyptic::assets::ModelPaths::locate(),
+                            &mut stages,
+                        )?;
                         let tracker = Tracker::new(pipeline, TrackOptions::default());
                         let hair = config.visitor_hair;
                         let capture =
@@ -349,6 +352,7 @@ mod live {
                             glyptic::stream::StreamOptions {
                                 builder: None,
                                 hair,
+                                models: Some(glyptic::assets::ModelPaths::locate()),
                             },
                         ))
                     })();

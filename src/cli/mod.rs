@@ -353,11 +353,14 @@ pub fn load_segmenter(choice: &ChoiceArgs) -> Option<glyptic::detect::PersonSegm
     if choice.hair == HairArg::Classical {
         return None;
     }
-    glyptic::detect::PersonSegmenter::load_default()
-        .map_err(|e| {
-            eprintln!("warning: {e}; the hair is read by colour alone (run scripts/setup.sh)");
-        })
-        .ok()
+    glyptic::detect::PersonSegmenter::load(
+        &glyptic::assets::segmenter_model(),
+        &glyptic::assets::onnxruntime_lib(),
+    )
+    .map_err(|e| {
+        eprintln!("warning: {e}; the hair is read by colour alone (run scripts/setup.sh)");
+    })
+    .ok()
 }
 
 /// The cameo's parameters with the subject's own hair (stage "person", the segmentation's
@@ -522,7 +525,10 @@ fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
     let path = &args.image;
     let mut stages = Vec::new();
     let img = decode(&mut stages, path)?;
-    let mut pipeline = glyptic::pipeline::LandmarkPipeline::load_default(&mut stages)?;
+    let mut pipeline = glyptic::pipeline::LandmarkPipeline::load(
+        &glyptic::assets::ModelPaths::locate(),
+        &mut stages,
+    )?;
     args.choice.apply(&mut pipeline.detect_options);
     let mut detections = pipeline
         .detect(&img, &mut stages)
@@ -972,7 +978,8 @@ fn photo(args: &PhotoArgs) -> Result<()> {
     let mut stages = Vec::new();
     let img = decode(&mut stages, image_path)?;
     print_stage(&stages[0]);
-    let mut pipeline = glyptic::pipeline::FacePipeline::load_default(&mut stages)?;
+    let mut pipeline =
+        glyptic::pipeline::FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut stages)?;
     args.choice.apply_face(&mut pipeline);
     let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
     let mut segmenter = load_segmenter(&args.choice);

@@ -135,7 +135,7 @@ fn json_line(update: &FaceUpdate) -> serde_json::Value {
 
 pub fn track(args: &TrackArgs) -> Result<()> {
     let mut load = Vec::new();
-    let mut pipeline = FacePipeline::load_default(&mut load)?;
+    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut load)?;
     args.choice.apply_face(&mut pipeline);
     for s in &load {
         super::print_stage(s);
@@ -230,7 +230,11 @@ pub fn track(args: &TrackArgs) -> Result<()> {
         let stream = FaceStream::spawn_with(
             capture,
             tracker,
-            glyptic::stream::StreamOptions { builder, hair },
+            glyptic::stream::StreamOptions {
+                builder,
+                hair,
+                models: Some(glyptic::assets::ModelPaths::locate()),
+            },
         );
         while processed < limit {
             for e in stream.events().try_iter() {

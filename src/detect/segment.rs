@@ -62,7 +62,7 @@ impl std::fmt::Debug for PersonSegmenter {
 }
 
 impl PersonSegmenter {
-    /// Loads the model (see [`crate::assets::segmenter_model`]) with ONNX Runtime from
+    /// Loads the model (set-up converts it: [`crate::assets::ModelPaths::segmenter`]) with ONNX Runtime from
     /// `ort_library`, on one thread.
     pub fn load(model: &Path, ort_library: &Path) -> Result<Self, SegmentError> {
         let bytes = std::fs::read(model).map_err(|source| SegmentError::Io {
@@ -89,15 +89,6 @@ impl PersonSegmenter {
             session,
             model_path: model.to_path_buf(),
         })
-    }
-
-    /// [`PersonSegmenter::load`] with the model and the ONNX Runtime library set-up installed
-    /// ([`crate::assets`]).
-    pub fn load_default() -> Result<Self, SegmentError> {
-        Self::load(
-            &crate::assets::segmenter_model(),
-            &crate::assets::onnxruntime_lib(),
-        )
     }
 
     /// The person's probability around the face with these 68 landmarks (photo pixels).

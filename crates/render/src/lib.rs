@@ -1,0 +1,1179 @@
+//! Headless wgpu renderer for the engraved gem: procedural marble, layered agate and gold.
+//!
+//! Input is plain draw data, a [`Mesh`] of [`Vertex`]es in **millimetres**: the cameo lies in the
+//! XY plane facing +Z, +Y up, origin at the centre of its base (oval about 44 x 56 mm, relief up
+//! to about 8 mm). Each vertex says how far it stands above the ground layer (`relief`, mm) and
+//! which [`Region`] it belongs to; the renderer knows nothing of faces or cameras beyond that.
+//! Output is an sRGB [`image::RgbaImage`].
+//!
+//! Assumptions:
+//! * Normals are per vertex, in the same space as the positions; their length does not matter
+//!   and a zero normal falls back to the facet normal. Winding does not matter (no culling).
+//! * Procedural textures use object coordinates (mm), so the stone runs continuously through
+//!   every part of the mesh; the model never moves, the camera orbits it.
+//! * There is no GPU: the device is lavapipe (Vulkan) or llvmpipe (GL), chosen by wgpu;
+//!   `WGPU_BACKEND=vulkan|gl` and `WGPU_ADAPTER_NAME` override the choice.
+//!
+//! A frame is these passes (the targets are described in `gpu.rs`):
+//! 0. **shadow** (when [`RenderParams::lamp`] is set): the mesh's distance from the lamp into
+//!    the six faces of a cube depth map, which the scene pass compares against (with a
+//!    nine-tap percentage-closer filter);
+//! 1. **scene**: lit diffuse (linear Rgba16Float), specular (Rgba16Float) and linear depth with a
+//!    subsurface-scattering mask, 4x MSAA where the device allows, resolved;
+//! 2. **subsurface scattering** (when [`RenderParams::sss`] is set): the resolved diffuse alone is
+//!    blurred horizontally, then vertically, with the kernel of [`crate::sss`] (the 2021 system
+//!    found that blurring the highlights too made the stone look hazy);
+//! 3. **composite**: diffuse (blurred or not) + specular over the backdrop, highlight shoulder,
+//!    sRGB encoding. With SSS off the composite reads the scene pass's diffuse directly.
+//! 4. **styles** ([`RenderParams::styles`]): the gallery styles on the GPU, in order; the serial
+//!    ones (and whatever follows them) on the CPU after the readback.
+//!
+//! With [`RenderParams::engraving`] the scene pass also engraves a border into the ground:
+//! parallax occlusion mapping over a height map and normal mapping in tangent space, both from
+//! [`surface`] (planar texture coordinates over the mesh's XY box; per-vertex tangents with a
+//! guard against the degenerate ones on the relief's walls).
+//!
+//! Matrix maths uses `nalgebra` (already a dependency of the crate).
+
+mod camera;
+mod gpu;
+mod mesh;
+pub mod shaders;
+pub mod sss;
+pub mod styles;
+pub mod surface;
+
+use std::sync::{Arc, Mutex};
+
+use self::gpu::{CompositeUniform, FrameUniform, MeshBuffers, Pipelines, Targets};
+
+pub use self::camera::{FOV_Y_DEG, ZOOM_RANGE};
+pub use glyptic_core::scene::{
+    KEY_LIGHT_AZIMUTH_DEG, KEY_LIGHT_ELEVATION_DEG, Mesh, Region, Vertex, key_light_dir,
+};
+
+/// The engraving's per-mesh data (triangles reordered band last, tangent frames), kept while
+/// the mesh, its planar frame and the band stay the same: the kiosk redraws one gem for every
+/// step of an orbit.
+struct EngravedMesh {
+    key: (u64, surface::PlanarFrame, [f32; 2]),
+    indices: Vec<u32>,
+    band_start: usize,
+    tangents: Vec<[f32; 4]>,
+}
+
+/// The stone the gem is cut from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Material {
+    /// White statuary marble with a few quiet grey veins, polished (a faint, sharp highlight).
+    Marble,
+    /// Multilayer agate: red ground, white relief, brown hair (Phong, exponent 500).
+    Agate,
+}
+
+/// Controls of the marble veins: quiet, directional grey lines whose contrast stays below the
+/// relief's own shading (the carving, not the stone, should be what the eye reads).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarbleParams {
+    /// 0..1: how wide and soft a vein is.
+    pub vein_softness: f32,
+    /// 0..1: how faint the veins and the stone's cloudiness are (1 = a plain white stone; 0 =
+    /// veins about 12 % darker than the white at their core).
+    pub vein_lightness: f32,
+}
+
+impl Default for MarbleParams {
+    fn default() -> Self {
+        Self {
+            vein_softness: 0.5,
+            vein_lightness: 0.3,
+        }
+    }
+}
+
+/// What to draw and how.
+#[derive(Clone, Debug)]
+pub struct RenderParams {
+    /// Output size in pixels (1 ..= the device's texture limit, at most [`MAX_PIXELS`] pixels).
+    pub width: u32,
+    pub height: u32,
+    pub material: Material,
+    /// Orbit angle about the vertical axis (degrees); 0 looks at the front, positive moves the
+    /// camera towards +X (to the viewer's right).
+    pub yaw_deg: f32,
+    /// Orbit elevation (degrees; positive looks down from above), kept within +-89.
+    pub pitch_deg: f32,
+    /// How many times closer than the distance at which the whole cameo fits the frame, within
+    /// [`ZOOM_RANGE`].
+    pub zoom: f32,
+    pub marble: MarbleParams,
+    /// Backdrop colour at the image centre, display (sRGB-encoded) values 0..1; the composite
+    /// adds a gentle top-light gradient and vignette around it.
+    pub background: [f32; 3],
+    /// Subsurface scattering in the stone (gold never scatters); `None` turns the pass off.
+    pub sss: Option<crate::sss::SssParams>,
+    /// Gallery styles applied after the composite, in order. Toon, painterly, fish-eye and
+    /// chromatic aberration are GPU passes; dithering (serial) and whatever follows it run on
+    /// the CPU after the readback (a window's frame takes GPU styles only).
+    pub styles: Vec<crate::styles::Style>,
+    /// Time for the styles that move (the chromatic aberration), seconds.
+    pub style_time_s: f32,
+    /// An engraved border on the ground (parallax occlusion and normal mapping); `None`: a
+    /// plain polished ground.
+    pub engraving: Option<surface::EngravingParams>,
+    /// A point lamp casting shadows (a cube depth map); `None`: the key light alone.
+    pub lamp: Option<Lamp>,
+    /// Agate only: the hair cut from a third, brown layer on top of the white (`false`: the
+    /// hair stays white like the face).
+    pub hair_layer: bool,
+}
+
+/// A point lamp fixed to the gem (it stays put while the camera orbits, so its shadows turn
+/// with the stone), casting shadows through a cube depth map.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lamp {
+    /// Position from the mesh's bounding-box centre, mm.
+    pub offset_mm: [f32; 3],
+    /// Brightness at the bounding-box centre, relative to the key light alone.
+    pub intensity: f32,
+    /// The key light's strength while the lamp is on (1: unchanged): dimmed so that the lamp
+    /// leads and its shadows read.
+    pub key_light: f32,
+}
+
+impl Default for Lamp {
+    /// Upper left, raking at about 25 degrees over the ground: the relief's cast shadows fall
+    /// to the lower right, the way a cameo is photographed.
+    fn default() -> Self {
+        Lamp {
+            offset_mm: [-60.0, 55.0, 38.0],
+            intensity: 0.85,
+            key_light: 0.55,
+        }
+    }
+}
+
+impl Default for RenderParams {
+    fn default() -> Self {
+        Self {
+            width: 640,
+            height: 800,
+            material: Material::Marble,
+            yaw_deg: 0.0,
+            pitch_deg: 0.0,
+            zoom: 1.0,
+            marble: MarbleParams::default(),
+            background: [0.16, 0.18, 0.22],
+            sss: Some(crate::sss::SssParams::default()),
+            styles: Vec::new(),
+            style_time_s: 0.0,
+            engraving: None,
+            lamp: None,
+            hair_layer: true,
+        }
+    }
+}
+
+/// Largest image rendered, in pixels (16.8 Mpx, e.g. 4096 x 4096). The MSAA targets cost about
+/// 100 bytes per pixel, so this caps one frame's memory near 1.7 GB.
+pub const MAX_PIXELS: u64 = 4096 * 4096;
+
+/// Why a frame (or the renderer) could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error("no usable graphics adapter: {0}")]
+    NoAdapter(String),
+    #[error("could not open the graphics device: {0}")]
+    Device(String),
+    #[error("the mesh is empty ({vertices} vertices, {indices} indices)")]
+    EmptyMesh { vertices: usize, indices: usize },
+    #[error("{count} indices do not make whole triangles")]
+    IndicesNotTriangles { count: usize },
+    #[error("index {position} is {value} but the mesh has {vertex_count} vertices")]
+    IndexOutOfRange {
+        position: usize,
+        value: u32,
+        vertex_count: usize,
+    },
+    #[error("vertex {index} has a position, normal or relief that is NaN or infinite")]
+    NonFiniteVertex { index: usize },
+    #[error("vertex {index} has region {value}, not one of 0 (ground) ..= 3 (gold)")]
+    InvalidRegion { index: usize, value: u32 },
+    #[error("the mesh needs a {bytes}-byte buffer; the device allows {max}")]
+    MeshTooLarge { bytes: u64, max: u64 },
+    #[error(
+        "image size {width}x{height} is outside 1..={max_side} per side and {max_pixels} pixels"
+    )]
+    InvalidSize {
+        width: u32,
+        height: u32,
+        max_side: u32,
+        max_pixels: u64,
+    },
+    #[error("invalid render parameter: {0}")]
+    InvalidParams(String),
+    #[error("GPU error: {0}")]
+    Gpu(String),
+    #[error("could not read the image back: {0}")]
+    Readback(String),
+}
+
+/// Ambient light (the 2021 system's 0.2).
+const AMBIENT: f32 = 0.2;
+/// Intensity of the white key light (raking: the flat ground gets sin 20 degrees of it).
+const LIGHT_INTENSITY: f32 = 1.25;
+/// Texture-space units per mm for the marble's veins (a few across a 44 x 56 mm cameo; the
+/// 2021 shader used position / 500 on a base about 370 units wide).
+const TEXTURE_SCALE: f32 = 1.0 / 75.0;
+/// The shadow cube's near plane, mm.
+const LAMP_NEAR_MM: f32 = 0.1;
+/// Shadow comparison: constant depth bias and the percentage-closer filter's radius, mm.
+const SHADOW_BIAS_MM: f32 = 0.12;
+const SHADOW_PCF_MM: f32 = 0.35;
+/// Composite: exposure, vignette strength, vertical gradient strength, dither (8-bit steps).
+const COMPOSITE_PARAMS: [f32; 4] = [1.0, 0.45, 0.35, 1.0];
+
+/// GPU time of each pass of the last frame, from timestamp queries (where the device has them).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PassTimes {
+    pub scene_ms: f64,
+    /// Both blur directions; `None` with SSS off.
+    pub sss_ms: Option<f64>,
+    pub composite_ms: f64,
+    /// The lamp's six shadow-cube faces; `None` without a lamp.
+    pub shadow_ms: Option<f64>,
+    /// Each style of the chain, in order: its pass's GPU time, or for those done on the CPU
+    /// after the readback (from the first serial one on) their wall time.
+    pub styles_ms: Vec<(crate::styles::Style, f64)>,
+}
+
+/// A pass with timestamp queries, in the order the frame ran them (its query slots).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum TimedPass {
+    Shadow,
+    Scene,
+    Sss,
+    Composite,
+    Style(crate::styles::Style),
+}
+
+/// Timestamp queries around each pass: scene, the SSS passes, composite, the GPU styles.
+struct PassTimer {
+    queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    read: wgpu::Buffer,
+    /// Nanoseconds per timestamp tick.
+    period_ns: f64,
+}
+
+/// The most passes a frame times: six shadow faces, scene, two SSS, composite and the GPU
+/// styles.
+const TIMED_PASSES: u32 = 10 + gpu::MAX_GPU_STYLES as u32;
+
+impl PassTimer {
+    fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
+        let count = 2 * TIMED_PASSES;
+        let bytes = u64::from(count) * 8;
+        Self {
+            queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("glyptic pass times"),
+                ty: wgpu::QueryType::Timestamp,
+                count,
+            }),
+            resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("glyptic pass times resolve"),
+                size: bytes,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            read: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("glyptic pass times read"),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            period_ns: f64::from(queue.get_timestamp_period()),
+        }
+    }
+
+    /// The timestamp writes of the next pass, recorded in `passes` (its slot is its place
+    /// there: the queries are resolved as one run from 0, so none may be skipped).
+    fn writes(
+        &self,
+        passes: &mut Vec<TimedPass>,
+        pass: TimedPass,
+    ) -> wgpu::RenderPassTimestampWrites<'_> {
+        let index = passes.len() as u32;
+        passes.push(pass);
+        wgpu::RenderPassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: Some(2 * index),
+            end_of_pass_write_index: Some(2 * index + 1),
+        }
+    }
+}
+
+/// How many of `styles`, from the first, have a GPU pass (those before the first serial one).
+fn gpu_style_count(styles: &[crate::styles::Style]) -> usize {
+    styles.iter().take_while(|s| !s.is_serial()).count()
+}
+
+/// Where a frame's composite goes.
+#[derive(Clone, Copy)]
+enum Output<'a> {
+    /// The renderer's own image, read back.
+    Image,
+    /// A caller's texture view (a window's surface), in a format without sRGB encoding.
+    View(&'a wgpu::TextureView, wgpu::TextureFormat),
+}
+
+/// Owns the device, the pipelines and the GPU memory reused from frame to frame.
+pub struct Renderer {
+    adapter: wgpu::Adapter,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    info: wgpu::AdapterInfo,
+    limits: wgpu::Limits,
+    pipelines: Pipelines,
+    targets: Option<Targets>,
+    /// Images and bind groups of a style chain, made on the first frame that has one.
+    style_targets: Option<gpu::StyleTargets>,
+    mesh_buffers: Option<MeshBuffers>,
+    /// The engraving's maps and the shadow cube (placeholders until a frame needs them).
+    surface: gpu::SurfaceMaps,
+    engraved_mesh: Option<EngravedMesh>,
+    /// Errors wgpu reports outside an error scope (e.g. device loss); kept instead of the
+    /// default handler, which panics.
+    uncaptured: Arc<Mutex<Option<String>>>,
+    timer: Option<PassTimer>,
+    last_pass_times: Option<PassTimes>,
+    /// The passes the last frame timed, in query-slot order.
+    timed_passes: Vec<TimedPass>,
+}
+
+impl Renderer {
+    /// Opens the default adapter without a window and builds the pipelines, with 4x MSAA where
+    /// the device supports it.
+    pub fn new_headless() -> Result<Self, RenderError> {
+        Self::new_headless_with(true)
+    }
+
+    /// As [`Renderer::new_headless`], choosing whether to antialias. Without MSAA a frame costs
+    /// about half as much on a CPU rasteriser (for previews), at the price of jagged silhouettes.
+    pub fn new_headless_with(msaa: bool) -> Result<Self, RenderError> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle().with_env());
+        Self::on_adapter(&instance, None, msaa)
+    }
+
+    /// A renderer on an adapter that can present to `surface` (made by `instance`), for a
+    /// window: frames go to the surface with [`Renderer::render_to_view`].
+    pub fn new_for_surface(
+        instance: &wgpu::Instance,
+        surface: &wgpu::Surface<'_>,
+        msaa: bool,
+    ) -> Result<Self, RenderError> {
+        Self::on_adapter(instance, Some(surface), msaa)
+    }
+
+    fn on_adapter(
+        instance: &wgpu::Instance,
+        surface: Option<&wgpu::Surface<'_>>,
+        msaa: bool,
+    ) -> Result<Self, RenderError> {
+        let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
+            instance, surface,
+        ))
+        .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+        let info = adapter.get_info();
+        // Ask for what the adapter has: bigger images and meshes than WebGPU's defaults.
+        let limits = adapter.limits();
+        // Timestamps time each pass for benchmarks, where the device offers them (lavapipe does).
+        let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("glyptic renderer"),
+            required_features: features,
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| RenderError::Device(e.to_string()))?;
+
+        let uncaptured = Arc::new(Mutex::new(None));
+        let sink = Arc::clone(&uncaptured);
+        device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
+            if let Ok(mut slot) = sink.lock() {
+                slot.get_or_insert_with(|| error.to_string());
+            }
+        }));
+
+        let samples = if msaa {
+            gpu::choose_sample_count(&adapter, device.features())
+        } else {
+            1
+        };
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let pipelines = Pipelines::new(&device, samples);
+        let surface = gpu::SurfaceMaps::new(&device, &queue, &pipelines);
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::Gpu(format!("building the pipelines: {error}")));
+        }
+        let timer = features
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| PassTimer::new(&device, &queue));
+        Ok(Self {
+            adapter,
+            device,
+            queue,
+            info,
+            limits,
+            pipelines,
+            targets: None,
+            style_targets: None,
+            mesh_buffers: None,
+            surface,
+            engraved_mesh: None,
+            uncaptured,
+            timer,
+            last_pass_times: None,
+            timed_passes: Vec::new(),
+        })
+    }
+
+    /// Adapter, backend and driver, for logs and benchmark tables.
+    pub fn adapter_info(&self) -> String {
+        let i = &self.info;
+        format!(
+            "{} ({:?}, {:?}; driver {} {}; {}x MSAA)",
+            i.name, i.backend, i.device_type, i.driver, i.driver_info, self.pipelines.samples
+        )
+    }
+
+    /// GPU time per pass of the last frame rendered, if the device has timestamp queries.
+    pub fn last_pass_times(&self) -> Option<&PassTimes> {
+        self.last_pass_times.as_ref()
+    }
+
+    /// MSAA samples per pixel in the scene pass (4, or 1 where the device cannot resolve them).
+    pub fn sample_count(&self) -> u32 {
+        self.pipelines.samples
+    }
+
+    /// The device, to configure a window's surface and draw overlays with it.
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    pub fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
+    /// What a window's surface offers on this renderer's adapter (formats, usages).
+    pub fn surface_capabilities(&self, surface: &wgpu::Surface<'_>) -> wgpu::SurfaceCapabilities {
+        surface.get_capabilities(&self.adapter)
+    }
+
+    /// A GPU error reported outside any frame (e.g. device loss, a failed present), once.
+    pub fn take_gpu_error(&self) -> Option<String> {
+        self.uncaptured.lock().ok().and_then(|mut e| e.take())
+    }
+
+    /// Encodes a frame of `mesh` into `encoder`, drawn into `view` (a window's surface texture,
+    /// `format` one without sRGB encoding: the composite encodes). The caller submits (after
+    /// its overlays, if any) and presents. The same passes as [`Renderer::render`], without the
+    /// readback or the pass timestamps (which would wait for the GPU).
+    ///
+    /// Errors on an invalid mesh or parameters before touching the GPU; GPU errors surface
+    /// through [`Renderer::take_gpu_error`] once the frame is submitted.
+    pub fn render_to_view(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        mesh: &Mesh,
+        params: &RenderParams,
+        view: &wgpu::TextureView,
+        format: wgpu::TextureFormat,
+    ) -> Result<(), RenderError> {
+        self.check_params(params)?;
+        if format.is_srgb() {
+            return Err(RenderError::InvalidParams(format!(
+                "output format {format:?} encodes sRGB itself: use its non-sRGB view"
+            )));
+        }
+        let bounds = mesh::validate(mesh, self.limits.max_buffer_size)?;
+        if let Some(error) = self.take_gpu_error() {
+            return Err(RenderError::Gpu(error));
+        }
+        self.encode_frame(encoder, mesh, &bounds, params, Output::View(view, format))
+    }
+
+    /// Renders `mesh` as described by `params` and reads the image back.
+    ///
+    /// Errors on an invalid mesh or parameters before touching the GPU, and on any GPU error
+    /// (after which the cached targets and buffers are rebuilt on the next call).
+    pub fn render(
+        &mut self,
+        mesh: &Mesh,
+        params: &RenderParams,
+    ) -> Result<image::RgbaImage, RenderError> {
+        self.check_params(params)?;
+        let bounds = mesh::validate(mesh, self.limits.max_buffer_size)?;
+        if let Some(error) = self.take_gpu_error() {
+            return Err(RenderError::Gpu(error));
+        }
+
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let submitted = self.encode_and_submit(mesh, &bounds, params);
+        let errors = [
+            pollster::block_on(validation.pop()),
+            pollster::block_on(oom.pop()),
+        ];
+        if let Some(error) = errors.into_iter().flatten().next() {
+            // The cached objects may be the culprits (e.g. a failed allocation): start afresh.
+            self.targets = None;
+            self.style_targets = None;
+            self.mesh_buffers = None;
+            self.surface = gpu::SurfaceMaps::new(&self.device, &self.queue, &self.pipelines);
+            return Err(RenderError::Gpu(error.to_string()));
+        }
+        submitted?;
+        let image = self.read_back();
+        if image.is_err() {
+            // The readback buffer may be left in a mapping state: rebuild it next time.
+            self.targets = None;
+        }
+        let mut times = self.read_pass_times();
+        // The styles from the first one done on the CPU on, in order.
+        let cpu_styles = &params.styles[gpu_style_count(&params.styles)..];
+        let image = image.map(|img| {
+            cpu_styles.iter().fold(img, |img, &style| {
+                let t = std::time::Instant::now();
+                let img = crate::styles::apply(&img, style, params.style_time_s);
+                if let Some(times) = &mut times {
+                    times
+                        .styles_ms
+                        .push((style, t.elapsed().as_secs_f64() * 1e3));
+                }
+                img
+            })
+        });
+        self.last_pass_times = times;
+        image
+    }
+
+    fn check_params(&self, params: &RenderParams) -> Result<(), RenderError> {
+        let max_side = self.limits.max_texture_dimension_2d;
+        let (w, h) = (params.width, params.height);
+        let pixels = u64::from(w) * u64::from(h);
+        let readback_bytes = gpu::padded_row_bytes(w) * u64::from(h);
+        if w == 0
+            || h == 0
+            || w > max_side
+            || h > max_side
+            || pixels > MAX_PIXELS
+            || readback_bytes > self.limits.max_buffer_size
+        {
+            return Err(RenderError::InvalidSize {
+                width: w,
+                height: h,
+                max_side,
+                max_pixels: MAX_PIXELS,
+            });
+        }
+        let m = &params.marble;
+        let numbers = [
+            ("yaw_deg", params.yaw_deg),
+            ("pitch_deg", params.pitch_deg),
+            ("zoom", params.zoom),
+            ("marble.vein_softness", m.vein_softness),
+            ("marble.vein_lightness", m.vein_lightness),
+            ("background[0]", params.background[0]),
+            ("background[1]", params.background[1]),
+            ("background[2]", params.background[2]),
+        ];
+        if let Some((name, value)) = numbers.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(RenderError::InvalidParams(format!("{name} is {value}")));
+        }
+        if let Some(sss) = &params.sss {
+            sss.validate()
+                .map_err(|e| RenderError::InvalidParams(format!("subsurface scattering: {e}")))?;
+        }
+        if let Some(e) = &params.engraving {
+            let [i0, i1] = e.inset_mm;
+            let ok = i0.is_finite()
+                && i1.is_finite()
+                && 0.0 <= i0
+                && i0 < i1
+                && i1 <= 50.0
+                && e.depth_mm.is_finite()
+                && 0.0 < e.depth_mm
+                && e.depth_mm <= 5.0
+                && e.groove > 0.0
+                && e.groove <= 1.0
+                && (16..=2048).contains(&e.size);
+            if !ok {
+                return Err(RenderError::InvalidParams(format!(
+                    "engraving: insets 0 <= outer < inner <= 50 mm, depth in (0, 5] mm, groove in (0, 1], size 16..=2048 texels; got {e:?}"
+                )));
+            }
+        }
+        if let Some(l) = &params.lamp {
+            let ok = l.offset_mm.iter().all(|c| c.is_finite())
+                && l.offset_mm.iter().map(|c| c * c).sum::<f32>() > 1.0
+                && (0.0..=100.0).contains(&l.intensity)
+                && (0.0..=1.0).contains(&l.key_light);
+            if !ok {
+                return Err(RenderError::InvalidParams(format!(
+                    "lamp: a finite offset more than 1 mm from the centre, an intensity in 0..=100 and a key light in 0..=1; got {l:?}"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Uploads, encodes the passes and the copy into the readback buffer, and submits.
+    fn encode_and_submit(
+        &mut self,
+        mesh: &Mesh,
+        bounds: &mesh::Bounds,
+        params: &RenderParams,
+    ) -> Result<(), RenderError> {
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("glyptic frame"),
+            });
+        self.encode_frame(&mut encoder, mesh, bounds, params, Output::Image)?;
+        let (w, h) = (params.width, params.height);
+        let Some(targets) = &self.targets else {
+            return Err(RenderError::Gpu("frame resources missing".into()));
+        };
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &targets.output,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &targets.readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(targets.padded_row),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+        if let Some(t) = &self.timer {
+            // Resolve only what was written: unwritten queries are an error on some backends.
+            let n = 2 * self.timed_passes.len() as u32;
+            encoder.resolve_query_set(&t.queries, 0..n, &t.resolve, 0);
+            encoder.copy_buffer_to_buffer(&t.resolve, 0, &t.read, 0, u64::from(n) * 8);
+        }
+        self.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// Uploads the mesh and the frame's uniforms and encodes the scene, SSS and composite
+    /// passes, the composite into `output`. Timestamps only for an image (read back after).
+    fn encode_frame(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        mesh: &Mesh,
+        bounds: &mesh::Bounds,
+        params: &RenderParams,
+        output: Output<'_>,
+    ) -> Result<(), RenderError> {
+        let (w, h) = (params.width, params.height);
+        let format = match output {
+            Output::Image => gpu::OUTPUT_FORMAT,
+            Output::View(_, format) => format,
+        };
+        self.pipelines.ensure_composite(&self.device, format);
+        let timer = match output {
+            Output::Image => self.timer.as_ref(),
+            Output::View(..) => None,
+        };
+        let mut timed = Vec::new();
+        if self
+            .targets
+            .as_ref()
+            .is_none_or(|t| t.width != w || t.height != h)
+        {
+            // Drop the old targets first so both sets are never alive at once.
+            self.targets = None;
+            self.style_targets = None;
+            self.targets = Some(Targets::new(&self.device, &self.pipelines, w, h));
+        }
+        let vertex_bytes: &[u8] = bytemuck::cast_slice(&mesh.vertices);
+        let index_bytes: &[u8] = bytemuck::cast_slice(&mesh.indices);
+        let (vb, ib) = (vertex_bytes.len() as u64, index_bytes.len() as u64);
+        if self.mesh_buffers.as_ref().is_none_or(|b| !b.fits(vb, ib)) {
+            self.mesh_buffers = None;
+            self.mesh_buffers = Some(MeshBuffers::new(
+                &self.device,
+                vb,
+                ib,
+                self.limits.max_buffer_size,
+            ));
+        }
+        // The styles the GPU does: those before the first done on the CPU.
+        let gpu_styles = &params.styles[..gpu_style_count(&params.styles)];
+        if matches!(output, Output::View(..)) && gpu_styles.len() < params.styles.len() {
+            return Err(RenderError::InvalidParams(
+                "dithering runs on the CPU after a readback: a window's frame takes toon, \
+                 painterly, fisheye and chromatic only"
+                    .into(),
+            ));
+        }
+        if gpu_styles.len() > gpu::MAX_GPU_STYLES {
+            return Err(RenderError::InvalidParams(format!(
+                "{} GPU styles in a row; at most {}",
+                gpu_styles.len(),
+                gpu::MAX_GPU_STYLES
+            )));
+        }
+        if !gpu_styles.is_empty() && self.style_targets.is_none() {
+            self.style_targets = Some(gpu::StyleTargets::new(&self.device, &self.pipelines, w, h));
+        }
+        for (i, &style) in gpu_styles.iter().enumerate() {
+            let last = i + 1 == gpu_styles.len();
+            let target_format = if last { format } else { gpu::STYLE_FORMAT };
+            self.pipelines
+                .ensure_style(&self.device, style, target_format);
+            if let Some(u) = gpu::style_uniform(style, params.style_time_s) {
+                self.queue.write_buffer(
+                    &self.pipelines.style_uniforms[i],
+                    0,
+                    bytemuck::cast_slice(&u),
+                );
+            }
+        }
+        // Surface detail, made only when a frame asks for it: the engraving's maps (again only
+        // when the mesh's planar frame or the parameters change) and the shadow cube.
+        let planar = surface::PlanarFrame {
+            centre: [bounds.center[0], bounds.center[1]],
+            half: [
+                (0.5 * (bounds.max[0] - bounds.min[0])).max(1e-3),
+                (0.5 * (bounds.max[1] - bounds.min[1])).max(1e-3),
+            ],
+        };
+        if let Some(e) = &params.engraving {
+            let key = (planar, e.clone());
+            if self.surface.engraving_key.as_ref() != Some(&key) {
+                let maps = surface::engraving(&planar, e);
+                self.surface
+                    .set_engraving(&self.device, &self.queue, &self.pipelines, key, &maps);
+            }
+        }
+        // The lamp: position (mm) and the shadow cube's far plane (mm).
+        let lamp = params.lamp.map(|l| {
+            let offset = nalgebra::Vector3::from(l.offset_mm);
+            let position = nalgebra::Vector3::from(bounds.center) + offset;
+            (l, position, offset.norm() + 1.05 * bounds.radius + 1.0)
+        });
+        if let Some((_, position, far)) = lamp {
+            self.surface.ensure_shadow(&self.device, &self.pipelines);
+            for (face, buffer) in self.pipelines.shadow_uniforms.iter().enumerate() {
+                let u = gpu::ShadowFaceUniform {
+                    view_proj: camera::cube_face_view_proj(position, face, LAMP_NEAR_MM, far)
+                        .into(),
+                    lamp: [position.x, position.y, position.z, 1.0 / far],
+                };
+                self.queue.write_buffer(buffer, 0, bytemuck::bytes_of(&u));
+            }
+        }
+        // The band the engraving's parallax search covers (mm inside the outline): a groove's
+        // width beyond it each side.
+        let band_mm = params.engraving.as_ref().map(|e| {
+            let margin = 0.5 * (e.inset_mm[1] - e.inset_mm[0]) / surface::BAND_UNITS;
+            [e.inset_mm[0] - margin, e.inset_mm[1] + margin]
+        });
+        // The scene pipelines: without the engraving for everything but the band's triangles
+        // (drawn last, from index `band_start`, with it).
+        let plain = gpu::SceneVariant {
+            engraving: false,
+            lamp: params.lamp.is_some(),
+        };
+        let engraved = gpu::SceneVariant {
+            engraving: true,
+            ..plain
+        };
+        self.pipelines.ensure_scene(&self.device, plain);
+        if band_mm.is_some() {
+            self.pipelines.ensure_scene(&self.device, engraved);
+        }
+        let (Some(targets), Some(buffers)) = (&self.targets, &self.mesh_buffers) else {
+            return Err(RenderError::Gpu("frame resources missing".into()));
+        };
+        self.queue.write_buffer(&buffers.vertices, 0, vertex_bytes);
+        let band_start = match band_mm {
+            Some(band) => {
+                let key = (mesh.fingerprint(), planar, band);
+                if self.engraved_mesh.as_ref().is_none_or(|c| c.key != key) {
+                    let (indices, band_start) =
+                        surface::band_last(&mesh.vertices, &mesh.indices, &planar, band);
+                    let tangents =
+                        surface::tangents(&mesh.vertices, &mesh.indices, |p| planar.uv(p));
+                    self.engraved_mesh = Some(EngravedMesh {
+                        key,
+                        indices,
+                        band_start,
+                        tangents,
+                    });
+                }
+                let Some(c) = &self.engraved_mesh else {
+                    return Err(RenderError::Gpu("engraving data missing".into()));
+                };
+                self.queue
+                    .write_buffer(&buffers.indices, 0, bytemuck::cast_slice(&c.indices));
+                self.queue
+                    .write_buffer(&buffers.tangents, 0, bytemuck::cast_slice(&c.tangents));
+                c.band_start
+            }
+            None => {
+                self.queue.write_buffer(&buffers.indices, 0, index_bytes);
+                mesh.indices.len()
+            }
+        };
+        let tb = gpu::tangent_bytes(vb);
+
+        let cam = camera::orbit(bounds, params.yaw_deg, params.pitch_deg, params.zoom, w, h);
+        let v4 = |v: nalgebra::Vector3<f32>, w: f32| [v.x, v.y, v.z, w];
+        let frame = FrameUniform {
+            // nalgebra stores column-major, as WGSL expects.
+            view_proj: cam.view_proj.into(),
+            eye: v4(cam.eye, 1.0),
+            light_dir: v4(
+                cam.light,
+                LIGHT_INTENSITY * params.lamp.map_or(1.0, |l| l.key_light),
+            ),
+            cam_right: v4(cam.right, 0.0),
+            cam_up: v4(cam.up, 0.0),
+            cam_fwd: v4(cam.forward, 0.0),
+            marble: [
+                params.marble.vein_softness.clamp(0.0, 1.0),
+                params.marble.vein_lightness.clamp(0.0, 1.0),
+                TEXTURE_SCALE,
+                AMBIENT,
+            ],
+            depth: [cam.near, 1.0 / (cam.far - cam.near).max(1e-6), 0.0, 0.0],
+            material: [
+                match params.material {
+                    Material::Marble => 0,
+                    Material::Agate => 1,
+                },
+                u32::from(params.hair_layer),
+                0,
+                0,
+            ],
+            planar: [
+                planar.centre[0],
+                planar.centre[1],
+                planar.half[0],
+                planar.half[1],
+            ],
+            engraving: match (&params.engraving, band_mm) {
+                (Some(e), Some([lo, hi])) => [1.0, e.depth_mm, lo, hi],
+                _ => [0.0; 4],
+            },
+            lamp: lamp.map_or([0.0; 4], |(l, p, _)| [p.x, p.y, p.z, l.intensity]),
+            shadow: lamp.map_or([0.0; 4], |(l, _, far)| {
+                let centre_mm = l.offset_mm.iter().map(|c| c * c).sum::<f32>().sqrt();
+                [far, SHADOW_BIAS_MM, SHADOW_PCF_MM, centre_mm]
+            }),
+        };
+        self.queue
+            .write_buffer(&self.pipelines.frame_uniform, 0, bytemuck::bytes_of(&frame));
+        let composite = CompositeUniform {
+            background: {
+                let [r, g, b] = params.background.map(|c| srgb_to_linear(c.clamp(0.0, 1.0)));
+                [r, g, b, 1.0]
+            },
+            params: COMPOSITE_PARAMS,
+        };
+        self.queue.write_buffer(
+            &self.pipelines.composite_uniform,
+            0,
+            bytemuck::bytes_of(&composite),
+        );
+
+        let sss_kernel = match &params.sss {
+            Some(p) => Some((
+                crate::sss::kernel(p).map_err(|e| {
+                    RenderError::InvalidParams(format!("subsurface scattering: {e}"))
+                })?,
+                p.width_mm,
+            )),
+            None => None,
+        };
+        if let Some((kernel, radius)) = &sss_kernel {
+            let px_per_mm = 0.5 * h as f32 / (0.5 * FOV_Y_DEG).to_radians().tan();
+            for (buffer, dir) in self
+                .pipelines
+                .sss_uniforms
+                .iter()
+                .zip([[1.0, 0.0], [0.0, 1.0]])
+            {
+                let u = gpu::sss_uniform(
+                    kernel,
+                    *radius,
+                    px_per_mm,
+                    cam.near,
+                    cam.far - cam.near,
+                    dir,
+                );
+                self.queue.write_buffer(buffer, 0, bytemuck::cast_slice(&u));
+            }
+        }
+
+        // validate() has checked that the count fits in u32.
+        let count = u32::try_from(mesh.indices.len()).unwrap_or(0);
+        let scene_pipeline = |variant| {
+            self.pipelines
+                .scene(variant)
+                .ok_or_else(|| RenderError::Gpu(format!("no scene pipeline for {variant:?}")))
+        };
+        let (plain_pipeline, engraved_pipeline) = (
+            scene_pipeline(plain)?,
+            band_mm.map(|_| scene_pipeline(engraved)).transpose()?,
+        );
+        let band_start = u32::try_from(band_start).unwrap_or(count);
+        if lamp.is_some() {
+            for (face, view) in self.surface.shadow_faces.iter().enumerate() {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("glyptic shadow pass"),
+                    color_attachments: &[],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view,
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(1.0),
+                            store: wgpu::StoreOp::Store,
+                        }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Shadow)),
+                    ..Default::default()
+                });
+                pass.set_pipeline(&self.pipelines.shadow);
+                pass.set_bind_group(0, &self.pipelines.shadow_bind_groups[face], &[]);
+                pass.set_vertex_buffer(0, buffers.vertices.slice(..vb));
+                pass.set_index_buffer(buffers.indices.slice(..ib), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..count, 0, 0..1);
+            }
+        }
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("glyptic scene pass"),
+                color_attachments: &[
+                    Some(targets.diffuse.attachment()),
+                    Some(targets.specular.attachment()),
+                    Some(targets.depth_mask.attachment()),
+                ],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &targets.depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Scene)),
+                ..Default::default()
+            });
+            pass.set_pipeline(plain_pipeline);
+            pass.set_bind_group(0, &self.pipelines.scene_bind_group, &[]);
+            pass.set_bind_group(1, &self.surface.bind_group, &[]);
+            pass.set_vertex_buffer(0, buffers.vertices.slice(..vb));
+            pass.set_vertex_buffer(1, buffers.tangents.slice(..tb));
+            pass.set_index_buffer(buffers.indices.slice(..ib), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..band_start, 0, 0..1);
+            if let Some(engraved) = engraved_pipeline
+                && band_start < count
+            {
+                pass.set_pipeline(engraved);
+                pass.draw_indexed(band_start..count, 0, 0..1);
+            }
+        }
+        if sss_kernel.is_some() {
+            let outputs = [&targets.sss_temp, &targets.sss_out];
+            for (group, output) in targets.sss_bind_groups.iter().zip(outputs) {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("glyptic sss pass"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: output,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Sss)),
+                    ..Default::default()
+                });
+                pass.set_pipeline(&self.pipelines.sss);
+                pass.set_bind_group(0, group, &[]);
+                pass.draw(0..3, 0..1);
+            }
+        }
+        let composite = self
+            .pipelines
+            .composite(format)
+            .ok_or_else(|| RenderError::Gpu(format!("no composite pipeline for {format:?}")))?;
+        let final_view = match output {
+            Output::Image => &targets.output_view,
+            Output::View(view, _) => view,
+        };
+        let style_targets = self
+            .style_targets
+            .as_ref()
+            .filter(|_| !gpu_styles.is_empty());
+        {
+            // With styles the composite writes the chain's first image.
+            let view = style_targets.map_or(final_view, |st| &st.views[0]);
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("glyptic composite pass"),
+                color_attachments: &[gpu::overwrite(view)],
+                timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Composite)),
+                ..Default::default()
+            });
+            pass.set_pipeline(composite);
+            let group = if sss_kernel.is_some() {
+                &targets.composite_sss_bind_group
+            } else {
+                &targets.composite_bind_group
+            };
+            pass.set_bind_group(0, group, &[]);
+            pass.draw(0..3, 0..1);
+        }
+        if let Some(st) = style_targets {
+            for (i, &style) in gpu_styles.iter().enumerate() {
+                let last = i + 1 == gpu_styles.len();
+                let (view, target_format) = if last {
+                    (final_view, format)
+                } else {
+                    (&st.views[(i + 1) % 2], gpu::STYLE_FORMAT)
+                };
+                let pipeline = self.pipelines.style(style, target_format).ok_or_else(|| {
+                    RenderError::Gpu(format!("no {} pass for {target_format:?}", style.name()))
+                })?;
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("glyptic style pass"),
+                    color_attachments: &[gpu::overwrite(view)],
+                    timestamp_writes: timer.map(|t| t.writes(&mut timed, TimedPass::Style(style))),
+                    ..Default::default()
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &st.bind_groups[i], &[]);
+                pass.draw(0..3, 0..1);
+            }
+        }
+        self.timed_passes = timed;
+        Ok(())
+    }
+
+    /// Reads the pass timestamps of the frame just waited for.
+    fn read_pass_times(&self) -> Option<PassTimes> {
+        let t = self.timer.as_ref()?;
+        let slice = t.read.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
+        let mapped = matches!(rx.try_recv(), Ok(Ok(())));
+        let ticks: Option<Vec<u64>> = mapped
+            .then(|| {
+                slice.get_mapped_range().ok().map(|view| {
+                    view.chunks_exact(8)
+                        .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+                        .collect()
+                })
+            })
+            .flatten();
+        t.read.unmap();
+        let ticks = ticks?;
+        let mut times = PassTimes::default();
+        for (slot, pass) in self.timed_passes.iter().enumerate() {
+            let (a, b) = (*ticks.get(2 * slot)?, *ticks.get(2 * slot + 1)?);
+            let ms = b.saturating_sub(a) as f64 * t.period_ns / 1e6;
+            match *pass {
+                TimedPass::Shadow => *times.shadow_ms.get_or_insert(0.0) += ms,
+                TimedPass::Scene => times.scene_ms += ms,
+                TimedPass::Sss => *times.sss_ms.get_or_insert(0.0) += ms,
+                TimedPass::Composite => times.composite_ms += ms,
+                TimedPass::Style(style) => times.styles_ms.push((style, ms)),
+            }
+        }
+        Some(times)
+    }
+
+    /// Waits for the frame and copies the padded rows into an image.
+    fn read_back(&self) -> Result<image::RgbaImage, RenderError> {
+        let Some(targets) = &self.targets else {
+            return Err(RenderError::Readback("no frame was rendered".into()));
+        };
+        let (tx, rx) = std::sync::mpsc::channel();
+        let slice = targets.readback.slice(..);
+        slice.map_async(wgpu::MapMode::Read, move |result| {
+            // The receiver outlives the poll below; a send error cannot matter.
+            let _ = tx.send(result);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| RenderError::Readback(e.to_string()))?;
+        match rx.try_recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(RenderError::Readback(e.to_string())),
+            Err(e) => {
+                return Err(RenderError::Readback(format!(
+                    "mapping did not finish: {e}"
+                )));
+            }
+        }
+        let (w, h) = (targets.width, targets.height);
+        let row_bytes = w as usize * 4;
+        let mut pixels = Vec::with_capacity(row_bytes * h as usize);
+        let copied = (|| {
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| RenderError::Readback(e.to_string()))?;
+            for row in view
+                .chunks(targets.padded_row.max(1) as usize)
+                .take(h as usize)
+            {
+                let pixels_of_row = row
+                    .get(..row_bytes)
+                    .ok_or_else(|| RenderError::Readback("readback row too short".into()))?;
+                pixels.extend_from_slice(pixels_of_row);
+            }
+            Ok(())
+        })();
+        // Unmapped on every path: a buffer left mapped would fail the next frame's copy.
+        targets.readback.unmap();
+        copied?;
+        image::RgbaImage::from_raw(w, h, pixels)
+            .ok_or_else(|| RenderError::Readback("readback smaller than the image".into()))
+    }
+}
+
+/// sRGB transfer function, decoding (display value -> linear light).
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The renderer is created on one thread and used on another (the CLI opens the device while the
+/// face pipeline runs), so it must stay `Send`.
+const _: fn() = || {
+    fn send<T: Send>() {}
+    send::<Renderer>();
+};

@@ -1,0 +1,166 @@
+//! The WGSL sources, embedded at compile time.
+//!
+//! Shared code (the noise functions, the full-screen vertex stage) lives in its own file and is
+//! prepended as text: WGSL has no includes. A file that needs another says so in its first line
+//! (`// requires: noise.wgsl`), which is how this module's tests assemble the same modules from
+//! the files on disk.
+
+/// Simplex noise and turbulence, shared by the scene shader.
+pub const NOISE: &str = include_str!("../shaders/noise.wgsl");
+
+/// The scene pass (`vs_main`, `fs_main`), with the noise prepended.
+pub const SCENE: &str = concat!(
+    include_str!("../shaders/noise.wgsl"),
+    "\n",
+    include_str!("../shaders/scene.wgsl")
+);
+
+/// One face of the lamp's shadow cube (`vs_main`, `fs_main`): distance to the lamp as depth.
+pub const SHADOW: &str = include_str!("../shaders/shadow.wgsl");
+
+/// The full-screen triangle's vertex stage, shared by the composite and SSS passes.
+pub const FULLSCREEN: &str = include_str!("../shaders/fullscreen.wgsl");
+
+/// The composite pass (`vs_main`, `fs_main`).
+pub const COMPOSITE: &str = concat!(
+    include_str!("../shaders/fullscreen.wgsl"),
+    "\n",
+    include_str!("../shaders/composite.wgsl")
+);
+
+/// The subsurface-scattering blur, one direction per draw (`vs_main`, `fs_main`).
+pub const SSS: &str = concat!(
+    include_str!("../shaders/fullscreen.wgsl"),
+    "\n",
+    include_str!("../shaders/sss.wgsl")
+);
+
+/// What the gallery style passes share: their uniform, input and bilinear read.
+pub const STYLE_COMMON: &str = include_str!("../shaders/style_common.wgsl");
+
+/// A style pass's module: the full-screen vertex stage, the shared part, the style.
+macro_rules! style_module {
+    ($file:literal) => {
+        concat!(
+            include_str!("../shaders/fullscreen.wgsl"),
+            "\n",
+            include_str!("../shaders/style_common.wgsl"),
+            "\n",
+            include_str!(concat!("../shaders/", $file))
+        )
+    };
+}
+
+/// Gallery style passes (`vs_main`, `fs_main`).
+pub const TOON: &str = style_module!("toon.wgsl");
+pub const FISHEYE: &str = style_module!("fisheye.wgsl");
+pub const CHROMATIC: &str = style_module!("chromatic.wgsl");
+pub const PAINTERLY: &str = style_module!("painterly.wgsl");
+
+/// Every module the renderer compiles, by name, exactly as it hands them to wgpu.
+pub fn modules() -> [(&'static str, &'static str); 11] {
+    [
+        ("shadow", SHADOW),
+        ("noise", NOISE),
+        ("fullscreen", FULLSCREEN),
+        ("scene", SCENE),
+        ("composite", COMPOSITE),
+        ("sss", SSS),
+        ("style_common", STYLE_COMMON),
+        ("toon", TOON),
+        ("fisheye", FISHEYE),
+        ("chromatic", CHROMATIC),
+        ("painterly", PAINTERLY),
+    ]
+}
+
+/// Every WGSL file in `shaders/` parses and validates with naga (the compiler inside wgpu), both
+/// as assembled from the files on disk and exactly as the renderer embeds it.
+#[cfg(test)]
+mod tests {
+    use std::fs;
+    use std::path::Path;
+
+    use super::modules;
+
+    fn validate(name: &str, source: &str) -> Result<(), String> {
+        let module = naga::front::wgsl::parse_str(source)
+            .map_err(|e| format!("{name}: {}", e.emit_to_string(source)))?;
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::default(),
+        )
+        .validate(&module)
+        .map_err(|e| format!("{name}: {}", e.emit_to_string(source)))?;
+        Ok(())
+    }
+
+    /// The files a shader's first line says it needs.
+    fn requirements(source: &str) -> Vec<String> {
+        source
+            .lines()
+            .next()
+            .and_then(|line| line.trim().strip_prefix("// requires:"))
+            .map(|list| {
+                list.split(',')
+                    .map(|s| s.trim().to_owned())
+                    .filter(|s| !s.is_empty())
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    fn assemble(dir: &Path, file: &str) -> String {
+        let source = fs::read_to_string(dir.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        let mut assembled = String::new();
+        for required in requirements(&source) {
+            assembled.push_str(&assemble(dir, &required));
+            assembled.push('\n');
+        }
+        assembled.push_str(&source);
+        assembled
+    }
+
+    #[test]
+    fn every_shader_file_validates() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        let mut names: Vec<String> = fs::read_dir(&dir)
+            .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+            .filter_map(|entry| entry.ok())
+            .map(|entry| entry.file_name().to_string_lossy().into_owned())
+            .filter(|name| name.ends_with(".wgsl"))
+            .collect();
+        names.sort();
+        assert!(
+            names.len() >= 3,
+            "expected the renderer's shaders in {}, found {names:?}",
+            dir.display()
+        );
+        let failures: Vec<String> = names
+            .iter()
+            .filter_map(|name| validate(name, &assemble(&dir, name)).err())
+            .collect();
+        assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+    }
+
+    #[test]
+    fn embedded_modules_validate() {
+        let failures: Vec<String> = modules()
+            .iter()
+            .filter_map(|(name, source)| validate(name, source).err())
+            .collect();
+        assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+    }
+
+    #[test]
+    fn embedded_modules_match_the_files() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        for (name, source) in modules() {
+            let assembled = assemble(&dir, &format!("{name}.wgsl"));
+            assert_eq!(
+                assembled, source,
+                "{name}.wgsl on disk differs from the embedded module"
+            );
+        }
+    }
+}

