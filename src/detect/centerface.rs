@@ -18,36 +18,11 @@ use ort::session::Session;
 use ort::session::builder::{GraphOptimizationLevel, SessionBuilder};
 
 use super::DetectError;
-use super::onnx_dims::{self, DimSpec};
 
 /// Graph input name of the CenterFace export.
 pub const INPUT: &str = "input.1";
 /// Output names: heatmap, scale, offset, landmarks.
 pub const OUTPUTS: [&str; 4] = ["537", "538", "539", "540"];
-
-/// The dims made symbolic at load time: batch and spatial; channel counts stay fixed.
-pub const DIM_SPECS: [DimSpec<'static>; 5] = [
-    DimSpec {
-        tensor: INPUT,
-        dims: &[Some("B"), None, Some("H"), Some("W")],
-    },
-    DimSpec {
-        tensor: OUTPUTS[0],
-        dims: &[Some("B"), None, Some("h"), Some("w")],
-    },
-    DimSpec {
-        tensor: OUTPUTS[1],
-        dims: &[Some("B"), None, Some("h"), Some("w")],
-    },
-    DimSpec {
-        tensor: OUTPUTS[2],
-        dims: &[Some("B"), None, Some("h"), Some("w")],
-    },
-    DimSpec {
-        tensor: OUTPUTS[3],
-        dims: &[Some("B"), None, Some("h"), Some("w")],
-    },
-];
 
 /// The library path the environment was created from, and the environment.
 static RUNTIME: Mutex<Option<(PathBuf, Environment)>> = Mutex::new(None);
@@ -109,29 +84,6 @@ impl Default for SessionConfig {
     }
 }
 
-/// Reads the model, makes its dims dynamic and checks it is the CenterFace graph.
-///
-/// Pure apart from nothing: takes bytes, returns bytes. `path` only labels errors.
-pub fn prepare_model(bytes: &[u8], path: &Path) -> Result<Vec<u8>, DetectError> {
-    let model_err = |reason: String| DetectError::Model {
-        path: path.to_path_buf(),
-        reason,
-    };
-    let (model, report) =
-        onnx_dims::dynamicize(bytes, &DIM_SPECS, true).map_err(|e| model_err(e.to_string()))?;
-    let missing: Vec<&str> = std::iter::once(INPUT)
-        .chain(OUTPUTS)
-        .filter(|name| !report.rewritten.iter().any(|r| r == name))
-        .collect();
-    if !missing.is_empty() {
-        return Err(model_err(format!(
-            "not the CenterFace graph: no graph input/output named {}",
-            missing.join(", ")
-        )));
-    }
-    Ok(model)
-}
-
 /// A session builder with glyptic's settings: warnings only, `config`'s threads inside an
 /// operator, one between operators, every graph optimisation.
 pub fn session_builder(
@@ -151,31 +103,48 @@ pub fn session_builder(
         .map_err(|e| e.to_string())
 }
 
-/// Creates the ONNX Runtime session from prepared model bytes.
+/// Creates the ONNX Runtime session from the model's bytes and checks it is CenterFace
+/// prepared for any frame size: set-up's `scripts/centerface_dynamic.py` makes the export's
+/// static `[10, 3, 32, 32]` input symbolic in batch, height and width.
 pub fn session(
     env: &Environment,
     model: &[u8],
     path: &Path,
     config: &SessionConfig,
 ) -> Result<Session, DetectError> {
-    let session_err = |reason: String| DetectError::Session {
+    let model_err = |reason: String| DetectError::Model {
         path: path.to_path_buf(),
         reason,
     };
-    let mut builder = session_builder(env, config).map_err(session_err)?;
+    let mut builder = session_builder(env, config).map_err(|reason| DetectError::Session {
+        path: path.to_path_buf(),
+        reason,
+    })?;
     let session = builder
         .commit_from_memory(model)
-        .map_err(|e| session_err(e.to_string()))?;
-    let inputs: Vec<&str> = session.inputs().iter().map(|o| o.name()).collect();
-    if !inputs.contains(&INPUT) {
-        return Err(session_err(format!(
-            "session inputs are {inputs:?}, expected {INPUT}"
+        .map_err(|e| model_err(e.to_string()))?;
+    let outputs: Vec<&str> = session.outputs().iter().map(|o| o.name()).collect();
+    let Some(input) = session.inputs().iter().find(|o| o.name() == INPUT) else {
+        let inputs: Vec<&str> = session.inputs().iter().map(|o| o.name()).collect();
+        return Err(model_err(format!(
+            "not the CenterFace graph: inputs are {inputs:?}, expected {INPUT}"
+        )));
+    };
+    if let Some(missing) = OUTPUTS.iter().find(|o| !outputs.contains(o)) {
+        return Err(model_err(format!(
+            "not the CenterFace graph: outputs are {outputs:?}, missing {missing}"
         )));
     }
-    let outputs: Vec<&str> = session.outputs().iter().map(|o| o.name()).collect();
-    if let Some(missing) = OUTPUTS.iter().find(|o| !outputs.contains(o)) {
-        return Err(session_err(format!(
-            "session outputs are {outputs:?}, missing {missing}"
+    // A symbolic dim reads as -1. Batch, height and width must be symbolic, or every frame
+    // that is not 32 x 32 would fail at run time.
+    let dims: Vec<i64> = input
+        .dtype()
+        .tensor_shape()
+        .map(|shape| shape.iter().copied().collect())
+        .unwrap_or_default();
+    if dims.len() != 4 || [dims[0], dims[2], dims[3]].iter().any(|&d| d >= 0) {
+        return Err(model_err(format!(
+            "{INPUT} is declared {dims:?}: the export's fixed size, not prepared for other frame sizes (scripts/setup.sh prepares it with scripts/centerface_dynamic.py)"
         )));
     }
     Ok(session)

