@@ -8,7 +8,8 @@
 # astronaut Eileen Collins (public domain; from the scikit-image wheel on PyPI, fetched here).
 # Writes out/gallery/NAME-{profile,frontal}-{marble,agate}.png, out/gallery/sheet.png (photo |
 # four gems per row; it holds the photos, so it is never committed) and, for the default faces,
-# docs/gallery-NAME.png (the four gems alone) and the README's pictures of SSS, the surface
+# docs/gallery-NAME.png (the four gems alone; made from third-party photos, so git ignores them
+# like every picture below) and the README's pictures of SSS, the surface
 # effects and a gallery style (docs/cameo-*.png); what the person pass finds on the five faces
 # as labels alone (docs/person-labels.png and .md) and as an overlay on the astronaut's photo
 # (out/gallery/person/astronaut.png: it holds the photo, so it is not committed).
