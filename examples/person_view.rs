@@ -49,8 +49,7 @@ fn main() -> Result<()> {
         .collect();
     let mut sheet: Vec<image::RgbImage> = Vec::new();
     std::fs::create_dir_all(&out)?;
-    let mut stages = Vec::new();
-    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut stages)?;
+    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate())?;
     let mut segmenter = if colour_only {
         None
     } else {
@@ -74,7 +73,7 @@ fn main() -> Result<()> {
                 continue;
             }
         };
-        let face = match pipeline.process(&img, &mut stages) {
+        let face = match pipeline.process(&img) {
             Ok(f) => f,
             Err(e) => {
                 println!("| {name} | no face: {e} |");

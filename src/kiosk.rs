@@ -7,6 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::gem::View;
 use crate::render::{Material, RenderParams, ZOOM_RANGE};
 use crate::sss::SssParams;
 use crate::styles::Style;
@@ -38,41 +39,6 @@ pub enum ConfigError {
     },
 }
 
-/// The stone a kiosk starts with (TOML: `"marble"` or `"agate"`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Stone {
-    Marble,
-    Agate,
-}
-
-impl From<Stone> for Material {
-    fn from(s: Stone) -> Material {
-        match s {
-            Stone::Marble => Material::Marble,
-            Stone::Agate => Material::Agate,
-        }
-    }
-}
-
-/// How the portrait is cut (TOML: `"profile"` or `"frontal"`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Portrait {
-    Profile,
-    Frontal,
-}
-
-impl Portrait {
-    /// The cameo cut this way.
-    pub fn cameo(self) -> crate::gem::CameoParams {
-        match self {
-            Portrait::Profile => crate::gem::CameoParams::default(),
-            Portrait::Frontal => crate::gem::CameoParams::frontal(),
-        }
-    }
-}
-
 /// Kiosk defaults, read from a TOML file; every key is optional. Command-line options override
 /// the file.
 #[derive(Clone, Debug, PartialEq, serde::Deserialize)]
@@ -82,8 +48,8 @@ pub struct KioskConfig {
     pub camera: u32,
     /// Play this video file (looping) instead of a camera.
     pub video: Option<PathBuf>,
-    pub material: Stone,
-    pub portrait: Portrait,
+    pub material: Material,
+    pub portrait: View,
     /// Subsurface scattering on at start.
     pub sss: bool,
     /// SSS strength at start, 0..=1.
@@ -117,8 +83,8 @@ impl Default for KioskConfig {
         KioskConfig {
             camera: 0,
             video: None,
-            material: Stone::Marble,
-            portrait: Portrait::Profile,
+            material: Material::Marble,
+            portrait: View::Profile,
             sss: true,
             sss_strength: DEFAULT_SSS_STRENGTH,
             idle_seconds: 8.0,
@@ -218,7 +184,7 @@ pub const KIOSK_STYLES: [Style; 5] = [
 impl Controls {
     pub fn from_config(c: &KioskConfig) -> Self {
         Controls {
-            material: c.material.into(),
+            material: c.material,
             sss: c.sss,
             sss_strength: c.sss_strength,
             frozen: false,
@@ -401,8 +367,8 @@ mod tests {
         let p = controls.apply(&RenderParams::default(), &Orbit::default());
         assert!(p.lamp.is_some() && p.engraving.is_none());
         assert_eq!(c.camera, 2);
-        assert_eq!(c.material, Stone::Agate);
-        assert_eq!(c.portrait, Portrait::Frontal);
+        assert_eq!(c.material, Material::Agate);
+        assert_eq!(c.portrait, View::Frontal);
         assert!(!c.sss && c.fullscreen);
         assert_eq!(
             (c.sss_strength, c.idle_seconds, c.render_scale),

@@ -1,16 +1,21 @@
 //! The `glyptic` command line.
 //!
 //! Errors are reported as one line on stderr naming the file and the problem, with a
-//! non-zero exit code; no output file is left behind by a failed run.
+//! non-zero exit code; no output file is left behind by a failed run. Everything else on
+//! stderr is the log: glyptic's warnings by default, `-v` adds each stage as it ends and the
+//! libraries' own notes (wgpu, naga, ONNX Runtime), `-q` leaves errors only, `RUST_LOG`
+//! overrides both.
 
 mod cli;
 
 use std::process::ExitCode;
 
 use clap::Parser;
+use tracing_subscriber::EnvFilter;
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
+    init_log(args.verbose, args.quiet);
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
@@ -19,4 +24,34 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The log's filter for `-v` / `-q`: glyptic's own notes and everyone's warnings by default.
+/// wgpu's and naga's warnings about the software rasteriser are kept for `-v`: on a machine
+/// without a GPU they repeat what the stage table already says.
+fn default_filter(verbose: u8, quiet: bool) -> &'static str {
+    match (quiet, verbose) {
+        (true, _) => "error",
+        (false, 0) => "warn,glyptic=info,wgpu_hal=error,wgpu_core=error,naga=error",
+        (false, 1) => "info,glyptic=debug,ort=warn",
+        (false, 2) => "debug",
+        _ => "trace",
+    }
+}
+
+/// Sends `tracing` events (and the `log` records of wgpu and its kin) to stderr.
+fn init_log(verbose: u8, quiet: bool) {
+    let filter = EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| EnvFilter::new(default_filter(verbose, quiet)));
+    let detailed = verbose >= 2 || std::env::var_os("RUST_LOG").is_some();
+    let builder = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()));
+    // A second subscriber (a test harness) is not an error worth stopping for.
+    let _ = if detailed {
+        builder.try_init()
+    } else {
+        builder.without_time().with_target(false).try_init()
+    };
 }

@@ -1,5 +1,14 @@
-//! Timed stages: every step of the program reports how long it took.
+//! Timed stages as `tracing` spans: every step of the program reports how long it took.
+//!
+//! A stage is a span named `stage` (target `glyptic::stage`, level INFO) with the fields
+//! `name`, `ms` and `detail` (a description of the stage's result). [`timed`] opens it round
+//! the work and records the time and the detail on it when the work succeeds; a subscriber at
+//! debug level logs each stage as it closes (`glyptic -v`). The same measurement goes to the
+//! calling thread's [`record`]ing, if there is one, and that is what the stage table, the
+//! batch CSV and the kiosk's trace are built from; with nobody recording, a stage costs one
+//! disabled span and a clock read. Times are wall-clock milliseconds.
 
+use std::cell::RefCell;
 use std::time::Instant;
 
 /// One timed stage.
@@ -10,19 +19,131 @@ pub struct Stage {
     pub detail: String,
 }
 
-/// Runs `f`, appending its time and a description of its result to `stages`.
+thread_local! {
+    /// The open recordings of this thread, innermost last.
+    static RECORDINGS: RefCell<Vec<Vec<Stage>>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` as the stage `name`; on success records its time and `describe`'s account of
+/// the result. A failed stage is logged (debug) and not recorded: its error says enough.
 pub fn timed<T, E>(
-    stages: &mut Vec<Stage>,
     name: &'static str,
     f: impl FnOnce() -> Result<T, E>,
     describe: impl FnOnce(&T) -> String,
 ) -> Result<T, E> {
-    let t = Instant::now();
-    let out = f()?;
-    stages.push(Stage {
+    let span = tracing::info_span!(
+        target: "glyptic::stage",
+        "stage",
         name,
-        ms: t.elapsed().as_secs_f64() * 1e3,
-        detail: describe(&out),
+        ms = tracing::field::Empty,
+        detail = tracing::field::Empty
+    );
+    let t = Instant::now();
+    let out = span.in_scope(f);
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    span.record("ms", ms);
+    match &out {
+        Ok(v) => {
+            let detail = describe(v);
+            span.record("detail", detail.as_str());
+            tracing::debug!(target: "glyptic::stage", parent: &span, "{name}: {ms:.1} ms, {detail}");
+            report(Stage { name, ms, detail });
+        }
+        Err(_) => {
+            tracing::debug!(target: "glyptic::stage", parent: &span, "{name}: failed after {ms:.1} ms")
+        }
+    }
+    out
+}
+
+/// Hands a stage measured elsewhere (another thread's, or a sum) to this thread's recording.
+pub fn report(stage: Stage) {
+    RECORDINGS.with(|r| {
+        if let Some(open) = r.borrow_mut().last_mut() {
+            open.push(stage);
+        }
     });
-    Ok(out)
+}
+
+/// Runs `f`, returning the stages it ran on this thread, in order. Recordings nest: an outer
+/// recording also receives what an inner one saw.
+pub fn record<T>(f: impl FnOnce() -> T) -> (T, Vec<Stage>) {
+    /// Closes the recording when `f` unwinds (a batch worker catches panics per image).
+    struct Unwinding(bool);
+    impl Drop for Unwinding {
+        fn drop(&mut self) {
+            if self.0 {
+                RECORDINGS.with(|r| r.borrow_mut().pop());
+            }
+        }
+    }
+    RECORDINGS.with(|r| r.borrow_mut().push(Vec::new()));
+    let mut guard = Unwinding(true);
+    let out = f();
+    guard.0 = false;
+    let stages = RECORDINGS.with(|r| {
+        let mut open = r.borrow_mut();
+        let stages = open.pop().unwrap_or_default();
+        if let Some(outer) = open.last_mut() {
+            outer.extend(stages.iter().cloned());
+        }
+        stages
+    });
+    (out, stages)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ok(name: &'static str) -> Result<u32, ()> {
+        timed(name, || Ok(7), |v| format!("value {v}"))
+    }
+
+    #[test]
+    fn a_recording_gets_the_stages_in_order_and_only_its_own_thread_s() {
+        let ((), outside) = record(|| {
+            std::thread::spawn(|| ok("elsewhere")).join().ok();
+        });
+        assert!(outside.is_empty(), "{outside:?}");
+        let (v, stages) = record(|| {
+            ok("first").ok();
+            let _ = timed::<u32, ()>("failed", || Err(()), |_| String::new());
+            ok("second")
+        });
+        assert_eq!(v, Ok(7));
+        let names: Vec<_> = stages.iter().map(|s| s.name).collect();
+        assert_eq!(names, ["first", "second"]);
+        assert_eq!(stages[0].detail, "value 7");
+        assert!(stages.iter().all(|s| s.ms >= 0.0 && s.ms.is_finite()));
+    }
+
+    #[test]
+    fn recordings_nest_and_survive_a_panic() {
+        let ((), outer) = record(|| {
+            ok("before").ok();
+            let ((), inner) = record(|| {
+                ok("inner").ok();
+            });
+            assert_eq!(inner.len(), 1);
+            let caught = std::panic::catch_unwind(|| {
+                record(|| {
+                    ok("panicking").ok();
+                    panic!("on purpose");
+                })
+            });
+            assert!(caught.is_err());
+            report(Stage {
+                name: "reported",
+                ms: 1.0,
+                detail: String::new(),
+            });
+        });
+        let names: Vec<_> = outer.iter().map(|s| s.name).collect();
+        assert_eq!(names, ["before", "inner", "reported"]);
+        // Nothing is left open: a stage now is nobody's.
+        ok("after").ok();
+        let ((), fresh) = record(|| {});
+        assert!(fresh.is_empty());
+    }
 }

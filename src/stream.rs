@@ -245,16 +245,16 @@ impl FaceUpdate {
         let Some(face) = &self.face else {
             return;
         };
-        let t = Instant::now();
-        let built = builder.build_after(&face.portrait, triangles, warm);
-        let ms = t.elapsed().as_secs_f64() * 1e3;
+        let (built, stages) = crate::stage::record(|| {
+            crate::stage::timed(
+                "gem",
+                || builder.build_after(&face.portrait, triangles, warm),
+                |mesh| format!("{} triangles", mesh.indices.len() / 3),
+            )
+        });
+        self.stages.extend(stages);
         match built {
             Ok(mesh) => {
-                self.stages.push(Stage {
-                    name: "gem",
-                    ms,
-                    detail: format!("{} triangles", mesh.indices.len() / 3),
-                });
                 self.gem = Some(Arc::new(mesh));
             }
             Err(e) => self.note = Some(format!("cameo: {e}")),

@@ -157,31 +157,34 @@ impl Tracker {
         self.state = None;
     }
 
-    /// Tracks the face into `img`, taken at `time_s` seconds.
+    /// Tracks the face into `img`, taken at `time_s` seconds; the step's stages are those
+    /// this frame ran ([`crate::stage::record`]).
     pub fn process(&mut self, img: &RgbImage, time_s: f64) -> Result<TrackStep, PipelineError> {
-        let mut stages = Vec::new();
+        let (step, stages) = crate::stage::record(|| self.step(img, time_s));
+        let (face, lost) = step?;
+        Ok(TrackStep { face, lost, stages })
+    }
+
+    /// [`Tracker::process`]'s work: the face, and why the track was lost before it.
+    fn step(
+        &mut self,
+        img: &RgbImage,
+        time_s: f64,
+    ) -> Result<(Option<TrackedFace>, Option<String>), PipelineError> {
         let mut lost = None;
         if let Some(mut state) = self.state.take() {
-            match self.follow(img, &state, &mut stages) {
+            match self.follow(img, &state) {
                 Ok((landmarks, fit, verified)) => {
                     state.unverified = if verified { 0 } else { state.unverified + 1 };
-                    let face = self.update(state, landmarks, fit, time_s, false, &mut stages);
-                    return Ok(TrackStep {
-                        face: Some(face),
-                        lost: None,
-                        stages,
-                    });
+                    let face = self.update(state, landmarks, fit, time_s, false);
+                    return Ok((Some(face), None));
                 }
                 Err(why) => lost = Some(why),
             }
         }
         self.detections += 1;
-        let Some((found, fit, _)) = self.pipeline.fit_subject(img, &mut stages)? else {
-            return Ok(TrackStep {
-                face: None,
-                lost,
-                stages,
-            });
+        let Some((found, fit, _)) = self.pipeline.fit_subject(img)? else {
+            return Ok((None, lost));
         };
         let o = &self.options;
         let state = TrackState {
@@ -195,12 +198,8 @@ impl Tracker {
             expression: OneEuro::new(o.expression_filter),
             unverified: 0,
         };
-        let face = self.update(state, found.points, fit, time_s, true, &mut stages);
-        Ok(TrackStep {
-            face: Some(face),
-            lost,
-            stages,
-        })
+        let face = self.update(state, found.points, fit, time_s, true);
+        Ok((Some(face), lost))
     }
 
     /// Landmarks from the previous landmarks' box and a fit from the previous fit, and whether
@@ -209,7 +208,6 @@ impl Tracker {
         &mut self,
         img: &RgbImage,
         state: &TrackState,
-        stages: &mut Vec<Stage>,
     ) -> Result<(Vec<[f32; 2]>, Fit, bool), String> {
         let o = self.options;
         let predictor = &self.pipeline.faces.predictor;
@@ -224,7 +222,6 @@ impl Tracker {
             ));
         }
         let (landmarks, contrast) = timed(
-            stages,
             "landmarks",
             || {
                 // Straight on the RGB frame: the trees read a few thousand pixels, converting
@@ -244,7 +241,6 @@ impl Tracker {
         let verify = o.verify_every > 0 && state.unverified + 1 >= o.verify_every;
         if verify {
             let found = timed(
-                stages,
                 "verify",
                 || self.face_near(img, &face_box, o.verify_side),
                 |f| if *f { "face confirmed" } else { "no face" }.to_string(),
@@ -262,7 +258,6 @@ impl Tracker {
             previous.shape = mean_identity(state, &state.identity_sum);
         }
         let fit = timed(
-            stages,
             "fit",
             || crate::fit::fit_from(model, &landmarks, opts, &previous, hold),
             |f| {
@@ -330,16 +325,13 @@ impl Tracker {
         fit: Fit,
         time_s: f64,
         detected: bool,
-        stages: &mut Vec<Stage>,
     ) -> TrackedFace {
         let o = &self.options;
         let accumulate = o.identity_frames == 0 || state.identity_n < o.identity_frames;
         if accumulate {
             // The portrait's identity is fitted only while the identity is still being
             // learnt (a second fit on those frames, none once it holds).
-            let (firm, _) = self
-                .pipeline
-                .portrait_coefficients(&landmarks, &fit, stages);
+            let (firm, _) = self.pipeline.portrait_coefficients(&landmarks, &fit);
             if o.identity_frames == 0 {
                 state.identity_sum = fit.shape.iter().map(|&c| f64::from(c)).collect();
                 state.portrait_sum = firm.iter().map(|&c| f64::from(c)).collect();

@@ -13,7 +13,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use glyptic::pipeline::{FacePipeline, Stage};
+use glyptic::pipeline::{GemPipeline, GemPipelineError};
 use glyptic::render::Renderer;
 
 use super::ViewArgs;
@@ -31,9 +31,6 @@ pub struct BatchArgs {
     /// Per-image status and times (default: OUTDIR/batch.csv).
     #[arg(long, value_name = "FILE.csv")]
     pub csv: Option<PathBuf>,
-    /// No progress bar (logs and CI).
-    #[arg(long)]
-    pub quiet: bool,
     #[command(flatten)]
     pub view: ViewArgs,
     #[command(flatten)]
@@ -51,13 +48,16 @@ struct Row {
     error: String,
 }
 
-const CSV_STAGES: [&str; 7] = [
+const CSV_STAGES: [&str; 10] = [
     "decode",
     "detect",
     "landmarks",
     "fit",
+    "segment",
+    "person",
     "gem",
     "render",
+    "encode",
     "write",
 ];
 
@@ -123,45 +123,21 @@ fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
     super::write_atomic(path, &bytes)
 }
 
-/// Decode, detect, landmarks, fit and relief for one image.
+/// Decode, detect, landmarks, fit, person and relief for one image, its stages into `row`.
 fn face_job(
-    pipeline: &mut FacePipeline,
+    pipeline: &mut GemPipeline,
     input: &Path,
-    cameo: &glyptic::gem::CameoParams,
-    choice: &super::ChoiceArgs,
-    segmenter: Option<&mut glyptic::detect::PersonSegmenter>,
     row: &mut Row,
-) -> Result<glyptic::render::Mesh> {
-    let mut stages: Vec<Stage> = Vec::new();
-    let result = (|| -> Result<glyptic::render::Mesh> {
-        let img = super::decode(&mut stages, input)?;
-        let face = pipeline.process(&img, &mut stages)?;
-        row.faces = face.faces_found;
-        let cameo = super::person_cameo(
-            &mut stages,
-            &img,
-            &face.landmarks,
-            cameo.clone(),
-            choice,
-            segmenter,
-        );
-        let mesh = super::build_gem(
-            &mut stages,
-            &face.portrait,
-            &pipeline.model.shape.triangles,
-            &cameo,
-        )?;
-        Ok(mesh)
-    })();
+) -> Result<glyptic::render::Mesh, GemPipelineError> {
+    let (made, stages) = glyptic::stage::record(|| pipeline.photo(input));
     row.stages.extend(stages.iter().map(|s| (s.name, s.ms)));
-    result
+    let made = made?;
+    row.faces = made.face.faces_found;
+    Ok(made.mesh)
 }
 
 pub fn batch(args: &BatchArgs) -> Result<()> {
     let view = args.view.params()?;
-    let cameo = args.view.portrait.cameo();
-    let cameo = &cameo;
-    let choice = args.choice;
     let start = Instant::now();
     let files = glyptic::capture::source::list_images(&args.dir)?;
     if files.is_empty() {
@@ -185,22 +161,13 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
 
     // The GPU comes up while the models load.
     let renderer_thread = super::spawn_renderer();
-    let mut load = Vec::new();
     let models = glyptic::assets::ModelPaths::locate();
-    let mut first = FacePipeline::load(&models, &mut load)?;
-    args.choice.apply_face(&mut first);
-    let mut pipelines = vec![first];
+    // One detector and segmentation session per worker, sharing the landmark and face models;
+    // a missing segmentation model is reported once.
+    let mut pipelines = vec![args.choice.gem_pipeline(&args.view)?];
     for _ in 1..jobs {
         let p = pipelines[0].fork(&models)?;
         pipelines.push(p);
-    }
-    // One segmentation session per worker; a missing model is reported once.
-    let mut segmenters = vec![super::load_segmenter(&args.choice)];
-    for _ in 1..jobs {
-        let more = segmenters[0]
-            .is_some()
-            .then(|| super::load_segmenter(&args.choice));
-        segmenters.push(more.flatten());
     }
     let mut renderer: Renderer = renderer_thread
         .join()
@@ -209,7 +176,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         .0;
     let loaded_ms = start.elapsed().as_secs_f64() * 1e3;
 
-    let bar = if args.quiet {
+    let bar = if super::QUIET.load(Ordering::Relaxed) {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(files.len() as u64)
@@ -231,7 +198,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         })
         .collect();
     std::thread::scope(|scope| -> Result<()> {
-        for (mut pipeline, mut segmenter) in pipelines.into_iter().zip(segmenters) {
+        for mut pipeline in pipelines {
             let (files, next, tx) = (files.clone(), next.clone(), tx.clone());
             scope.spawn(move || {
                 loop {
@@ -243,23 +210,12 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                     };
                     // A panic in one image must not take the batch down.
                     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        face_job(
-                            &mut pipeline,
-                            input,
-                            cameo,
-                            &choice,
-                            segmenter.as_mut(),
-                            &mut row,
-                        )
+                        face_job(&mut pipeline, input, &mut row)
                     }));
                     let mesh = match outcome {
                         Ok(Ok(mesh)) => Some(mesh),
                         Ok(Err(e)) => {
-                            let no_face = matches!(
-                                e.downcast_ref::<glyptic::pipeline::PipelineError>(),
-                                Some(glyptic::pipeline::PipelineError::NoFace)
-                            );
-                            row.status = if no_face { "no face" } else { "error" };
+                            row.status = if e.is_no_face() { "no face" } else { "error" };
                             row.error = format!("{e:#}");
                             None
                         }
@@ -283,15 +239,15 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default();
             if let Some(mesh) = mesh {
-                let t = Instant::now();
-                let rendered = renderer.render(&mesh, &view);
-                row.stages.push(("render", t.elapsed().as_secs_f64() * 1e3));
-                let t = Instant::now();
-                let written = rendered
-                    .map_err(anyhow::Error::from)
-                    .and_then(|rgba| super::encode_png(rgba, &outputs[i]))
-                    .and_then(|png| super::write_atomic(&outputs[i], &png));
-                row.stages.push(("write", t.elapsed().as_secs_f64() * 1e3));
+                let (written, stages) = glyptic::stage::record(|| -> Result<()> {
+                    let png = glyptic::pipeline::gem::render_png(&mut renderer, &mesh, &view)?;
+                    glyptic::stage::timed(
+                        "write",
+                        || super::write_atomic(&outputs[i], &png),
+                        |_| String::new(),
+                    )
+                });
+                row.stages.extend(stages.iter().map(|s| (s.name, s.ms)));
                 match written {
                     Ok(()) => {
                         row.status = "ok";

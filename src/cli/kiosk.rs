@@ -21,8 +21,9 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::window::{Fullscreen, Window, WindowId};
 
 use glyptic::capture::latest::{LatestReceiver, LatestSender, latest};
+use glyptic::gem::View;
 use glyptic::gem::{CameoBuilder, CameoParams, HairStyle};
-use glyptic::kiosk::{Controls, KioskConfig, Orbit, Portrait, blend_faces, idle_weight};
+use glyptic::kiosk::{Controls, KioskConfig, Orbit, blend_faces, idle_weight};
 use glyptic::render::{Material, Mesh, RenderParams, Renderer};
 
 #[derive(clap::Args, Debug, Clone)]
@@ -203,7 +204,7 @@ struct GemThread {
 }
 
 impl GemThread {
-    fn spawn(portrait: Portrait) -> Result<Self> {
+    fn spawn(portrait: View) -> Result<Self> {
         let (faces, jobs) = latest::<GemJob>();
         let (send, out) = latest::<Result<BuiltGem, String>>();
         let (note_tx, notes) = crossbeam_channel::bounded(4);
@@ -337,10 +338,8 @@ mod live {
                         {
                             anyhow::bail!("{}: video not found", path.display());
                         }
-                        let mut stages = Vec::new();
                         let pipeline = glyptic::pipeline::FacePipeline::load(
                             &glyptic::assets::ModelPaths::locate(),
-                            &mut stages,
                         )?;
                         let tracker = Tracker::new(pipeline, TrackOptions::default());
                         let hair = config.visitor_hair;

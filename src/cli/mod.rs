@@ -13,7 +13,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 
-use glyptic::gem::{self, CameoParams};
+use glyptic::gem;
 use glyptic::render::{Material, RenderParams, Renderer};
 use glyptic::stage::{Stage, timed};
 
@@ -26,6 +26,13 @@ use glyptic::stage::{Stage, timed};
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
+    /// More on stderr: -v each stage as it ends and the libraries' notes, -vv debug, -vvv
+    /// everything (`RUST_LOG`, when set, decides instead).
+    #[arg(short, long, global = true, action = clap::ArgAction::Count, conflicts_with = "quiet")]
+    pub verbose: u8,
+    /// Errors only: no stage table, no warnings, no progress bar.
+    #[arg(short, long, global = true)]
+    pub quiet: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -60,10 +67,11 @@ pub struct KernelArgs {
     #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S")]
     pub strength: f32,
     /// Diffusion profile.
-    #[arg(long, value_enum, default_value_t = ProfileArg::Marble)]
-    pub profile: ProfileArg,
+    #[arg(long, value_enum, default_value_t = glyptic::sss::Profile::Marble)]
+    pub profile: glyptic::sss::Profile,
 }
 
+#[cfg(feature = "face")]
 #[derive(clap::Args, Debug)]
 pub struct LandmarksArgs {
     /// A photo (JPEG, PNG, PPM, ...).
@@ -135,8 +143,8 @@ pub struct RenderArgs {
 #[derive(clap::Args, Debug, Clone)]
 pub struct ViewArgs {
     /// Stone of the cameo.
-    #[arg(long, value_enum, default_value_t = MaterialArg::Marble)]
-    pub material: MaterialArg,
+    #[arg(long, value_enum, default_value_t = Material::Marble)]
+    pub material: Material,
     /// Image size, WIDTHxHEIGHT pixels.
     #[arg(long, default_value = "640x800")]
     pub size: Size,
@@ -147,8 +155,8 @@ pub struct ViewArgs {
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub pitch: f32,
     /// How the portrait is carved: in profile (the classic cameo) or facing the viewer.
-    #[arg(long, value_enum, default_value_t = PortraitArg::Profile)]
-    pub portrait: PortraitArg,
+    #[arg(long, value_enum, default_value_t = gem::View::Profile)]
+    pub portrait: gem::View,
     #[command(flatten)]
     pub sss: SssArgs,
     /// Gallery styles after the render, in order: toon, dither, painterly, fisheye, chromatic
@@ -180,22 +188,6 @@ impl std::str::FromStr for StyleChain {
     }
 }
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum PortraitArg {
-    Profile,
-    Frontal,
-}
-
-impl PortraitArg {
-    pub fn cameo(self) -> CameoParams {
-        match self {
-            PortraitArg::Profile => glyptic::kiosk::Portrait::Profile,
-            PortraitArg::Frontal => glyptic::kiosk::Portrait::Frontal,
-        }
-        .cameo()
-    }
-}
-
 /// Subsurface scattering options (`render`, `photo`, `batch`).
 #[derive(clap::Args, Debug, Clone, Copy)]
 pub struct SssArgs {
@@ -212,24 +204,14 @@ pub struct SssArgs {
     #[arg(long, default_value_t = glyptic::sss::DEFAULT_WIDTH_MM, value_name = "MM")]
     pub sss_width: f32,
     /// Diffusion profile.
-    #[arg(long, value_enum, default_value_t = ProfileArg::Marble)]
-    pub sss_profile: ProfileArg,
+    #[arg(long, value_enum, default_value_t = glyptic::sss::Profile::Marble)]
+    pub sss_profile: glyptic::sss::Profile,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum OnOff {
     On,
     Off,
-}
-
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ProfileArg {
-    /// Jimenez's sum of Gaussians.
-    Gaussians,
-    /// Christensen-Burley normalised diffusion.
-    Burley,
-    /// Measured marble (Jensen et al. 2001's dipole and scattering coefficients).
-    Marble,
 }
 
 impl SssArgs {
@@ -239,17 +221,8 @@ impl SssArgs {
             taps: self.sss_taps,
             strength: glyptic::sss::SssParams::strength_rgb(self.sss_strength),
             width_mm: self.sss_width,
-            profile: match self.sss_profile {
-                ProfileArg::Gaussians => glyptic::sss::Profile::Gaussians,
-                ProfileArg::Burley => glyptic::sss::Profile::Burley,
-                ProfileArg::Marble => glyptic::sss::Profile::Marble,
-            },
-            // The reference demo's per-channel radii for its profiles; the measured one has
-            // its own per channel.
-            falloff: match self.sss_profile {
-                ProfileArg::Marble => [glyptic::sss::MARBLE_SCALE; 3],
-                _ => [1.0, 0.37, 0.3],
-            },
+            profile: self.sss_profile,
+            falloff: self.sss_profile.falloff(),
         };
         p.validate().context("subsurface scattering")?;
         Ok(p)
@@ -261,7 +234,7 @@ impl ViewArgs {
         Ok(RenderParams {
             width: self.size.width,
             height: self.size.height,
-            material: self.material.into(),
+            material: self.material,
             yaw_deg: self.yaw,
             pitch_deg: self.pitch,
             sss: match self.sss.sss {
@@ -279,18 +252,19 @@ impl ViewArgs {
     }
 }
 
+#[cfg(feature = "face")]
 /// Which face is the subject when a photo or frame holds several, and what of the photo
 /// besides the face goes into the gem.
 #[derive(clap::Args, Debug, Clone, Copy)]
 pub struct ChoiceArgs {
     /// The subject among several faces: the largest, or the one nearest the image's centre
     /// (a kiosk with people passing behind the visitor).
-    #[arg(long, value_enum, default_value_t = PreferArg::Largest)]
-    pub prefer: PreferArg,
+    #[arg(long, value_enum, default_value_t = glyptic::detect::FaceChoice::Largest)]
+    pub prefer: glyptic::detect::FaceChoice,
     /// The hair: the person's own, as the photo shows it (bald stays bald, long hair falls
     /// over the shoulders), or the same classical hairstyle for everyone.
-    #[arg(long, value_enum, default_value_t = HairArg::Photo)]
-    pub hair: HairArg,
+    #[arg(long, value_enum, default_value_t = glyptic::pipeline::Hair::Photo)]
+    pub hair: glyptic::pipeline::Hair,
     /// The portrait's caricature, GAIN,DETAIL: the gain multiplies the face's difference from
     /// the mean face, the detail (0..1) exaggerates its small, telling differences more than
     /// its large ones. `1,0` carves the fitted face as it is.
@@ -306,12 +280,14 @@ pub struct ChoiceArgs {
     pub glasses: GlassesArg,
 }
 
+#[cfg(feature = "face")]
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum GlassesArg {
     Carve,
     Leave,
 }
 
+#[cfg(feature = "face")]
 fn parse_expression(s: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
         Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
@@ -320,6 +296,7 @@ fn parse_expression(s: &str) -> Result<f32, String> {
     }
 }
 
+#[cfg(feature = "face")]
 fn parse_caricature(s: &str) -> Result<glyptic::shapemodel::Caricature, String> {
     let (g, d) = s
         .split_once(',')
@@ -340,127 +317,29 @@ fn parse_caricature(s: &str) -> Result<glyptic::shapemodel::Caricature, String> 
     }
 }
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum HairArg {
-    Photo,
-    Classical,
-}
-
-/// The person segmentation network for the hair pass, when the photo's hair is wanted; when
-/// it is missing or broken, a warning and `None`: the hair is then read by colour alone.
-#[cfg(feature = "face")]
-pub fn load_segmenter(choice: &ChoiceArgs) -> Option<glyptic::detect::PersonSegmenter> {
-    if choice.hair == HairArg::Classical {
-        return None;
-    }
-    glyptic::detect::PersonSegmenter::load(
-        &glyptic::assets::segmenter_model(),
-        &glyptic::assets::onnxruntime_lib(),
-    )
-    .map_err(|e| {
-        eprintln!("warning: {e}; the hair is read by colour alone (run scripts/setup.sh)");
-    })
-    .ok()
-}
-
-/// The cameo's parameters with the subject's own hair (stage "person", the segmentation's
-/// share as stage "segment"); when the photo cannot be read for it, a warning and the classical
-/// hair: the gem is still made.
-#[cfg(feature = "face")]
-pub fn person_cameo(
-    stages: &mut Vec<Stage>,
-    img: &image::RgbImage,
-    landmarks: &[[f32; 2]],
-    cameo: CameoParams,
-    choice: &ChoiceArgs,
-    segmenter: Option<&mut glyptic::detect::PersonSegmenter>,
-) -> CameoParams {
-    if choice.hair == HairArg::Classical {
-        return cameo;
-    }
-    let mask = segmenter.and_then(|s| {
-        timed(
-            stages,
-            "segment",
-            || s.segment(img, landmarks),
-            |_| "person / background".into(),
-        )
-        .map_err(|e| eprintln!("warning: {e}; the hair is read by colour alone"))
-        .ok()
-    });
-    let person = timed(
-        stages,
-        "person",
-        || glyptic::person::analyse_with(img, landmarks, mask.as_ref()),
-        |p| match p.hair {
-            Some(h) => format!(
-                "hair: stands {:.2}, ends {:.2} face lengths below the eyes, curl {:.2}; beard {:.0} %, moustache {:.0} %, glasses {}",
-                h.top.max(0.7 * h.sides),
-                h.length,
-                h.curl,
-                100.0 * p.beard,
-                100.0 * p.moustache,
-                if p.has_glasses() { "yes" } else { "no" }
-            ),
-            None => format!(
-                "bald; beard {:.0} %, moustache {:.0} %, glasses {}",
-                100.0 * p.beard,
-                100.0 * p.moustache,
-                if p.has_glasses() { "yes" } else { "no" }
-            ),
-        },
-    );
-    match person {
-        Ok(p) => CameoParams {
-            hair: gem::HairStyle {
-                glasses: p.has_glasses() && choice.glasses == GlassesArg::Carve,
-                ..gem::hair_style(&p)
-            },
-            ..cameo
-        },
-        Err(e) => {
-            eprintln!("warning: cannot read the hair from the photo ({e}); classical hair");
-            cameo
-        }
-    }
-}
-
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum PreferArg {
-    Largest,
-    Central,
-}
-
 #[cfg(feature = "face")]
 impl ChoiceArgs {
     pub fn apply(&self, options: &mut glyptic::detect::DetectOptions) {
-        options.prefer = match self.prefer {
-            PreferArg::Largest => glyptic::detect::FaceChoice::Largest,
-            PreferArg::Central => glyptic::detect::FaceChoice::Central,
-        };
+        options.prefer = self.prefer;
     }
 
     /// The subject's choice, the portrait's caricature and its share of the expression.
-    #[cfg(feature = "face")]
     pub fn apply_face(&self, pipeline: &mut glyptic::pipeline::FacePipeline) {
         self.apply(&mut pipeline.faces.detect_options);
         pipeline.caricature = self.caricature;
         pipeline.portrait_expression = self.expression;
     }
-}
 
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum MaterialArg {
-    Marble,
-    Agate,
-}
-
-impl From<MaterialArg> for Material {
-    fn from(m: MaterialArg) -> Self {
-        match m {
-            MaterialArg::Marble => Material::Marble,
-            MaterialArg::Agate => Material::Agate,
-        }
+    /// The photo -> gem pipeline with these choices and `view`'s portrait.
+    pub fn gem_pipeline(&self, view: &ViewArgs) -> Result<glyptic::pipeline::GemPipeline> {
+        let mut p = glyptic::pipeline::GemPipeline::load(
+            &glyptic::assets::ModelPaths::locate(),
+            view.portrait.cameo(),
+            self.hair,
+        )?;
+        self.apply_face(&mut p.face);
+        p.carve_glasses = self.glasses == GlassesArg::Carve;
+        Ok(p)
     }
 }
 
@@ -497,6 +376,7 @@ impl std::str::FromStr for Size {
     }
 }
 
+#[cfg(feature = "face")]
 #[derive(clap::Args, Debug)]
 pub struct PhotoArgs {
     /// Portrait photo (JPEG, PNG, PPM, BMP, TIFF, WebP).
@@ -523,22 +403,23 @@ pub struct PhotoArgs {
 #[cfg(feature = "face")]
 fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
     let path = &args.image;
-    let mut stages = Vec::new();
-    let img = decode(&mut stages, path)?;
-    let mut pipeline = glyptic::pipeline::LandmarkPipeline::load(
-        &glyptic::assets::ModelPaths::locate(),
-        &mut stages,
-    )?;
-    args.choice.apply(&mut pipeline.detect_options);
-    let mut detections = pipeline
-        .detect(&img, &mut stages)
-        .with_context(|| path.display().to_string())?;
-    if let Some(n) = args.max_faces {
-        detections.truncate(n);
-    }
-    let faces = pipeline
-        .landmarks(&img, &detections, &mut stages)
-        .with_context(|| path.display().to_string())?;
+    let (found, stages) = glyptic::stage::record(|| -> Result<_> {
+        let img = glyptic::pipeline::gem::decode(path)?;
+        let mut pipeline =
+            glyptic::pipeline::LandmarkPipeline::load(&glyptic::assets::ModelPaths::locate())?;
+        args.choice.apply(&mut pipeline.detect_options);
+        let mut detections = pipeline
+            .detect(&img)
+            .with_context(|| path.display().to_string())?;
+        if let Some(n) = args.max_faces {
+            detections.truncate(n);
+        }
+        let faces = pipeline
+            .landmarks(&img, &detections)
+            .with_context(|| path.display().to_string())?;
+        Ok((img, faces))
+    });
+    let (img, faces) = found?;
     if let (Some(pts), Some(face)) = (&args.pts, faces.first()) {
         write_atomic(
             pts,
@@ -564,7 +445,7 @@ fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
                 "height": img.height(), "faces": faces, "times_ms": times })
         );
     } else {
-        stages.iter().for_each(print_stage);
+        print_stages(&stages);
         if faces.is_empty() {
             println!("no face found in {}", path.display());
         }
@@ -587,6 +468,7 @@ fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
 }
 
 pub fn run(cli: Cli) -> Result<()> {
+    QUIET.store(cli.quiet, std::sync::atomic::Ordering::Relaxed);
     match cli.command {
         #[cfg(feature = "face")]
         Command::Photo(args) => photo(&args),
@@ -717,39 +599,6 @@ fn check_output_dirs<'a>(outputs: impl IntoIterator<Item = &'a PathBuf>) -> Resu
     Ok(())
 }
 
-/// Builds the cameo around a face mesh (model mm), as a timed stage.
-/// Decodes a photo as stage "decode" (its size as the detail).
-#[cfg(feature = "face")]
-fn decode(stages: &mut Vec<Stage>, path: &Path) -> Result<image::RgbImage> {
-    Ok(timed(
-        stages,
-        "decode",
-        || glyptic::capture::load_photo(path),
-        |i| format!("{}x{}", i.width(), i.height()),
-    )?)
-}
-
-fn build_gem(
-    stages: &mut Vec<Stage>,
-    face: &[f32],
-    triangles: &[[u32; 3]],
-    cameo: &CameoParams,
-) -> Result<glyptic::render::Mesh> {
-    let mesh = timed(
-        stages,
-        "gem",
-        || gem::build_cameo(face, triangles, cameo),
-        |m| {
-            format!(
-                "{} vertices, {} triangles",
-                m.vertices.len(),
-                m.indices.len() / 3
-            )
-        },
-    )?;
-    Ok(mesh)
-}
-
 /// Starts the GPU device and pipelines on another thread: they do not depend on the face, so
 /// they come up while the photo is decoded and fitted.
 fn spawn_renderer() -> std::thread::JoinHandle<Result<(Renderer, f64), glyptic::render::RenderError>>
@@ -768,54 +617,12 @@ fn join_renderer(
         .join()
         .map_err(|_| anyhow!("the renderer thread panicked"))?
         .context("starting the renderer")?;
-    print_stage(&Stage {
+    print_stages(&[Stage {
         name: "gpu init",
         ms: init_ms,
         detail: format!("{} (in parallel)", renderer.adapter_info()),
-    });
+    }]);
     Ok(renderer)
-}
-
-/// Renders `mesh` and encodes the PNG, printing the stage.
-fn render_and_write(
-    renderer: &mut Renderer,
-    mesh: &glyptic::render::Mesh,
-    params: &RenderParams,
-    output: &Path,
-) -> Result<Vec<u8>> {
-    let mut stages = Vec::new();
-    let rgba = timed(
-        &mut stages,
-        "render",
-        || renderer.render(mesh, params),
-        |_| {
-            format!(
-                "{}x{} {:?}, SSS {}",
-                params.width,
-                params.height,
-                params.material,
-                params
-                    .sss
-                    .map_or("off".to_string(), |s| format!("{} taps", s.taps))
-            )
-        },
-    )?;
-    print_stage(&stages[0]);
-    encode_png(rgba, output)
-}
-
-/// Encodes `rgba` as PNG and writes it whole (or not at all) to `path`.
-fn write_png(rgba: image::RgbaImage, path: &Path) -> Result<()> {
-    write_atomic(path, &encode_png(rgba, path)?)
-}
-
-/// A rendered image as PNG bytes (`output` names it in errors).
-fn encode_png(rgba: image::RgbaImage, output: &Path) -> Result<Vec<u8>> {
-    let mut png = Vec::new();
-    image::DynamicImage::ImageRgba8(rgba)
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .with_context(|| format!("{}: encoding the PNG", output.display()))?;
-    Ok(png)
 }
 
 fn render_mean(args: &RenderArgs) -> Result<()> {
@@ -833,8 +640,8 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
             output: args.output.clone(),
             view: args.view.clone(),
             choice: ChoiceArgs {
-                prefer: PreferArg::Largest,
-                hair: HairArg::Photo,
+                prefer: glyptic::detect::FaceChoice::Largest,
+                hair: glyptic::pipeline::Hair::Photo,
                 caricature: glyptic::shapemodel::Caricature::default(),
                 expression: glyptic::pipeline::PORTRAIT_EXPRESSION,
                 glasses: GlassesArg::Carve,
@@ -848,39 +655,63 @@ fn render_mean(args: &RenderArgs) -> Result<()> {
     let params = args.view.params()?;
     check_output_dirs([&args.output].into_iter().chain(args.gem_obj.as_ref()))?;
     let renderer_thread = spawn_renderer();
-    let mut stages = Vec::new();
-    let (face, triangles) = match &args.face {
-        Some(path) => timed(
-            &mut stages,
-            "load face",
-            || read_face_obj(path),
-            |(p, t)| format!("{} vertices, {} triangles", p.len() / 3, t.len()),
-        )?,
-        None => {
-            let sfm = glyptic::assets::sfm_dir();
-            let model = timed(
-                &mut stages,
-                "load face model",
-                || glyptic::shapemodel::SurreyModel::load_dir(&sfm),
-                |m| format!("{} vertices (mean face)", m.shape.num_vertices()),
-            )?;
-            (model.instance(&[], &[]), model.shape.triangles.clone())
-        }
-    };
-    let mesh = build_gem(&mut stages, &face, &triangles, &args.view.portrait.cameo())?;
-    stages.iter().for_each(print_stage);
+    let (mesh, stages) = glyptic::stage::record(|| -> Result<_> {
+        let (face, triangles) = match &args.face {
+            Some(path) => timed(
+                "load face",
+                || read_face_obj(path),
+                |(p, t)| format!("{} vertices, {} triangles", p.len() / 3, t.len()),
+            )?,
+            None => {
+                let sfm = glyptic::assets::sfm_dir();
+                let model = timed(
+                    "load face model",
+                    || glyptic::shapemodel::SurreyModel::load_dir(&sfm),
+                    |m| format!("{} vertices (mean face)", m.shape.num_vertices()),
+                )?;
+                (model.instance(&[], &[]), model.shape.triangles.clone())
+            }
+        };
+        Ok(glyptic::pipeline::gem::build_gem(
+            &face,
+            &triangles,
+            &args.view.portrait.cameo(),
+        )?)
+    });
+    print_stages(&stages);
+    let mesh = mesh?;
     let mut renderer = join_renderer(renderer_thread)?;
-    let png = render_and_write(&mut renderer, &mesh, &params, &args.output)?;
+    let png = render_png(&mut renderer, &mesh, &params, &args.output)?;
     if let Some(obj) = &args.gem_obj {
         write_gem_obj(obj, &mesh, "the mean face")?;
     }
     write_atomic(&args.output, &png)?;
-    print_stage(&Stage {
+    print_stages(&[Stage {
         name: "total",
         ms: start.elapsed().as_secs_f64() * 1e3,
         detail: args.output.display().to_string(),
-    });
+    }]);
     Ok(())
+}
+
+/// Renders the gem and encodes its PNG, printing the stages (`output` names it in errors).
+fn render_png(
+    renderer: &mut Renderer,
+    mesh: &glyptic::render::Mesh,
+    params: &RenderParams,
+    output: &Path,
+) -> Result<Vec<u8>> {
+    let (png, stages) =
+        glyptic::stage::record(|| glyptic::pipeline::gem::render_png(renderer, mesh, params));
+    print_stages(&stages);
+    png.with_context(|| output.display().to_string())
+}
+
+/// Encodes `rgba` as PNG and writes it whole (or not at all) to `path`.
+fn write_png(rgba: image::RgbaImage, path: &Path) -> Result<()> {
+    let png = glyptic::pipeline::gem::encode_png(rgba)
+        .with_context(|| format!("{}: encoding the PNG", path.display()))?;
+    write_atomic(path, &png)
 }
 
 /// A face mesh from an OBJ file: positions `[x0, y0, z0, ...]` and triangles.
@@ -924,8 +755,17 @@ fn print_kernel(args: &KernelArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_stage(s: &Stage) {
-    println!("{:<16} {:>9.1} ms  {}", s.name, s.ms, s.detail);
+/// Whether `-q` asked for errors only (set once, before any command runs).
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The stage table's lines: name, time, what the stage found (nothing with `-q`).
+fn print_stages(stages: &[Stage]) {
+    if QUIET.load(std::sync::atomic::Ordering::Relaxed) {
+        return;
+    }
+    for s in stages {
+        println!("{:<16} {:>9.1} ms  {}", s.name, s.ms, s.detail);
+    }
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same folder, so that a failure
@@ -970,45 +810,28 @@ fn photo(args: &PhotoArgs) -> Result<()> {
         .flatten(),
     )?;
     let image_path = &args.image;
-    let ctx = || image_path.display().to_string();
 
     // The GPU device and pipelines are independent of the face: start them now.
     let renderer_thread = spawn_renderer();
-
-    let mut stages = Vec::new();
-    let img = decode(&mut stages, image_path)?;
-    print_stage(&stages[0]);
-    let mut pipeline =
-        glyptic::pipeline::FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut stages)?;
-    args.choice.apply_face(&mut pipeline);
-    let face = pipeline.process(&img, &mut stages).with_context(ctx)?;
-    let mut segmenter = load_segmenter(&args.choice);
-    let cameo = person_cameo(
-        &mut stages,
-        &img,
-        &face.landmarks,
-        args.view.portrait.cameo(),
-        &args.choice,
-        segmenter.as_mut(),
-    );
-    let mesh = build_gem(
-        &mut stages,
-        &face.portrait,
-        &pipeline.model.shape.triangles,
-        &cameo,
-    )?;
-    for s in &stages[1..] {
-        print_stage(s);
-    }
+    let (made, stages) = glyptic::stage::record(|| -> Result<_> {
+        let mut pipeline = args.choice.gem_pipeline(&args.view)?;
+        let gem = pipeline
+            .photo(image_path)
+            .with_context(|| image_path.display().to_string())?;
+        Ok((pipeline, gem))
+    });
+    print_stages(&stages);
+    let (pipeline, gem) = made?;
+    let triangles = &pipeline.face.model.shape.triangles;
 
     let mut renderer = join_renderer(renderer_thread)?;
-    let png = render_and_write(&mut renderer, &mesh, &params, &args.output)?;
+    let png = render_png(&mut renderer, &gem.mesh, &params, &args.output)?;
     let t = Instant::now();
     // Everything succeeded: now write, so a failure above leaves no output behind.
     if let Some(pts) = &args.landmarks_out {
         write_atomic(
             pts,
-            glyptic::landmarks::pts::write_pts(&face.landmarks).as_bytes(),
+            glyptic::landmarks::pts::write_pts(&gem.face.landmarks).as_bytes(),
         )?;
     }
     if let Some(obj) = &args.obj {
@@ -1018,22 +841,24 @@ fn photo(args: &PhotoArgs) -> Result<()> {
         );
         write_atomic(
             obj,
-            gem::to_obj(&face.mesh, &pipeline.model.shape.triangles, &comment).as_bytes(),
+            gem::to_obj(&gem.face.mesh, triangles, &comment).as_bytes(),
         )?;
     }
     if let Some(obj) = &args.gem_obj {
-        write_gem_obj(obj, &mesh, &image_path.display().to_string())?;
+        write_gem_obj(obj, &gem.mesh, &image_path.display().to_string())?;
     }
     write_atomic(&args.output, &png)?;
-    print_stage(&Stage {
-        name: "write",
-        ms: t.elapsed().as_secs_f64() * 1e3,
-        detail: args.output.display().to_string(),
-    });
-    print_stage(&Stage {
-        name: "total",
-        ms: start.elapsed().as_secs_f64() * 1e3,
-        detail: String::new(),
-    });
+    print_stages(&[
+        Stage {
+            name: "write",
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            detail: args.output.display().to_string(),
+        },
+        Stage {
+            name: "total",
+            ms: start.elapsed().as_secs_f64() * 1e3,
+            detail: String::new(),
+        },
+    ]);
     Ok(())
 }

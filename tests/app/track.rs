@@ -13,8 +13,7 @@ use nalgebra::Vector3;
 const FPS: f64 = 30.0;
 
 fn tracker(options: TrackOptions) -> Tracker {
-    let mut stages = Vec::new();
-    let pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate(), &mut stages)
+    let pipeline = FacePipeline::load(&glyptic::assets::ModelPaths::locate())
         .expect("run scripts/setup.sh first");
     Tracker::new(pipeline, options)
 }

@@ -62,10 +62,14 @@ struct EngravedMesh {
     tangents: Vec<[f32; 4]>,
 }
 
-/// The stone the gem is cut from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The stone the gem is cut from: one type for the renderer, the kiosk's TOML (`"marble"`,
+/// `"agate"`) and the command line (`--material`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Material {
     /// White statuary marble with a few quiet grey veins, polished (a faint, sharp highlight).
+    #[default]
     Marble,
     /// Multilayer agate: red ground, white relief, brown hair (Phong, exponent 500).
     Agate,

@@ -20,8 +20,9 @@
 /// Largest tap count (Blender's EEVEE goes to 65; beyond that the pass costs more than it shows).
 pub const MAX_TAPS: usize = 65;
 
-/// Which diffusion profile shapes the kernel.
+/// Which diffusion profile shapes the kernel (also the command line's `--sss-profile`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Profile {
     /// Jimenez's sum of five Gaussians (variances 0.0484 .. 7.41), each channel's radius scaled
     /// by its falloff: the reference demo's profile.
@@ -35,6 +36,18 @@ pub enum Profile {
     /// is about half a millimetre wide; red light creeps several millimetres.
     #[default]
     Marble,
+}
+
+impl Profile {
+    /// The per-channel radius scale this profile is used at ([`SssParams::falloff`]): the
+    /// reference demo's red-furthest radii for the analytic profiles; the measured marble has
+    /// its own per channel, used at [`MARBLE_SCALE`].
+    pub fn falloff(self) -> [f32; 3] {
+        match self {
+            Profile::Marble => [MARBLE_SCALE; 3],
+            Profile::Gaussians | Profile::Burley => [1.0, 0.37, 0.3],
+        }
+    }
 }
 
 /// Measured optical properties of one stone, per RGB channel (Jensen et al. 2001, table 1).
@@ -130,7 +143,7 @@ impl Default for SssParams {
         SssParams {
             taps: 21,
             strength: SssParams::strength_rgb(DEFAULT_STRENGTH),
-            falloff: [MARBLE_SCALE; 3],
+            falloff: Profile::Marble.falloff(),
             width_mm: DEFAULT_WIDTH_MM,
             profile: Profile::Marble,
         }

@@ -68,8 +68,15 @@ pub struct CameoParams {
 impl CameoParams {
     /// A frontal portrait (the face looks out of the stone) on the default stone.
     pub fn frontal() -> Self {
+        View::Frontal.cameo()
+    }
+}
+
+impl View {
+    /// The default stone with the portrait cut this way.
+    pub fn cameo(self) -> CameoParams {
         CameoParams {
-            view: View::Frontal,
+            view: self,
             ..CameoParams::default()
         }
     }

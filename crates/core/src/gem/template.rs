@@ -17,8 +17,11 @@
 //! brow, chin, forehead, tragus and jaw), so the head follows the face and the face always
 //! leads: the builder uses the template only outside the face's footprint. Pure computation.
 
-/// Which way the portrait looks out of the stone.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Which way the portrait looks out of the stone: one type for the cameo, the kiosk's TOML
+/// (`portrait = "profile"`) and the command line (`--portrait`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum View {
     /// Facing left, seen from the face's +x side: the classic cameo.
     #[default]

@@ -1,7 +1,13 @@
-//! The face pipeline on one frame: detect -> 68 landmarks -> morphable-model fit.
+//! From a photo to a gem. This module: the face pipeline on one frame, detect -> 68 landmarks
+//! -> morphable-model fit; [`gem`]: the rest of the way, person pass, relief, render, PNG.
 //!
 //! Units: image pixels (0-based, y down) for detections and landmarks; model millimetres for
-//! the fitted mesh. Each stage's time is recorded so callers can report speed per stage.
+//! the fitted mesh. Each step is a timed [`crate::stage`], so callers can report speed per
+//! stage by recording them ([`crate::stage::record`]).
+
+pub mod gem;
+
+pub use gem::{GemPipeline, GemPipelineError, Hair, PhotoGem};
 
 use std::sync::Arc;
 
@@ -70,15 +76,13 @@ pub struct FaceLandmarks {
 
 impl LandmarkPipeline {
     /// Loads the detector and the landmark model, timing each.
-    pub fn load(models: &ModelPaths, stages: &mut Vec<Stage>) -> Result<Self, PipelineError> {
+    pub fn load(models: &ModelPaths) -> Result<Self, PipelineError> {
         let detector = timed(
-            stages,
             "load detector",
             || FaceDetector::load(&models.detector, &models.onnxruntime),
             |_| format!("{}", models.detector.display()),
         )?;
         let predictor = timed(
-            stages,
             "load landmarks",
             || ShapePredictor::load(&models.landmarks),
             |p| format!("{} parts", p.num_parts()),
@@ -93,14 +97,9 @@ impl LandmarkPipeline {
 
     /// Every face the detector finds, subject first (largest or most central, as
     /// `detect_options.prefer` says).
-    pub fn detect(
-        &mut self,
-        img: &image::RgbImage,
-        stages: &mut Vec<Stage>,
-    ) -> Result<Vec<Detection>, PipelineError> {
+    pub fn detect(&mut self, img: &image::RgbImage) -> Result<Vec<Detection>, PipelineError> {
         let opts = self.detect_options.clone();
         let mut faces = timed(
-            stages,
             "detect",
             || self.detector.detect(img, &opts),
             |d| match d.len() {
@@ -121,12 +120,10 @@ impl LandmarkPipeline {
         &self,
         img: &image::RgbImage,
         faces: &[Detection],
-        stages: &mut Vec<Stage>,
     ) -> Result<Vec<FaceLandmarks>, PipelineError> {
         let gray = crate::landmarks::to_gray(img);
         let predictor = &self.predictor;
         timed(
-            stages,
             "landmarks",
             || {
                 faces
@@ -192,10 +189,9 @@ pub const PORTRAIT_EXPRESSION: f32 = 0.5;
 
 impl FacePipeline {
     /// Loads the three models, timing each.
-    pub fn load(models: &ModelPaths, stages: &mut Vec<Stage>) -> Result<Self, PipelineError> {
-        let faces = LandmarkPipeline::load(models, stages)?;
+    pub fn load(models: &ModelPaths) -> Result<Self, PipelineError> {
+        let faces = LandmarkPipeline::load(models)?;
         let model = timed(
-            stages,
             "load face model",
             || SurreyModel::load_dir(&models.sfm_dir),
             |m| {
@@ -240,20 +236,18 @@ impl FacePipeline {
     pub fn fit_subject(
         &mut self,
         img: &image::RgbImage,
-        stages: &mut Vec<Stage>,
     ) -> Result<Option<(FaceLandmarks, Fit, usize)>, PipelineError> {
-        let faces = self.faces.detect(img, stages)?;
+        let faces = self.faces.detect(img)?;
         let Some(subject) = faces.first() else {
             return Ok(None);
         };
         let found = self
             .faces
-            .landmarks(img, std::slice::from_ref(subject), stages)?
+            .landmarks(img, std::slice::from_ref(subject))?
             .pop()
             .ok_or(PipelineError::NoFace)?;
         let (model, fit_opts) = (&self.model, &self.fit_options);
         let fit = timed(
-            stages,
             "fit",
             || crate::fit::fit(model, &found.points, fit_opts),
             |f| {
@@ -268,16 +262,10 @@ impl FacePipeline {
     }
 
     /// [`FacePipeline::fit_subject`] with the fitted mesh; no face is an error.
-    pub fn process(
-        &mut self,
-        img: &image::RgbImage,
-        stages: &mut Vec<Stage>,
-    ) -> Result<FaceResult, PipelineError> {
-        let (found, fit, faces_found) = self
-            .fit_subject(img, stages)?
-            .ok_or(PipelineError::NoFace)?;
+    pub fn process(&mut self, img: &image::RgbImage) -> Result<FaceResult, PipelineError> {
+        let (found, fit, faces_found) = self.fit_subject(img)?.ok_or(PipelineError::NoFace)?;
         let mesh = self.model.instance(&fit.shape, &fit.expression);
-        let portrait = self.portrait_fit(&found.points, &fit, stages);
+        let portrait = self.portrait_fit(&found.points, &fit);
         Ok(FaceResult {
             detection: found.detection,
             faces_found,
@@ -289,25 +277,15 @@ impl FacePipeline {
     }
 
     /// The portrait of a photo's face: [`FacePipeline::portrait_coefficients`], caricatured.
-    pub fn portrait_fit(
-        &self,
-        landmarks: &[[f32; 2]],
-        fit: &Fit,
-        stages: &mut Vec<Stage>,
-    ) -> Vec<f32> {
-        let (shape, expression) = self.portrait_coefficients(landmarks, fit, stages);
+    pub fn portrait_fit(&self, landmarks: &[[f32; 2]], fit: &Fit) -> Vec<f32> {
+        let (shape, expression) = self.portrait_coefficients(landmarks, fit);
         self.portrait(&shape, &expression)
     }
 
     /// The identity and expressions the portrait carves: the landmarks fitted again under
     /// [`FacePipeline::portrait_prior`] (about as long as the first fit, 1-2 ms). `fit`'s own
     /// when the prior is the mesh's, or when the second fit fails.
-    pub fn portrait_coefficients(
-        &self,
-        landmarks: &[[f32; 2]],
-        fit: &Fit,
-        stages: &mut Vec<Stage>,
-    ) -> (Vec<f32>, Vec<f32>) {
+    pub fn portrait_coefficients(&self, landmarks: &[[f32; 2]], fit: &Fit) -> (Vec<f32>, Vec<f32>) {
         let prior = self.portrait_prior;
         let own = || (fit.shape.clone(), fit.expression.clone());
         if prior == self.fit_options.lambda_shape || !(prior.is_finite() && prior >= 0.0) {
@@ -319,7 +297,6 @@ impl FacePipeline {
         };
         let model = &self.model;
         match timed(
-            stages,
             "portrait fit",
             || crate::fit::fit(model, landmarks, &opts),
             |f| {
