@@ -291,7 +291,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
 }
 
 /// A source that failed to open on the capture thread: reports the error as fatal.
-pub(super) struct Failed(pub String);
+pub struct Failed(pub String);
 
 impl FrameSource for Failed {
     fn name(&self) -> String {

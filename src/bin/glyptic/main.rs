@@ -7,6 +7,7 @@
 //! overrides both.
 
 mod cli;
+mod kiosk;
 
 use std::process::ExitCode;
 

@@ -2,9 +2,8 @@
 
 #[cfg(feature = "face")]
 mod batch;
-mod kiosk;
 #[cfg(feature = "face")]
-mod track;
+pub mod track;
 
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -54,7 +53,7 @@ pub enum Command {
     #[cfg(feature = "face")]
     Batch(batch::BatchArgs),
     /// The museum window: the visitor's face as a live cameo, with touch controls.
-    Kiosk(kiosk::KioskArgs),
+    Kiosk(crate::kiosk::KioskArgs),
     /// Prints the subsurface-scattering kernel: one line per tap, `offset  r g b`, centre first.
     Kernel(KernelArgs),
 }
@@ -481,7 +480,7 @@ pub fn run(cli: Cli) -> Result<()> {
         #[cfg(feature = "face")]
         Command::Batch(args) => batch::batch(&args),
         Command::Kernel(args) => print_kernel(&args),
-        Command::Kiosk(args) => kiosk::kiosk(&args),
+        Command::Kiosk(args) => crate::kiosk::kiosk(&args),
     }
 }
 
@@ -708,7 +707,7 @@ fn render_png(
 }
 
 /// Encodes `rgba` as PNG and writes it whole (or not at all) to `path`.
-fn write_png(rgba: image::RgbaImage, path: &Path) -> Result<()> {
+pub fn write_png(rgba: image::RgbaImage, path: &Path) -> Result<()> {
     let png = glyptic::pipeline::gem::encode_png(rgba)
         .with_context(|| format!("{}: encoding the PNG", path.display()))?;
     write_atomic(path, &png)

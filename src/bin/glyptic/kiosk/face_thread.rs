@@ -1,0 +1,143 @@
+//! The face side of the kiosk (feature `face`): the models load on a set-up thread, then
+//! [`glyptic::stream`]'s capture, face and person threads run; the window polls [`Live`] for
+//! news and never waits for it.
+
+use anyhow::{Context, Result};
+
+use glyptic::capture::{Capture, CaptureEvent, CaptureOptions, FrameSource};
+use glyptic::kiosk::KioskConfig;
+use glyptic::stream::{FaceStream, StreamEvent};
+use glyptic::track::{TrackOptions, Tracker};
+
+/// What the face side reports to the window.
+pub(super) enum FaceNews {
+    /// A processed frame: the fitted face (model mm) if there was one, the frame's index in
+    /// the stream and its latency from capture, ms.
+    Update {
+        face: Option<Vec<f32>>,
+        /// The visitor's hair once the person thread has settled it.
+        hair: Option<glyptic::gem::HairStyle>,
+        frame: u64,
+        latency_ms: f64,
+    },
+    Status(String),
+}
+
+/// Starts the models loading and the stream on a thread of its own; the window polls.
+pub(super) struct Live {
+    stream: Option<FaceStream>,
+    starting: Option<crossbeam_channel::Receiver<Result<FaceStream, String>>>,
+}
+
+fn open_source(config: &KioskConfig) -> Box<dyn FrameSource> {
+    match &config.video {
+        #[cfg(feature = "video")]
+        Some(path) => Box::new(glyptic::capture::video::VideoSource::new(
+            path.clone(),
+            true,
+        )),
+        #[cfg(not(feature = "video"))]
+        Some(path) => Box::new(crate::cli::track::Failed(format!(
+            "{}: this build reads no video files (cargo feature `video`)",
+            path.display()
+        ))),
+        #[cfg(feature = "webcam")]
+        None => Box::new(glyptic::capture::camera::CameraSource::new(config.camera)),
+        #[cfg(not(feature = "webcam"))]
+        None => Box::new(crate::cli::track::Failed(
+            "this build has no webcam support (cargo feature `webcam`)".into(),
+        )),
+    }
+}
+
+impl Live {
+    pub(super) fn start(config: &KioskConfig) -> Result<Self> {
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        let config = config.clone();
+        std::thread::Builder::new()
+            .name("face setup".into())
+            .spawn(move || {
+                let started = (|| -> Result<FaceStream> {
+                    // A missing video is said before the models load (a second).
+                    if let Some(path) = &config.video
+                        && !path.exists()
+                    {
+                        anyhow::bail!("{}: video not found", path.display());
+                    }
+                    let pipeline = glyptic::pipeline::FacePipeline::load(
+                        &glyptic::assets::ModelPaths::locate(),
+                    )?;
+                    let tracker = Tracker::new(pipeline, TrackOptions::default());
+                    let hair = config.visitor_hair;
+                    let capture =
+                        Capture::spawn(move || open_source(&config), CaptureOptions::default());
+                    Ok(FaceStream::spawn_with(
+                        capture,
+                        tracker,
+                        glyptic::stream::StreamOptions {
+                            builder: None,
+                            hair,
+                            models: Some(glyptic::assets::ModelPaths::locate()),
+                        },
+                    ))
+                })();
+                let _ = tx.send(started.map_err(|e| format!("{e:#}")));
+            })
+            .context("starting the face set-up thread")?;
+        Ok(Live {
+            stream: None,
+            starting: Some(rx),
+        })
+    }
+
+    /// News since the last call, newest face last.
+    pub(super) fn poll(&mut self) -> Vec<FaceNews> {
+        let mut news = Vec::new();
+        if let Some(rx) = &self.starting {
+            match rx.try_recv() {
+                Ok(Ok(stream)) => {
+                    self.stream = Some(stream);
+                    self.starting = None;
+                    news.push(FaceNews::Status("camera: starting".into()));
+                }
+                Ok(Err(e)) => {
+                    self.starting = None;
+                    news.push(FaceNews::Status(format!("no face tracking: {e}")));
+                }
+                Err(crossbeam_channel::TryRecvError::Empty) => {}
+                Err(crossbeam_channel::TryRecvError::Disconnected) => self.starting = None,
+            }
+        }
+        let Some(stream) = &self.stream else {
+            return news;
+        };
+        for e in stream.events().try_iter() {
+            news.push(FaceNews::Status(match e {
+                StreamEvent::Capture(CaptureEvent::Started { source }) => {
+                    format!("camera: {source}")
+                }
+                StreamEvent::Capture(CaptureEvent::Unavailable { reason, .. }) => {
+                    format!("no camera: {reason}")
+                }
+                StreamEvent::Capture(CaptureEvent::Resumed { .. }) => "camera: back".into(),
+                StreamEvent::Capture(CaptureEvent::BadFrame { reason, .. }) => {
+                    format!("camera: bad frame ({reason})")
+                }
+                StreamEvent::Capture(CaptureEvent::Ended { .. }) => "camera: ended".into(),
+                StreamEvent::Capture(CaptureEvent::Failed { error }) => {
+                    format!("no camera: {error}")
+                }
+                StreamEvent::Error { error, .. } => format!("face: {error}"),
+            }));
+        }
+        if let Ok(Some(u)) = stream.updates().try_recv() {
+            news.push(FaceNews::Update {
+                hair: u.hair,
+                face: u.face.map(|f| f.portrait),
+                frame: u.frame_index,
+                latency_ms: u.latency_ms,
+            });
+        }
+        news
+    }
+}

@@ -1,0 +1,181 @@
+//! `glyptic kiosk`: the museum window. A visitor's face becomes a cameo, live.
+//!
+//! Threads: the window's event loop (this module: input, controls, rendering), a gem thread
+//! that builds cameos from face meshes (the fitted face, or the ease back to the default face),
+//! and with the `face` feature the capture and face threads of [`glyptic::stream`]. All hand
+//! over through one-slot channels where the newest item wins: the window never waits for them.
+//!
+//! The gem is rendered into its own texture only when something it shows changes (a new gem,
+//! a control, the orbit, the size); every frame then draws that texture and the controls
+//! (egui) into the window's surface. On a CPU rasteriser a gem frame costs tenths of a second
+//! while a controls frame costs milliseconds, so buttons answer at once.
+
+//!
+//! Modules: [`window`] (the surface, one frame), [`news`] (what the window takes from the
+//! other threads), [`gem_thread`], [`face_thread`], [`ui`] (the controls), [`trace`] (status,
+//! `--trace` lines). The kiosk's state without windows or cameras (configuration, controls,
+//! orbit, the ease back) is the library's [`glyptic::kiosk`], tested alone.
+
+#[cfg(feature = "face")]
+mod face_thread;
+mod gem_thread;
+mod news;
+mod trace;
+mod ui;
+mod window;
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, anyhow};
+use winit::application::ApplicationHandler;
+use winit::event::WindowEvent;
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::window::WindowId;
+
+use glyptic::kiosk::KioskConfig;
+
+use window::Running;
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct KioskArgs {
+    /// Webcam N (/dev/videoN) [config: camera; default 0].
+    #[arg(long, value_name = "N", conflicts_with = "video")]
+    pub camera: Option<u32>,
+    /// Play this video file, looping, instead of a camera [config: video].
+    #[arg(long, value_name = "FILE")]
+    pub video: Option<PathBuf>,
+    /// Fill the screen [config: fullscreen].
+    #[arg(long)]
+    pub fullscreen: bool,
+    /// Kiosk defaults (TOML): camera, video, material, portrait, sss, sss_strength,
+    /// idle_seconds, ease_seconds, fullscreen, width, height, render_scale.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Window size WIDTHxHEIGHT when not full-screen [config: width, height].
+    #[arg(long)]
+    pub size: Option<crate::cli::Size>,
+    /// Quit after presenting this many frames (scripted runs).
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u64>,
+    /// Quit after this many seconds (scripted runs).
+    #[arg(long, value_name = "S")]
+    pub seconds: Option<f64>,
+    /// When quitting, save the last presented frame (controls included) as PNG.
+    #[arg(long, value_name = "FILE.png")]
+    pub screenshot: Option<PathBuf>,
+    /// Where the "Save" button writes its PNGs.
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    pub snapshots: PathBuf,
+    /// Print one JSON line per presented frame to stdout (frame, gem, controls, orbit, status).
+    #[arg(long)]
+    pub trace: bool,
+}
+
+pub fn kiosk(args: &KioskArgs) -> Result<()> {
+    let mut config = match &args.config {
+        Some(path) => KioskConfig::load(path)?,
+        None => KioskConfig::default(),
+    };
+    if let Some(n) = args.camera {
+        config.camera = n;
+        config.video = None;
+    }
+    if let Some(v) = &args.video {
+        config.video = Some(v.clone());
+    }
+    config.fullscreen |= args.fullscreen;
+    if let Some(s) = args.size {
+        (config.width, config.height) = (s.width, s.height);
+    }
+    config
+        .check(args.config.as_deref().unwrap_or(Path::new("command line")))
+        .map_err(|e| anyhow!(e))?;
+    std::fs::create_dir_all(&args.snapshots)
+        .with_context(|| format!("{}: cannot create", args.snapshots.display()))?;
+
+    let event_loop = EventLoop::new().context("opening the display (is DISPLAY set?)")?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    let mut app = App {
+        args: args.clone(),
+        config,
+        started: Instant::now(),
+        running: None,
+        error: None,
+    };
+    event_loop.run_app(&mut app).context("window event loop")?;
+    match app.error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+struct App {
+    args: KioskArgs,
+    config: KioskConfig,
+    started: Instant,
+    running: Option<Running>,
+    /// Why the kiosk had to stop (it stops only when it cannot show anything).
+    error: Option<anyhow::Error>,
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.running.is_some() {
+            return;
+        }
+        match Running::new(event_loop, &self.config, self.started) {
+            Ok(r) => self.running = Some(r),
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
+        let Some(r) = self.running.as_mut() else {
+            return;
+        };
+        let response = r.egui_state.on_window_event(&r.window, &event);
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => r.resize(size.width, size.height),
+            WindowEvent::RedrawRequested => match r.frame(&self.args) {
+                Ok(Continue::Yes) => {}
+                Ok(Continue::Quit) => {
+                    if let Err(e) = r.finish(&self.args) {
+                        self.error = Some(e);
+                    }
+                    event_loop.exit();
+                }
+                Err(e) => {
+                    self.error = Some(e);
+                    event_loop.exit();
+                }
+            },
+            _ => {}
+        }
+        if response.repaint {
+            r.window.request_redraw();
+        }
+    }
+
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        if let Some(r) = self.running.as_mut() {
+            // Poll the gem and face threads about 60 times a second; draw when needed.
+            if r.poll() {
+                r.window.request_redraw();
+            }
+            event_loop.set_control_flow(ControlFlow::WaitUntil(
+                Instant::now() + Duration::from_millis(16),
+            ));
+        }
+    }
+}
+
+/// Whether the event loop goes on after a frame.
+pub(super) enum Continue {
+    Yes,
+    Quit,
+}

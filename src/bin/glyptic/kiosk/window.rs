@@ -1,0 +1,717 @@
+//! The kiosk's window: the winit surface, the renderer sharing its device with egui, and one
+//! frame: the controls every time, the gem into its own texture only when something it shows
+//! changed (a new gem, a control, the orbit, the size).
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, anyhow};
+use winit::event_loop::ActiveEventLoop;
+use winit::window::{Fullscreen, Window};
+
+use glyptic::gem::HairStyle;
+use glyptic::kiosk::{Controls, KioskConfig, Orbit};
+use glyptic::render::{Mesh, RenderParams, Renderer};
+
+use super::gem_thread::{GemJob, GemThread};
+use super::trace::{Rate, Timeline};
+use super::ui::{UiFrame, style};
+use super::{Continue, KioskArgs};
+
+/// The first gem's resolution, of the window's (per side).
+pub(super) const PREVIEW_SCALE: f32 = 0.5;
+
+/// The gem's own texture, drawn by egui as the window's background.
+pub(super) struct GemLayer {
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    id: egui::TextureId,
+    size: [u32; 2],
+}
+
+pub(super) struct Running {
+    pub(super) window: Arc<Window>,
+    pub(super) surface: wgpu::Surface<'static>,
+    pub(super) surface_config: wgpu::SurfaceConfiguration,
+    /// The surface's format without sRGB encoding (the composite and egui encode).
+    pub(super) view_format: wgpu::TextureFormat,
+    pub(super) renderer: Renderer,
+    pub(super) egui_ctx: egui::Context,
+    pub(super) egui_state: egui_winit::State,
+    pub(super) egui_renderer: egui_wgpu::Renderer,
+    pub(super) layer: Option<GemLayer>,
+    /// The gem needs rendering again.
+    pub(super) dirty: bool,
+    pub(super) base: RenderParams,
+    pub(super) controls: Controls,
+    pub(super) orbit: Orbit,
+    pub(super) render_scale: f32,
+    pub(super) idle_seconds: f32,
+    pub(super) ease_seconds: f32,
+    pub(super) gems: GemThread,
+    #[cfg(feature = "face")]
+    pub(super) live: super::face_thread::Live,
+    pub(super) default_face: Option<Arc<Vec<f32>>>,
+    /// The hair of the cameo's default face, and the visitor's as last read (the default's
+    /// until then).
+    pub(super) default_hair: HairStyle,
+    pub(super) visitor_hair: HairStyle,
+    /// Glasses found on a visitor are carved (config key `glasses`).
+    #[cfg_attr(not(feature = "face"), allow(dead_code))]
+    pub(super) carve_glasses: bool,
+    /// The last face seen and when.
+    pub(super) last_face: Option<(Vec<f32>, Instant)>,
+    /// The idle weight last sent to the gem thread.
+    pub(super) sent_weight: f32,
+    pub(super) gem: Option<Arc<Mesh>>,
+    pub(super) status: String,
+    pub(super) face_status: String,
+    pub(super) snapshot_request: bool,
+    pub(super) last_screen: Option<image::RgbaImage>,
+    /// A message shown for a few seconds (saved snapshot, errors).
+    pub(super) toast: Option<(String, Instant)>,
+    /// Each control's rectangle in window pixels `[x, y, w, h]`, for scripted runs.
+    pub(super) control_rects: Vec<(&'static str, [f32; 4])>,
+    /// Times and counts for the status line and the trace.
+    pub(super) timeline: Timeline,
+}
+
+impl Running {
+    pub(super) fn new(
+        event_loop: &ActiveEventLoop,
+        config: &KioskConfig,
+        started: Instant,
+    ) -> Result<Self> {
+        let mut attributes = Window::default_attributes()
+            .with_title("glyptic")
+            .with_inner_size(winit::dpi::LogicalSize::new(config.width, config.height));
+        if config.fullscreen {
+            attributes = attributes.with_fullscreen(Some(Fullscreen::Borderless(None)));
+        }
+        let window = Arc::new(
+            event_loop
+                .create_window(attributes)
+                .context("creating the window")?,
+        );
+        let gems = GemThread::spawn(config.portrait)?;
+        #[cfg(feature = "face")]
+        let live = super::face_thread::Live::start(config)?;
+
+        let display = event_loop.owned_display_handle();
+        let instance = wgpu::Instance::new(
+            wgpu::InstanceDescriptor::new_with_display_handle(Box::new(display)).with_env(),
+        );
+        let surface = instance
+            .create_surface(Arc::clone(&window))
+            .context("creating the window's surface")?;
+        let renderer = Renderer::new_for_surface(&instance, &surface, true)?;
+        let size = window.inner_size();
+        let (surface_config, view_format) =
+            surface_config(&surface, &renderer, size.width.max(1), size.height.max(1))?;
+        surface.configure(renderer.device(), &surface_config);
+
+        let egui_ctx = egui::Context::default();
+        style(&egui_ctx);
+        let egui_state = egui_winit::State::new(
+            egui_ctx.clone(),
+            egui::ViewportId::ROOT,
+            &window,
+            Some(window.scale_factor() as f32),
+            None,
+            Some(renderer.device().limits().max_texture_dimension_2d as usize),
+        );
+        let egui_renderer = egui_wgpu::Renderer::new(
+            renderer.device(),
+            view_format,
+            egui_wgpu::RendererOptions::default(),
+        );
+        let base = RenderParams {
+            background: [0.10, 0.11, 0.13],
+            hair_layer: config.hair_layer,
+            ..RenderParams::default()
+        };
+        window.request_redraw();
+        Ok(Running {
+            window,
+            surface,
+            surface_config,
+            view_format,
+            renderer,
+            egui_ctx,
+            egui_state,
+            egui_renderer,
+            layer: None,
+            dirty: true,
+            base,
+            controls: Controls::from_config(config),
+            orbit: Orbit::default(),
+            render_scale: config.render_scale,
+            idle_seconds: config.idle_seconds,
+            ease_seconds: config.ease_seconds,
+            gems,
+            #[cfg(feature = "face")]
+            live,
+            default_face: None,
+            default_hair: config.portrait.cameo().hair,
+            visitor_hair: config.portrait.cameo().hair,
+            carve_glasses: config.glasses,
+            last_face: None,
+            sent_weight: 1.0,
+            gem: None,
+            status: "loading the face model".into(),
+            face_status: if cfg!(feature = "face") {
+                "loading the face tracker".into()
+            } else {
+                "this build has no face tracking: the default face".into()
+            },
+            snapshot_request: false,
+            last_screen: None,
+            toast: None,
+            control_rects: Vec::new(),
+
+            timeline: Timeline {
+                gem_count: 0,
+                gem_ms: 0.0,
+                render_rate: Rate::default(),
+                face_rate: Rate::default(),
+                render_ms: 0.0,
+                frames: 0,
+                started,
+                first_frame_s: None,
+                first_gem_s: None,
+                gem_print: 0,
+                first_gem_frame_s: None,
+                full_gem_frame_s: None,
+                face_updates: 0,
+                face_latency_ms: 0.0,
+                face_frame: 0,
+                poll_max_ms: 0.0,
+            },
+        })
+    }
+
+    pub(super) fn resize(&mut self, width: u32, height: u32) {
+        // A minimised window has no size: keep the old surface until it comes back.
+        if width == 0 || height == 0 {
+            return;
+        }
+        self.surface_config.width = width;
+        self.surface_config.height = height;
+        self.surface
+            .configure(self.renderer.device(), &self.surface_config);
+        self.dirty = true;
+        self.window.request_redraw();
+    }
+
+    /// Draws one frame: the controls, and the gem if it changed.
+    pub(super) fn frame(&mut self, args: &KioskArgs) -> Result<Continue> {
+        if let Some(error) = self.renderer.take_gpu_error() {
+            self.toast = Some((format!("GPU: {error}"), Instant::now()));
+        }
+        let (output, gem_rect) = self.controls_step();
+        let ppp = output.pixels_per_point;
+        self.fit_layer(gem_rect, ppp);
+
+        // egui's texture changes (the font atlas among them) are kept even when no surface
+        // texture comes this frame: egui sends each change once.
+        for (id, deltas) in &output.textures_delta.set {
+            for delta in deltas {
+                self.egui_renderer.update_texture(
+                    self.renderer.device(),
+                    self.renderer.queue(),
+                    *id,
+                    delta,
+                );
+            }
+        }
+        let frame = match self.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(f)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(f) => Some(f),
+            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+                // Reconfigure and try on the next frame.
+                self.surface
+                    .configure(self.renderer.device(), &self.surface_config);
+                None
+            }
+            other => {
+                self.toast = Some((format!("window surface: {other:?}"), Instant::now()));
+                None
+            }
+        };
+        let Some(frame) = frame else {
+            for id in &output.textures_delta.free {
+                self.egui_renderer.free_texture(id);
+            }
+            self.window.request_redraw();
+            return Ok(Continue::Yes);
+        };
+        let view = frame.texture.create_view(&wgpu::TextureViewDescriptor {
+            format: Some(self.view_format),
+            ..Default::default()
+        });
+        let device = self.renderer.device().clone();
+        let queue = self.renderer.queue().clone();
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("kiosk frame"),
+        });
+        let t = Instant::now();
+        let rendered_gem = self.draw_gem(&mut encoder, &queue);
+        let screen = egui_wgpu::ScreenDescriptor {
+            size_in_pixels: [self.surface_config.width, self.surface_config.height],
+            pixels_per_point: ppp,
+        };
+        let jobs = self.egui_ctx.tessellate(output.shapes, ppp);
+        let extra =
+            self.egui_renderer
+                .update_buffers(&device, &queue, &mut encoder, &jobs, &screen);
+        self.draw_controls(&mut encoder, &view, &jobs, &screen);
+        let can_copy = self
+            .surface_config
+            .usage
+            .contains(wgpu::TextureUsages::COPY_SRC);
+        let want_copy = self.snapshot_request || args.screenshot.is_some();
+        if want_copy && !can_copy {
+            self.toast = Some(("this window cannot be copied".into(), Instant::now()));
+            self.snapshot_request = false;
+        }
+        let capture = (can_copy && want_copy)
+            .then(|| ScreenCopy::encode(&device, &mut encoder, &frame.texture));
+        queue.submit(extra.into_iter().chain([encoder.finish()]));
+        if rendered_gem {
+            // Only a gem frame is timed, and only here do we wait for the GPU.
+            let _ = device.poll(wgpu::PollType::wait_indefinitely());
+            self.timeline.render_ms = t.elapsed().as_secs_f64() * 1e3;
+            self.timeline.render_rate.tick();
+            if self.controls.animates(self.timeline.render_ms) {
+                self.dirty = true;
+            }
+        }
+        if let Some(copy) = capture {
+            match copy.read(&device, self.view_format) {
+                Ok(image) => {
+                    if self.snapshot_request {
+                        self.save_snapshot(&image, &args.snapshots);
+                        self.snapshot_request = false;
+                    }
+                    self.last_screen = Some(image);
+                }
+                Err(e) => self.toast = Some((format!("screenshot: {e}"), Instant::now())),
+            }
+        }
+        self.window.pre_present_notify();
+        queue.present(frame);
+        for id in &output.textures_delta.free {
+            self.egui_renderer.free_texture(id);
+        }
+        self.count_frame(rendered_gem);
+        if args.trace {
+            println!("{}", self.trace_line(rendered_gem));
+        }
+        let out_of_frames = args.frames.is_some_and(|n| self.timeline.frames >= n);
+        let out_of_time = args
+            .seconds
+            .is_some_and(|s| self.timeline.started.elapsed().as_secs_f64() >= s);
+        if out_of_frames || out_of_time {
+            return Ok(Continue::Quit);
+        }
+        if self.dirty
+            || output
+                .viewport_output
+                .values()
+                .any(|v| v.repaint_delay.is_zero())
+        {
+            self.window.request_redraw();
+        }
+        Ok(Continue::Yes)
+    }
+
+    /// Runs the controls for this frame: what the visitor changed takes effect (the gem is
+    /// marked for rendering; unfreezing shows the newest face again).
+    fn controls_step(&mut self) -> (egui::FullOutput, Option<egui::Rect>) {
+        let raw_input = self.egui_state.take_egui_input(&self.window);
+        let before = (self.controls.clone(), self.orbit);
+        let status = self.status_line();
+        let mut ui = UiFrame {
+            controls: &mut self.controls,
+            orbit: &mut self.orbit,
+            layer: self.layer.as_ref().map(|l| l.id),
+            status,
+            toast: self
+                .toast
+                .as_ref()
+                .filter(|(_, t)| t.elapsed() < Duration::from_secs(4))
+                .map(|(m, _)| m.clone()),
+            gem_rect: None,
+            snapshot: false,
+            rects: Vec::new(),
+        };
+        let mut output = self.egui_ctx.run_ui(raw_input, |ui_root| ui.draw(ui_root));
+        let (gem_rect, snapshot) = (ui.gem_rect, ui.snapshot);
+        let ppp = output.pixels_per_point;
+        self.control_rects = ui
+            .rects
+            .iter()
+            .map(|(k, r)| {
+                let p = |v: f32| (v * ppp).round();
+                (*k, [p(r.min.x), p(r.min.y), p(r.width()), p(r.height())])
+            })
+            .collect();
+        self.snapshot_request |= snapshot;
+        if (self.controls.clone(), self.orbit) != before {
+            self.dirty = true;
+        }
+        if before.0.frozen && !self.controls.frozen {
+            // Unfrozen: show the newest face again.
+            if let Some((face, _)) = &self.last_face {
+                let _ = self.gems.faces.send(GemJob {
+                    face: face.clone(),
+                    hair: self.visitor_hair,
+                });
+                self.sent_weight = 0.0;
+            }
+        }
+        self.egui_state
+            .handle_platform_output(&self.window, std::mem::take(&mut output.platform_output));
+        (output, gem_rect)
+    }
+
+    /// Renders the gem into its layer if it changed; true if it did.
+    fn draw_gem(&mut self, encoder: &mut wgpu::CommandEncoder, queue: &wgpu::Queue) -> bool {
+        let mut rendered_gem = false;
+        if self.dirty
+            && let (Some(gem), Some(layer)) = (&self.gem, &self.layer)
+        {
+            let params = RenderParams {
+                width: layer.size[0],
+                height: layer.size[1],
+                style_time_s: self.timeline.started.elapsed().as_secs_f32(),
+                ..self.controls.apply(&self.base, &self.orbit)
+            };
+            let drawn = if params.styles.iter().any(|s| s.is_serial()) {
+                // Dithering runs on the CPU: read the gem back, dither it, and upload it to the
+                // layer (only when the gem changes: it is still).
+                self.renderer.render(gem, &params).map(|image| {
+                    queue.write_texture(
+                        layer.texture.as_image_copy(),
+                        &image,
+                        wgpu::TexelCopyBufferLayout {
+                            offset: 0,
+                            bytes_per_row: Some(4 * image.width()),
+                            rows_per_image: None,
+                        },
+                        layer.texture.size(),
+                    );
+                })
+            } else {
+                self.renderer.render_to_view(
+                    encoder,
+                    gem,
+                    &params,
+                    &layer.view,
+                    wgpu::TextureFormat::Rgba8Unorm,
+                )
+            };
+            match drawn {
+                Ok(()) => {
+                    self.dirty = false;
+                    rendered_gem = true;
+                }
+                Err(e) => {
+                    self.toast = Some((format!("render: {e}"), Instant::now()));
+                    self.dirty = false;
+                }
+            }
+        }
+        rendered_gem
+    }
+
+    /// Counts a presented frame and notes the first ones (the trace's start-up figures).
+    fn count_frame(&mut self, rendered_gem: bool) {
+        self.timeline.frames += 1;
+        if self.timeline.first_frame_s.is_none() {
+            self.timeline.first_frame_s = Some(self.timeline.started.elapsed().as_secs_f64());
+        }
+        if rendered_gem {
+            let now = Some(self.timeline.started.elapsed().as_secs_f64());
+            if self.timeline.first_gem_frame_s.is_none() {
+                self.timeline.first_gem_frame_s = now;
+                // The preview: the full resolution follows on the next frame.
+                self.dirty = true;
+            } else if self.timeline.full_gem_frame_s.is_none() {
+                self.timeline.full_gem_frame_s = now;
+            }
+        }
+    }
+
+    /// Sizes the gem's texture to the area it is shown in (`ppp` pixels a point).
+    fn fit_layer(&mut self, gem_rect: Option<egui::Rect>, ppp: f32) {
+        // The gem's texture follows the area it is shown in. The very first gem is rendered
+        // at half the resolution, then at full: on a CPU rasteriser that puts it on screen
+        // about twice as soon after start-up.
+        let Some(rect) = gem_rect else {
+            return;
+        };
+        {
+            let preview = self.gem.is_some() && self.timeline.first_gem_frame_s.is_none();
+            let scale = ppp * self.render_scale * if preview { PREVIEW_SCALE } else { 1.0 };
+            let size = [
+                ((rect.width() * scale).round() as u32).clamp(16, 4096),
+                ((rect.height() * scale).round() as u32).clamp(16, 4096),
+            ];
+            if self.layer.as_ref().is_none_or(|l| l.size != size) {
+                self.make_layer(size);
+            }
+        }
+    }
+
+    /// The controls (egui) over the whole window, the gem's layer among them.
+    fn draw_controls(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        view: &wgpu::TextureView,
+        jobs: &[egui::ClippedPrimitive],
+        screen: &egui_wgpu::ScreenDescriptor,
+    ) {
+        {
+            let mut pass = encoder
+                .begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("kiosk controls"),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(wgpu::Color {
+                                r: 0.01,
+                                g: 0.012,
+                                b: 0.016,
+                                a: 1.0,
+                            }),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    })],
+                    ..Default::default()
+                })
+                .forget_lifetime();
+            self.egui_renderer.render(&mut pass, jobs, screen);
+        }
+    }
+
+    pub(super) fn make_layer(&mut self, size: [u32; 2]) {
+        let device = self.renderer.device();
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("kiosk gem layer"),
+            size: wgpu::Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba8Unorm,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        let id = match &self.layer {
+            Some(old) => {
+                self.egui_renderer.update_egui_texture_from_wgpu_texture(
+                    device,
+                    &view,
+                    wgpu::FilterMode::Linear,
+                    old.id,
+                );
+                old.id
+            }
+            None => {
+                self.egui_renderer
+                    .register_native_texture(device, &view, wgpu::FilterMode::Linear)
+            }
+        };
+        self.layer = Some(GemLayer {
+            texture,
+            view,
+            id,
+            size,
+        });
+        self.dirty = true;
+    }
+
+    pub(super) fn save_snapshot(&mut self, image: &image::RgbaImage, dir: &Path) {
+        let stamp = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_millis())
+            .unwrap_or(0);
+        let path = dir.join(format!("glyptic-{stamp}.png"));
+        let message = match crate::cli::write_png(image.clone(), &path) {
+            Ok(()) => format!("saved {}", path.display()),
+            Err(e) => format!("not saved: {e:#}"),
+        };
+        self.toast = Some((message, Instant::now()));
+    }
+
+    /// On quitting: the screenshot and a summary line.
+    pub(super) fn finish(&mut self, args: &KioskArgs) -> Result<()> {
+        if let Some(path) = &args.screenshot {
+            let image = self
+                .last_screen
+                .as_ref()
+                .ok_or_else(|| anyhow!("no frame was captured for the screenshot"))?;
+            crate::cli::write_png(image.clone(), path)?;
+        }
+        tracing::info!(
+            "kiosk: {} frames, {} gems, {} face updates; first frame after {:.2} s, first gem \
+             shown after {}",
+            self.timeline.frames,
+            self.timeline.gem_count,
+            self.timeline.face_updates,
+            self.timeline.first_frame_s.unwrap_or(f64::NAN),
+            self.timeline
+                .first_gem_frame_s
+                .map_or("-".into(), |s| format!("{s:.2} s")),
+        );
+        Ok(())
+    }
+}
+
+/// Chooses the surface's format (the composite and egui write display values themselves, so a
+/// view without sRGB encoding) and usage (copies out for screenshots where allowed).
+fn surface_config(
+    surface: &wgpu::Surface<'_>,
+    renderer: &Renderer,
+    width: u32,
+    height: u32,
+) -> Result<(wgpu::SurfaceConfiguration, wgpu::TextureFormat)> {
+    let caps = renderer.surface_capabilities(surface);
+    let eight_bit = |f: &wgpu::TextureFormat| {
+        matches!(
+            f.remove_srgb_suffix(),
+            wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Rgba8Unorm
+        )
+    };
+    let format = caps
+        .formats
+        .iter()
+        .copied()
+        .find(eight_bit)
+        .or_else(|| caps.formats.first().copied())
+        .ok_or_else(|| anyhow!("the window's surface offers no format"))?;
+    let view_format = format.remove_srgb_suffix();
+    let mut usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
+    if caps.usages.contains(wgpu::TextureUsages::COPY_SRC) {
+        usage |= wgpu::TextureUsages::COPY_SRC;
+    }
+    let config = wgpu::SurfaceConfiguration {
+        usage,
+        format,
+        width,
+        height,
+        present_mode: wgpu::PresentMode::AutoVsync,
+        desired_maximum_frame_latency: 2,
+        color_space: wgpu::SurfaceColorSpace::Auto,
+        alpha_mode: caps
+            .alpha_modes
+            .first()
+            .copied()
+            .unwrap_or(wgpu::CompositeAlphaMode::Auto),
+        view_formats: if view_format == format {
+            vec![]
+        } else {
+            vec![view_format]
+        },
+    };
+    Ok((config, view_format))
+}
+
+/// A copy of the presented frame on its way to the CPU.
+struct ScreenCopy {
+    buffer: wgpu::Buffer,
+    width: u32,
+    height: u32,
+    padded_row: u32,
+}
+
+impl ScreenCopy {
+    fn encode(
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        texture: &wgpu::Texture,
+    ) -> Self {
+        let (width, height) = (texture.width(), texture.height());
+        let padded_row = (width * 4).div_ceil(256) * 256;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("kiosk screenshot"),
+            size: u64::from(padded_row) * u64::from(height),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded_row),
+                    rows_per_image: Some(height),
+                },
+            },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+        );
+        ScreenCopy {
+            buffer,
+            width,
+            height,
+            padded_row,
+        }
+    }
+
+    fn read(self, device: &wgpu::Device, format: wgpu::TextureFormat) -> Result<image::RgbaImage> {
+        let slice = self.buffer.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| anyhow!("{e}"))?;
+        rx.recv()
+            .map_err(|e| anyhow!("{e}"))?
+            .map_err(|e| anyhow!("{e}"))?;
+        let bgra = matches!(
+            format,
+            wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
+        );
+        let mut pixels = Vec::with_capacity((self.width * self.height * 4) as usize);
+        {
+            let data = slice.get_mapped_range().map_err(|e| anyhow!("{e}"))?;
+            for row in data
+                .chunks(self.padded_row as usize)
+                .take(self.height as usize)
+            {
+                for px in row[..(self.width * 4) as usize].chunks_exact(4) {
+                    if bgra {
+                        pixels.extend_from_slice(&[px[2], px[1], px[0], 255]);
+                    } else {
+                        pixels.extend_from_slice(&[px[0], px[1], px[2], 255]);
+                    }
+                }
+            }
+        }
+        self.buffer.unmap();
+        image::RgbaImage::from_raw(self.width, self.height, pixels)
+            .ok_or_else(|| anyhow!("screenshot smaller than the window"))
+    }
+}
