@@ -1,4 +1,4 @@
-//! The orbit camera and the light, with nalgebra.
+//! The orbit camera and the light, with glam (column-major, as WGSL reads its matrices).
 //!
 //! The camera circles the mesh's bounding-box centre; yaw turns it about the vertical (+Y) axis,
 //! pitch raises it, and yaw = pitch = 0 looks straight at the front (from +Z towards -Z). The
@@ -9,7 +9,7 @@
 //! The key light is fixed to the stone (see [`super::key_light_dir`]): raking from the upper
 //! left, so the relief's slopes and cast shadows read whatever the view.
 
-use nalgebra::{Matrix4, Vector3};
+use glam::{Mat4, Vec3, Vec4};
 
 use super::mesh::Bounds;
 
@@ -23,14 +23,14 @@ const MAX_PITCH_DEG: f32 = 89.0;
 /// Everything the shaders need from the camera for one frame.
 #[derive(Clone, Debug)]
 pub(crate) struct Camera {
-    pub view_proj: Matrix4<f32>,
-    pub eye: Vector3<f32>,
-    pub right: Vector3<f32>,
-    pub up: Vector3<f32>,
+    pub view_proj: Mat4,
+    pub eye: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
     /// Viewing direction (from the eye into the scene).
-    pub forward: Vector3<f32>,
+    pub forward: Vec3,
     /// Unit vector towards the light (world space).
-    pub light: Vector3<f32>,
+    pub light: Vec3,
     /// View-depth range (mm along `forward`) that contains the whole mesh.
     pub near: f32,
     pub far: f32,
@@ -65,37 +65,24 @@ pub(crate) fn orbit(
 
     let yaw = yaw_deg.to_radians();
     let pitch = pitch_deg.clamp(-MAX_PITCH_DEG, MAX_PITCH_DEG).to_radians();
-    let center = Vector3::from(bounds.center);
-    let offset = Vector3::new(
+    let center = Vec3::from(bounds.center);
+    let offset = Vec3::new(
         yaw.sin() * pitch.cos(),
         pitch.sin(),
         yaw.cos() * pitch.cos(),
     );
     let eye = center + offset * distance;
     let forward = -offset;
-    let right = forward.cross(&Vector3::y()).normalize();
-    let up = right.cross(&forward);
-
-    #[rustfmt::skip]
-    let view = Matrix4::new(
-        right.x, right.y, right.z, -right.dot(&eye),
-        up.x, up.y, up.z, -up.dot(&eye),
-        -forward.x, -forward.y, -forward.z, forward.dot(&eye),
-        0.0, 0.0, 0.0, 1.0,
-    );
+    let right = forward.cross(Vec3::Y).normalize();
+    let up = right.cross(forward);
+    let view = Mat4::look_to_rh(eye, forward, Vec3::Y);
     // Depth range: the bounding sphere with a little slack, so no part is ever clipped.
     let near = (distance - radius * 1.05).max(distance * 0.01);
     let far = distance + radius * 1.05;
-    let f = 1.0 / half_fov_y.tan();
-    #[rustfmt::skip]
-    let projection = Matrix4::new(
-        f / aspect, 0.0, 0.0, 0.0,
-        0.0, f, 0.0, 0.0,
-        0.0, 0.0, far / (near - far), near * far / (near - far),
-        0.0, 0.0, -1.0, 0.0,
-    );
+    // Right-handed, depth 0..1 over near..far: wgpu's clip space.
+    let projection = Mat4::perspective_rh(2.0 * half_fov_y, aspect, near, far);
 
-    let light = Vector3::from(super::key_light_dir());
+    let light = Vec3::from(super::key_light_dir());
     Camera {
         view_proj: projection * view,
         eye,
@@ -112,31 +99,24 @@ pub(crate) fn orbit(
 /// 90 degrees square, depth [0, 1] over `near`..`far` (mm). Laid out so that a direction `d`
 /// from the lamp lands where a cube texture lookup with `d` reads (the cube-map face and
 /// (s, t) rules of the Vulkan and GL specs, with wgpu's rows running down as NDC y falls).
-pub(crate) fn cube_face_view_proj(
-    lamp: Vector3<f32>,
-    face: usize,
-    near: f32,
-    far: f32,
-) -> Matrix4<f32> {
+pub(crate) fn cube_face_view_proj(lamp: Vec3, face: usize, near: f32, far: f32) -> Mat4 {
     // The classic GL table (target, up); GL's rows run up with NDC y, wgpu's down, so y is
     // negated after projecting.
     let (target, up) = match face {
-        0 => (Vector3::x(), -Vector3::y()),
-        1 => (-Vector3::x(), -Vector3::y()),
-        2 => (Vector3::y(), Vector3::z()),
-        3 => (-Vector3::y(), -Vector3::z()),
-        4 => (Vector3::z(), -Vector3::y()),
-        _ => (-Vector3::z(), -Vector3::y()),
+        0 => (Vec3::X, Vec3::NEG_Y),
+        1 => (Vec3::NEG_X, Vec3::NEG_Y),
+        2 => (Vec3::Y, Vec3::Z),
+        3 => (Vec3::NEG_Y, Vec3::NEG_Z),
+        4 => (Vec3::Z, Vec3::NEG_Y),
+        _ => (Vec3::NEG_Z, Vec3::NEG_Y),
     };
-    let eye = nalgebra::Point3::from(lamp);
-    let view = Matrix4::look_at_rh(&eye, &(eye + target), &up);
+    let view = Mat4::look_to_rh(lamp, target, up);
     let (n, f) = (near, far);
-    #[rustfmt::skip]
-    let proj = Matrix4::new(
-        1.0, 0.0, 0.0, 0.0,
-        0.0, -1.0, 0.0, 0.0,
-        0.0, 0.0, f / (n - f), n * f / (n - f),
-        0.0, 0.0, -1.0, 0.0,
+    let proj = Mat4::from_cols(
+        Vec4::new(1.0, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, -1.0, 0.0, 0.0),
+        Vec4::new(0.0, 0.0, f / (n - f), -1.0),
+        Vec4::new(0.0, 0.0, n * f / (n - f), 0.0),
     );
     proj * view
 }
@@ -144,7 +124,6 @@ pub(crate) fn cube_face_view_proj(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Vector4;
 
     fn bounds() -> Bounds {
         Bounds {
@@ -156,7 +135,7 @@ mod tests {
     }
 
     fn project(c: &Camera, p: [f32; 3]) -> [f32; 3] {
-        let h = c.view_proj * Vector4::new(p[0], p[1], p[2], 1.0);
+        let h = c.view_proj * Vec4::new(p[0], p[1], p[2], 1.0);
         [h.x / h.w, h.y / h.w, h.z / h.w]
     }
 
@@ -203,7 +182,7 @@ mod tests {
 
     #[test]
     fn shadow_cube_faces_land_where_the_lookup_reads() {
-        let lamp = Vector3::new(-50.0, 60.0, 40.0);
+        let lamp = Vec3::new(-50.0, 60.0, 40.0);
         let dirs = [
             [1.0, 0.2, -0.3],
             [-1.0, 0.4, 0.1],
@@ -215,8 +194,8 @@ mod tests {
         for d in dirs {
             let (face, s, t) = cube_lookup(d);
             let m = cube_face_view_proj(lamp, face, 1.0, 300.0);
-            let p = lamp + Vector3::from(d) * 37.0;
-            let h = m * Vector4::new(p.x, p.y, p.z, 1.0);
+            let p = lamp + Vec3::from(d) * 37.0;
+            let h = m * p.extend(1.0);
             let (x, y, z) = (h.x / h.w, h.y / h.w, h.z / h.w);
             // wgpu: column = (x + 1) / 2, row = (1 - y) / 2.
             let (col, row) = (0.5 * (x + 1.0), 0.5 * (1.0 - y));
@@ -232,10 +211,10 @@ mod tests {
     fn zoom_moves_the_eye_along_the_view() {
         let far = orbit(&bounds(), 20.0, 10.0, 1.0, 160, 200);
         let near = orbit(&bounds(), 20.0, 10.0, 2.0, 160, 200);
-        let centre = Vector3::from(bounds().center);
-        let (df, dn) = ((far.eye - centre).norm(), (near.eye - centre).norm());
+        let centre = Vec3::from(bounds().center);
+        let (df, dn) = ((far.eye - centre).length(), (near.eye - centre).length());
         assert!((df / dn - 2.0).abs() < 1e-4, "{df} / {dn}");
-        assert!((far.forward - near.forward).norm() < 1e-6);
+        assert!((far.forward - near.forward).length() < 1e-6);
         // Clamped: no closer than ZOOM_RANGE allows, and NaN means no zoom.
         let inside = orbit(&bounds(), 0.0, 0.0, 1e6, 160, 200);
         let limit = orbit(&bounds(), 0.0, 0.0, ZOOM_RANGE.1, 160, 200);
@@ -247,7 +226,7 @@ mod tests {
         assert!(inside.near > 0.0);
     }
 
-    fn far_eye(b: &Bounds) -> Vector3<f32> {
+    fn far_eye(b: &Bounds) -> Vec3 {
         orbit(b, 0.0, 0.0, 1.0, 160, 200).eye
     }
 
