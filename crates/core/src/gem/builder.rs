@@ -1,0 +1,642 @@
+//! [`CameoBuilder`]: the face-independent part of a cameo made once (the sculpted head, hair
+//! and bust on the relief grid, the bezel and the back), then each face rasterised, merged,
+//! compressed, shaded and meshed. Gem millimetres.
+
+use crate::scene::Mesh;
+
+use super::shading::{cavity, light_visibility, smooth_121};
+use super::tessellate::{add_bezel_and_back, add_relief_surface, plan_surface};
+use super::{
+    CameoParams, DEPTH_QUANTILE, GROUND_EPS, GemError, HEAD_EMPHASIS, PORTRAIT_OVAL, Placement,
+    Relief, View, basrelief, check_params, face, relief, template,
+};
+
+/// Builds cameos for one set of [`CameoParams`]: everything that does not depend on the face
+/// (the sculpted head, hair and bust on the relief grid, the bezel and the back) is computed
+/// once in [`CameoBuilder::new`]; each face then costs its rasterisation, the compression and
+/// the mesh.
+#[derive(Clone, Debug)]
+pub struct CameoBuilder {
+    params: CameoParams,
+    cols: usize,
+    rows: usize,
+    /// Gem position of grid node (0, 0), gem mm.
+    origin: [f32; 2],
+    /// Canonical point at the gem's centre and canonical mm per gem mm.
+    centre: [f32; 2],
+    scale: f32,
+    /// The template per node: height (canonical mm), hair weight and coverage (the share of
+    /// the node's cell inside the portrait's outline; 0 outside the oval's margin).
+    template: Template,
+    /// The nodes the template covers (with any coverage), as a window.
+    template_box: Option<Window>,
+    /// Per node: inside the oval (the stone's top is made of cells with four such corners).
+    inside: Vec<bool>,
+    /// Per node: inside the portrait's share of the oval.
+    allowed: Vec<bool>,
+    /// Bezel and back.
+    base: Mesh,
+}
+
+impl CameoBuilder {
+    pub fn new(p: &CameoParams) -> Result<Self, GemError> {
+        check_params(p)?;
+        let cols = (2.0 * p.half_width / p.cell).round() as usize + 1;
+        let rows = (2.0 * p.half_height / p.cell).round() as usize + 1;
+        let origin = [-p.half_width, -p.half_height];
+        let (centre, scale) = template::framing(p.view);
+        // The framing is for the default stone's height; a taller stone shows a larger head.
+        let scale = scale * 28.0 / p.half_height;
+        let node = |i: usize| {
+            (
+                origin[0] + (i % cols) as f32 * p.cell,
+                origin[1] + (i / cols) as f32 * p.cell,
+            )
+        };
+        let oval = |i: usize| {
+            let (x, y) = node(i);
+            ((x / p.half_width).powi(2) + (y / p.half_height).powi(2)).sqrt()
+        };
+        let inside = (0..cols * rows).map(|i| oval(i) <= 1.0).collect();
+        let allowed: Vec<bool> = (0..cols * rows).map(|i| oval(i) <= PORTRAIT_OVAL).collect();
+        // Each node is the mean of 2 x 2 samples across its cell, so carved grooves and the
+        // outline do not alias into stair-steps.
+        let mut template = Template {
+            height: vec![0.0; cols * rows],
+            hair: vec![0.0; cols * rows],
+            coverage: vec![0.0; cols * rows],
+        };
+        for i in (0..cols * rows).filter(|&i| allowed[i]) {
+            let (x, y) = node(i);
+            for (dx, dy) in [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)] {
+                let s = template::sample(
+                    p.view,
+                    &p.hair,
+                    centre[0] + (x + dx * p.cell) * scale,
+                    centre[1] + (y + dy * p.cell) * scale,
+                );
+                template.height[i] += 0.25 * s.height;
+                template.hair[i] += 0.25 * s.hair;
+                template.coverage[i] += 0.25 * f32::from(u8::from(s.covered));
+            }
+        }
+        // Along the outline (partly covered nodes, or nodes beside one of another coverage)
+        // the coverage again from the finer sub-samples the face's outline gets.
+        let coarse = template.coverage.clone();
+        let n_sub = relief::COVERAGE_SAMPLES;
+        for i in (0..cols * rows).filter(|&i| allowed[i]) {
+            let (x, y) = (i % cols, i / cols);
+            let c = coarse[i];
+            let neighbours = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < cols).then(|| i + 1),
+                (y > 0).then(|| i - cols),
+                (y + 1 < rows).then(|| i + cols),
+            ];
+            let edge = (c > 0.0 && c < 1.0) || neighbours.iter().flatten().any(|&j| coarse[j] != c);
+            if !edge {
+                continue;
+            }
+            let (gx, gy) = node(i);
+            let mut inside = 0;
+            for sy in 0..n_sub {
+                for sx in 0..n_sub {
+                    let o = |k: usize| ((k as f32 + 0.5) / n_sub as f32 - 0.5) * p.cell;
+                    let s = template::sample(
+                        p.view,
+                        &p.hair,
+                        centre[0] + (gx + o(sx)) * scale,
+                        centre[1] + (gy + o(sy)) * scale,
+                    );
+                    inside += usize::from(s.covered);
+                }
+            }
+            template.coverage[i] = inside as f32 / (n_sub * n_sub) as f32;
+        }
+        let mut base = Mesh::default();
+        add_bezel_and_back(&mut base, p);
+        let template_box = Window::of(cols, rows, |i| {
+            template.coverage[i] > 0.0 || template.height[i] > 0.0
+        });
+        Ok(Self {
+            params: p.clone(),
+            cols,
+            rows,
+            origin,
+            centre,
+            scale,
+            template,
+            template_box,
+            inside,
+            allowed,
+            base,
+        })
+    }
+
+    pub fn params(&self) -> &CameoParams {
+        &self.params
+    }
+
+    /// The relief height field (gem mm) for a face mesh in model mm.
+    pub fn relief(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Relief, GemError> {
+        self.relief_from(positions, triangles, &[])
+    }
+
+    /// [`Self::relief`], its compression's solve started from `warm` (a previous relief's
+    /// [`Relief::relative`], or empty).
+    pub fn relief_from(
+        &self,
+        positions: &[f32],
+        triangles: &[[u32; 3]],
+        warm: &[f32],
+    ) -> Result<Relief, GemError> {
+        if positions.len() < 9 || triangles.is_empty() {
+            return Err(GemError::EmptyFace);
+        }
+        if positions.iter().any(|v| !v.is_finite()) {
+            return Err(GemError::NonFinite);
+        }
+        let p = &self.params;
+        let (cols, rows, cell) = (self.cols, self.rows, p.cell);
+        let n = cols * rows;
+        let view = p.view;
+        let placement = face::place(positions, view);
+        // The beard and moustache stand on the face (placed by the face's own shape: a full
+        // beard does not make a smaller face).
+        let bearded = face::facial_hair(positions, triangles, &p.hair);
+        let surface = bearded.as_ref().map_or(positions, |f| &f.positions[..]);
+        // Face vertices -> grid coordinates and canonical height.
+        let points: Vec<Option<[f32; 3]>> = surface
+            .chunks_exact(3)
+            .map(|v| {
+                let c = placement.to_canonical(view, [v[0], v[1], v[2]]);
+                let [x, y] = self.grid_position([c[0], c[1]]);
+                let g = [x, y, c[2]];
+                g.iter().all(|c| c.is_finite()).then_some(g)
+            })
+            .collect();
+        // The facial hair's thickness per node (empty without any).
+        let (raw, fuzz) = match &bearded {
+            Some(f) => relief::rasterise_attribute(&points, triangles, &f.thickness, cols, rows),
+            None => (
+                relief::rasterise(&points, triangles, cols, rows),
+                Vec::new(),
+            ),
+        };
+        let face: Vec<bool> = (0..n)
+            .map(|i| raw[i].is_finite() && self.allowed[i])
+            .collect();
+        let face_box = Window::of(cols, rows, |i| face[i]).map(|w| w.grow(2, cols, rows));
+        let face_cover = relief::coverage(&points, triangles, &raw, cols, rows);
+        // Smooth the face within its footprint (1-2-1 each way, about 0.7 cells: the Surrey
+        // mesh's facets, 3-5 mm triangles, are not features, and the detail boost would carve
+        // them).
+        let mut smooth = vec![0f32; n];
+        let mut den = vec![0f32; n];
+        if let Some(w) = face_box {
+            let values = w.crop(&raw, cols, |v| if v.is_finite() { v.max(0.0) } else { 0.0 });
+            let weights = w.crop(&raw, cols, |v| f32::from(u8::from(v.is_finite())));
+            let (num, d) = (
+                smooth_121(&values, w.width(), w.height()),
+                smooth_121(&weights, w.width(), w.height()),
+            );
+            let ratio: Vec<f32> = num
+                .iter()
+                .zip(&d)
+                .map(|(v, d)| if *d > 1e-6 { v / d } else { 0.0 })
+                .collect();
+            w.paste(&ratio, &mut smooth, cols);
+            w.paste(&d, &mut den, cols);
+        }
+        let eyes = face::eyes(positions, view, &placement);
+        let canonical = |i: usize| self.canonical((i % cols) as f32, (i / cols) as f32);
+        // Nothing of the template stands in front of the face's profile line: in every row the
+        // face reaches, the template starts behind the face's front-most node.
+        let front: Vec<usize> = (0..rows)
+            .map(|y| {
+                if view == View::Profile {
+                    (0..cols).find(|&x| face[y * cols + x]).unwrap_or(0)
+                } else {
+                    0
+                }
+            })
+            .collect();
+        let breadth = placement.breadth;
+        let (head, head_box) = self.template_for(&placement);
+        // Everything the portrait can reach, a little grown: outside it the relief is ground.
+        let Some(portrait_box) = [face_box, head_box]
+            .into_iter()
+            .flatten()
+            .reduce(|a, b| a.union(b))
+            .map(|w| w.grow(2, cols, rows))
+        else {
+            return Err(GemError::EmptyFace);
+        };
+        let mut portrait = vec![0f32; n];
+        let mut mask = vec![false; n];
+        let mut hair = vec![0f32; n];
+        // The share of each node's cell inside the portrait's outline (sub-cell precise), and
+        // how much of a node the face makes.
+        let mut cover = vec![0f32; n];
+        let mut face_share = vec![0f32; n];
+        let mut face_height = vec![f32::NAN; n];
+        for i in portrait_box.indices(cols) {
+            let head_ok = self.allowed[i] && i % cols >= front[i / cols];
+            cover[i] = if self.allowed[i] {
+                face_cover[i].max(if head_ok { head.coverage[i] } else { 0.0 })
+            } else {
+                0.0
+            };
+            let head_here = head.coverage[i] >= 0.5 && head_ok;
+            let head_height = head.height[i] * breadth;
+            // Where the face's border crosses a node's cell, face and head share it by the
+            // face's coverage (no stair-steps along the jaw or the hairline).
+            let share = if head_here && den[i] > 1e-6 && self.allowed[i] {
+                face_cover[i]
+            } else if face[i] {
+                1.0
+            } else {
+                0.0
+            };
+            if share > 0.0 {
+                let [u, v] = canonical(i);
+                let mut carved: f32 = eyes.iter().map(|e| e.carve(u, v)).sum();
+                if p.hair.glasses {
+                    carved += face::glasses(&eyes, view, u, v);
+                }
+                // Facial hair carved in locks, as deep as it is thick (up to 4 mm).
+                let thick = fuzz.get(i).copied().unwrap_or(0.0);
+                let locks = if thick > 0.05 {
+                    (thick / 4.0).min(1.0) * template::beard_locks(u, v, p.hair.curl)
+                } else {
+                    0.0
+                };
+                let f = (smooth[i] + carved + locks).max(0.0);
+                if face[i] {
+                    face_height[i] = f;
+                }
+                portrait[i] = share * f + (1.0 - share) * head_height;
+                hair[i] =
+                    (1.0 - share) * head.hair[i] + share * template::smoothstep(0.5, 2.0, thick);
+                mask[i] = true;
+            } else if head_here {
+                portrait[i] = head_height;
+                hair[i] = head.hair[i];
+                mask[i] = true;
+            }
+            face_share[i] = share;
+        }
+        // A beard hangs below the face's lower edge (under the chin and the jaw): in each
+        // column, below the lowest bearded node of the face, half again its thickness more
+        // beard, thinning and curling under, over whatever the template has there.
+        if !fuzz.is_empty() {
+            let canonical_cell = cell * self.scale;
+            for x in portrait_box.x0..=portrait_box.x1 {
+                let Some(r0) = (portrait_box.y0..=portrait_box.y1)
+                    .find(|&y| face[y * cols + x] && fuzz[y * cols + x] > 0.5)
+                else {
+                    continue;
+                };
+                let top = r0 * cols + x;
+                let thick = fuzz[top];
+                let reach = ((1.5 * thick / canonical_cell).round() as usize).min(r0);
+                for k in 1..=reach {
+                    let i = (r0 - k) * cols + x;
+                    if face[i] || !self.allowed[i] || r0 - k < portrait_box.y0 {
+                        break;
+                    }
+                    let s = k as f32 / (reach + 1) as f32;
+                    let [u, v] = canonical(i);
+                    let locks = (thick / 4.0).min(1.0) * template::beard_locks(u, v, p.hair.curl);
+                    let below = if mask[i] { portrait[i] } else { 0.0 };
+                    let hanging = portrait[top] * (1.0 - 0.6 * s * s) + (1.0 - s) * locks;
+                    if hanging > below {
+                        portrait[i] = hanging;
+                        mask[i] = true;
+                        cover[i] = cover[i].max(1.0 - template::smoothstep(0.75, 1.0, s));
+                        hair[i] = hair[i].max(1.0 - s);
+                    }
+                }
+            }
+        }
+        // The face keeps its compressed gradients; the sculpted head and bust are carved a
+        // little lower, so the face gets more of the stone's depth.
+        let emphasis: Vec<f32> = face_share
+            .iter()
+            .map(|&s| HEAD_EMPHASIS + (1.0 - HEAD_EMPHASIS) * s)
+            .collect();
+        let warm = if warm.len() == n { warm } else { &[] };
+        let (relative, solve) = basrelief::compress(
+            &portrait,
+            &mask,
+            &emphasis,
+            warm,
+            cols,
+            rows,
+            cell * self.scale,
+            &p.compression,
+        )?;
+        // Scale: the highest compressed heights reach the depth above the wall.
+        let mut sorted: Vec<f32> = portrait_box
+            .indices(cols)
+            .filter(|&i| mask[i])
+            .map(|i| relative[i])
+            .collect();
+        let top = if sorted.is_empty() {
+            1.0
+        } else {
+            let k = ((sorted.len() - 1) as f32 * DEPTH_QUANTILE) as usize;
+            *sorted.select_nth_unstable_by(k, f32::total_cmp).1
+        };
+        let gain = (p.relief_depth - p.wall) / top.max(1e-6);
+        // The wall: the outline's sub-cell coverage smoothed once (1-2-1 each way), a steep
+        // bevel about two cells wide that follows the silhouette, not the grid's stair-steps
+        // (more smoothing would fill the profile's narrow notches, such as the parting of the
+        // lips).
+        let mut edge = vec![0f32; n];
+        portrait_box.paste(
+            &smooth_121(
+                &portrait_box.crop(&cover, cols, |c| c),
+                portrait_box.width(),
+                portrait_box.height(),
+            ),
+            &mut edge,
+            cols,
+        );
+        let mut height = vec![0f32; n];
+        for i in portrait_box.indices(cols) {
+            let lift = p.wall * template::smoothstep(0.0, 1.0, edge[i]);
+            let h = lift + relative[i].max(0.0) * gain;
+            height[i] = if h < GROUND_EPS {
+                0.0
+            } else {
+                h.min(p.relief_depth)
+            };
+        }
+        let occlusion = cavity(&height, cols, rows, cell);
+        // Shadows fall away from the light, at most the depth over the light's slope.
+        let light = crate::scene::key_light_dir();
+        let reach = (p.relief_depth / light[2].max(0.05) / cell).ceil() as usize + 2;
+        let shadow_box = portrait_box.grow_towards(
+            if light[0] < 0.0 {
+                (0, reach)
+            } else {
+                (reach, 0)
+            },
+            if light[1] < 0.0 {
+                (0, reach)
+            } else {
+                (reach, 0)
+            },
+            cols,
+            rows,
+        );
+        let mut key_light = vec![1f32; n];
+        shadow_box.paste(
+            &light_visibility(
+                &shadow_box.crop(&height, cols, |h| h),
+                shadow_box.width(),
+                shadow_box.height(),
+                cell,
+                light,
+            ),
+            &mut key_light,
+            cols,
+        );
+        Ok(Relief {
+            height,
+            hair,
+            occlusion,
+            key_light,
+            face,
+            portrait,
+            face_height,
+            cols,
+            rows,
+            origin: self.origin,
+            cell,
+            placement,
+            view,
+            centre: self.centre,
+            canonical_per_gem: self.scale,
+            solve,
+            relative,
+        })
+    }
+
+    /// The canonical point at grid position (col, row) (fractional nodes).
+    fn canonical(&self, col: f32, row: f32) -> [f32; 2] {
+        let cell = self.params.cell;
+        [
+            self.centre[0] + (self.origin[0] + col * cell) * self.scale,
+            self.centre[1] + (self.origin[1] + row * cell) * self.scale,
+        ]
+    }
+
+    /// The grid position (fractional nodes) of canonical point `c`.
+    fn grid_position(&self, c: [f32; 2]) -> [f32; 2] {
+        let cell = self.params.cell;
+        [
+            ((c[0] - self.centre[0]) / self.scale - self.origin[0]) / cell,
+            ((c[1] - self.centre[1]) / self.scale - self.origin[1]) / cell,
+        ]
+    }
+
+    /// The template stretched to the face's proportions ([`Placement::head_stretch`] about
+    /// its pivot), resampled bilinearly from the one computed in [`CameoBuilder::new`], and
+    /// the window it covers.
+    fn template_for(
+        &self,
+        placement: &Placement,
+    ) -> (std::borrow::Cow<'_, Template>, Option<Window>) {
+        let st = placement.head_stretch;
+        if (st[0] - 1.0).abs() < 1e-4 && (st[1] - 1.0).abs() < 1e-4 {
+            return (
+                std::borrow::Cow::Borrowed(&self.template),
+                self.template_box,
+            );
+        }
+        let Some(tb) = self.template_box else {
+            return (std::borrow::Cow::Borrowed(&self.template), None);
+        };
+        let (cols, rows) = (self.cols, self.rows);
+        let pivot = placement.head_pivot;
+        let (to_canonical, to_grid) = (
+            |col: f32, row: f32| self.canonical(col, row),
+            |c: [f32; 2]| self.grid_position(c),
+        );
+        // The stretched template's window: its box's corners moved, grown by a node.
+        let corners = [
+            (tb.x0, tb.y0),
+            (tb.x1, tb.y0),
+            (tb.x0, tb.y1),
+            (tb.x1, tb.y1),
+        ]
+        .map(|(x, y)| {
+            let c = to_canonical(x as f32, y as f32);
+            to_grid([
+                pivot[0] + (c[0] - pivot[0]) * st[0],
+                pivot[1] + (c[1] - pivot[1]) * st[1],
+            ])
+        });
+        let lo = |k: usize| corners.iter().map(|c| c[k]).fold(f32::INFINITY, f32::min);
+        let hi = |k: usize| {
+            corners
+                .iter()
+                .map(|c| c[k])
+                .fold(f32::NEG_INFINITY, f32::max)
+        };
+        let clamp = |v: f32, max: usize| (v.max(0.0) as usize).min(max - 1);
+        let window = Window {
+            x0: clamp(lo(0).floor() - 1.0, cols),
+            y0: clamp(lo(1).floor() - 1.0, rows),
+            x1: clamp(hi(0).ceil() + 1.0, cols),
+            y1: clamp(hi(1).ceil() + 1.0, rows),
+        };
+        let t = &self.template;
+        let mut out = Template {
+            height: vec![0.0; cols * rows],
+            hair: vec![0.0; cols * rows],
+            coverage: vec![0.0; cols * rows],
+        };
+        for i in window.indices(cols) {
+            // Node -> canonical -> the unstretched template's point -> its grid position.
+            let c = to_canonical((i % cols) as f32, (i / cols) as f32);
+            let [fx, fy] = to_grid([
+                pivot[0] + (c[0] - pivot[0]) / st[0],
+                pivot[1] + (c[1] - pivot[1]) / st[1],
+            ]);
+            if !(fx >= 0.0 && fy >= 0.0 && fx < (cols - 1) as f32 && fy < (rows - 1) as f32) {
+                continue;
+            }
+            let (x0, y0) = (fx as usize, fy as usize);
+            let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
+            let j = y0 * cols + x0;
+            let lerp = |f: &[f32]| {
+                let top = f[j] + (f[j + 1] - f[j]) * tx;
+                let bottom = f[j + cols] + (f[j + cols + 1] - f[j + cols]) * tx;
+                top + (bottom - top) * ty
+            };
+            out.height[i] = lerp(&t.height);
+            out.hair[i] = lerp(&t.hair);
+            out.coverage[i] = lerp(&t.coverage);
+        }
+        (std::borrow::Cow::Owned(out), Some(window))
+    }
+
+    /// The whole cameo mesh for a face mesh in model mm (`[x0, y0, z0, ...]`).
+    pub fn build(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Mesh, GemError> {
+        Ok(self.mesh(&self.relief(positions, triangles)?))
+    }
+
+    /// [`Self::build`] for the next face of a sequence (a tracked visitor): the relief's solve
+    /// starts from the previous one's result kept in `warm` (empty at first), which it then
+    /// replaces. The gem equals [`Self::build`]'s within the solver's tolerance.
+    pub fn build_after(
+        &self,
+        positions: &[f32],
+        triangles: &[[u32; 3]],
+        warm: &mut Vec<f32>,
+    ) -> Result<Mesh, GemError> {
+        let relief = self.relief_from(positions, triangles, warm)?;
+        let mesh = self.mesh(&relief);
+        *warm = relief.relative;
+        Ok(mesh)
+    }
+
+    /// The cameo mesh of a relief: the stone's top as planned, the bezel and the back.
+    fn mesh(&self, relief: &Relief) -> Mesh {
+        let mut mesh = Mesh::default();
+        let plan = plan_surface(relief, &self.inside);
+        add_relief_surface(&mut mesh, relief, &plan);
+        let first = mesh.vertices.len() as u32;
+        mesh.vertices.extend_from_slice(&self.base.vertices);
+        mesh.indices
+            .extend(self.base.indices.iter().map(|&i| i + first));
+        mesh
+    }
+}
+
+/// A rectangle of grid nodes (inclusive bounds): the relief's work is done only where the
+/// portrait can reach.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Window {
+    pub(super) x0: usize,
+    pub(super) y0: usize,
+    pub(super) x1: usize,
+    pub(super) y1: usize,
+}
+
+impl Window {
+    /// The nodes where `pred` holds, or `None`.
+    pub(super) fn of(cols: usize, rows: usize, pred: impl Fn(usize) -> bool) -> Option<Self> {
+        let (mut x0, mut y0, mut x1, mut y1) = (cols, rows, 0, 0);
+        for i in (0..cols * rows).filter(|&i| pred(i)) {
+            let (x, y) = (i % cols, i / cols);
+            (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+        }
+        (x0 <= x1).then_some(Window { x0, y0, x1, y1 })
+    }
+
+    pub(super) fn grow(self, m: usize, cols: usize, rows: usize) -> Self {
+        self.grow_towards((m, m), (m, m), cols, rows)
+    }
+
+    /// Grown by (before, after) nodes along x and along y, within the grid.
+    pub(super) fn grow_towards(
+        self,
+        x: (usize, usize),
+        y: (usize, usize),
+        cols: usize,
+        rows: usize,
+    ) -> Self {
+        Window {
+            x0: self.x0.saturating_sub(x.0),
+            y0: self.y0.saturating_sub(y.0),
+            x1: (self.x1 + x.1).min(cols - 1),
+            y1: (self.y1 + y.1).min(rows - 1),
+        }
+    }
+
+    pub(super) fn union(self, o: Self) -> Self {
+        Window {
+            x0: self.x0.min(o.x0),
+            y0: self.y0.min(o.y0),
+            x1: self.x1.max(o.x1),
+            y1: self.y1.max(o.y1),
+        }
+    }
+
+    pub(super) fn width(&self) -> usize {
+        self.x1 - self.x0 + 1
+    }
+
+    pub(super) fn height(&self) -> usize {
+        self.y1 - self.y0 + 1
+    }
+
+    /// Row-major node indices of the grid (`cols` wide) inside the window.
+    pub(super) fn indices(self, cols: usize) -> impl Iterator<Item = usize> {
+        (self.y0..=self.y1).flat_map(move |y| (self.x0..=self.x1).map(move |x| y * cols + x))
+    }
+
+    /// The window's part of a grid field, each value mapped.
+    pub(super) fn crop(&self, field: &[f32], cols: usize, f: impl Fn(f32) -> f32) -> Vec<f32> {
+        self.indices(cols).map(|i| f(field[i])).collect()
+    }
+
+    /// Writes a window-sized field into the grid field.
+    pub(super) fn paste(&self, part: &[f32], field: &mut [f32], cols: usize) {
+        for (k, i) in self.indices(cols).enumerate() {
+            field[i] = part[k];
+        }
+    }
+}
+
+/// The sculpted head on the relief grid (see [`CameoBuilder`]).
+#[derive(Clone, Debug)]
+struct Template {
+    height: Vec<f32>,
+    hair: Vec<f32>,
+    coverage: Vec<f32>,
+}

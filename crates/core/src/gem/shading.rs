@@ -1,0 +1,131 @@
+//! What the relief bakes for the renderer: the cavity term (ambient occlusion from the relief
+//! around a node) and the key light's visibility (cast shadows), per grid node. Gem mm.
+
+use super::builder::Window;
+use super::{basrelief, template};
+
+/// Radii (gem mm) and weights of the cavity term: how far the relief around a node stands
+/// above it, at two scales (a groove's width, a wall's foot).
+const CAVITY_SCALES: [(f32, f32); 2] = [(0.35, 0.9), (1.2, 0.45)];
+
+/// Ambient light reaching each node, 0..1: one minus the weighted amount by which the blurred
+/// relief stands above the node (a groove, the foot of a wall, the hollow of an ear), at two
+/// scales. Ridges and open ground get 1.
+pub(super) fn cavity(height: &[f32], cols: usize, rows: usize, cell: f32) -> Vec<f32> {
+    let mut occ = vec![1f32; height.len()];
+    // Only the relief's bounding box, grown by the widest blur's reach, can be occluded (the
+    // blur of the zero ground beyond it is zero either way).
+    let Some(window) = Window::of(cols, rows, |i| height[i] > 0.0) else {
+        return occ;
+    };
+    let window = window.grow(
+        3 * (CAVITY_SCALES[1].0 / cell).ceil() as usize + 2,
+        cols,
+        rows,
+    );
+    let (w, h) = (window.width(), window.height());
+    let crop = window.crop(height, cols, |h| h);
+    let mut local = vec![1f32; w * h];
+    for (radius, weight) in CAVITY_SCALES {
+        let blurred = basrelief::blur(&crop, w, h, radius / cell);
+        for ((o, b), h) in local.iter_mut().zip(&blurred).zip(&crop) {
+            *o = (*o - weight * (b - h).max(0.0)).clamp(0.25, 1.0);
+        }
+    }
+    window.paste(&local, &mut occ, cols);
+    occ
+}
+
+/// One pass of 1-2-1 smoothing in each direction (edges clamped).
+pub(super) fn smooth_121(values: &[f32], cols: usize, rows: usize) -> Vec<f32> {
+    let mut tmp = vec![0f32; values.len()];
+    for y in 0..rows {
+        for x in 0..cols {
+            let at = |xx: usize| values[y * cols + xx];
+            tmp[y * cols + x] =
+                0.25 * at(x.saturating_sub(1)) + 0.5 * at(x) + 0.25 * at((x + 1).min(cols - 1));
+        }
+    }
+    let mut out = vec![0f32; values.len()];
+    for y in 0..rows {
+        for x in 0..cols {
+            let at = |yy: usize| tmp[yy * cols + x];
+            out[y * cols + x] =
+                0.25 * at(y.saturating_sub(1)) + 0.5 * at(y) + 0.25 * at((y + 1).min(rows - 1));
+        }
+    }
+    out
+}
+
+/// Softness of the cast shadows' edge, gem mm of height.
+const SHADOW_SOFTNESS_MM: f32 = 0.15;
+
+/// How much of a directional light (unit vector `light` towards it) reaches each node of a
+/// height field (gem mm, `cell` apart): one sweep from the light's side keeps, per node, the
+/// highest horizon S = max over the nodes towards the light of (their height - distance x
+/// the light's slope), from the previous node's S (interpolated between two nodes of the
+/// previous line); a node is lit where it stands above S, fading out over
+/// [`SHADOW_SOFTNESS_MM`] below it.
+pub(super) fn light_visibility(
+    height: &[f32],
+    cols: usize,
+    rows: usize,
+    cell: f32,
+    light: [f32; 3],
+) -> Vec<f32> {
+    let n = cols * rows;
+    let plane = light[0].hypot(light[1]);
+    if plane < 1e-6 || light[2] <= 0.0 {
+        return vec![if light[2] > 0.0 { 1.0 } else { 0.0 }; n];
+    }
+    let (dx, dy) = (light[0] / plane, light[1] / plane);
+    let slope = light[2] / plane;
+    // Step one line along the major axis towards the light; the minor axis moves by a fraction.
+    let x_major = dx.abs() >= dy.abs();
+    let (lines, len) = if x_major { (cols, rows) } else { (rows, cols) };
+    let (major, minor) = if x_major { (dx, dy) } else { (dy, dx) };
+    let shift = minor / major.abs();
+    let step = cell * (1.0 + shift * shift).sqrt();
+    let drop = step * slope;
+    let idx = |line: usize, k: usize| {
+        if x_major {
+            k * cols + line
+        } else {
+            line * cols + k
+        }
+    };
+    let mut horizon = vec![f32::NEG_INFINITY; n];
+    let mut vis = vec![1f32; n];
+    // Lines nearest the light first.
+    let order: Vec<usize> = if major < 0.0 {
+        (0..lines).collect()
+    } else {
+        (0..lines).rev().collect()
+    };
+    for w in 1..order.len() {
+        let (prev, line) = (order[w - 1], order[w]);
+        for k in 0..len {
+            // The point one step towards the light, between two nodes of the previous line.
+            let pos = k as f32 + shift;
+            if pos < 0.0 || pos > (len - 1) as f32 {
+                continue;
+            }
+            let k0 = pos.floor() as usize;
+            let k1 = (k0 + 1).min(len - 1);
+            let t = pos - k0 as f32;
+            let sample = |f: &[f32]| {
+                let (a, b) = (f[idx(prev, k0)], f[idx(prev, k1)]);
+                if a.is_finite() && b.is_finite() {
+                    a + (b - a) * t
+                } else {
+                    a.max(b)
+                }
+            };
+            let s = sample(height).max(sample(&horizon)) - drop;
+            let i = idx(line, k);
+            horizon[i] = s;
+            vis[i] = template::smoothstep(-SHADOW_SOFTNESS_MM, 0.0, height[i] - s);
+        }
+    }
+    vis
+}

@@ -1,0 +1,305 @@
+//! The relief's height field into triangles: the stone's top simplified into square blocks
+//! where it is flat or evenly sloped (a fan's pattern would show in the shading first), the
+//! walls and the gold bezel and back round it. Gem millimetres.
+
+use super::{BACK_Z, BEZEL_PROFILE, CameoParams, GROUND_EPS, RING_SEGMENTS, Relief};
+use crate::scene::{Mesh, Region, Vertex};
+
+/// Largest square of grid cells the stone's top is simplified to, how far (gem mm) a
+/// simplified square's grid heights may stray from the bilinear patch of its corners, and how
+/// far their slopes may (shading follows the interpolated normals, which show a fan's pattern
+/// long before its heights do).
+const MAX_BLOCK: usize = 8;
+const FLAT_TOLERANCE_MM: f32 = 0.004;
+const SLOPE_TOLERANCE: f32 = 0.004;
+/// How far the hair layer's weight may stray from the corners' bilinear patch in a merged square.
+const HAIR_TOLERANCE: f32 = 0.02;
+
+/// One square element of the stone's top: `size` x `size` cells from node (`x`, `y`).
+#[derive(Clone, Copy, Debug)]
+struct Element {
+    x: usize,
+    y: usize,
+    size: usize,
+}
+
+/// The stone's top before triangulation: per node its material region and slope, and the
+/// quadtree's elements.
+#[derive(Clone, Debug, Default)]
+pub(super) struct SurfacePlan {
+    region: Vec<Region>,
+    slope: Vec<[f32; 2]>,
+    elements: Vec<Element>,
+}
+
+/// The stone's top, with detail only where the surface needs it: the grid's cells are merged
+/// (quadtree fashion, up to [`MAX_BLOCK`] cells a side) wherever the heights stay within
+/// [`FLAT_TOLERANCE_MM`] of a plane and the material does not change, so the flat ground and
+/// smooth slopes take a few triangles and the face keeps every cell. Cells need all four
+/// corners inside the oval; the bezel's inner foot covers the stepped outline.
+pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
+    let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
+    let mut region = vec![Region::Ground; cols * rows];
+    let mut slope = vec![[0.0; 2]; cols * rows];
+    for row in 0..rows {
+        for col in 0..cols {
+            let i = row * cols + col;
+            region[i] = if relief.height[i] < GROUND_EPS {
+                Region::Ground
+            } else if relief.hair[i] > 0.5 {
+                Region::Hair
+            } else {
+                Region::Relief
+            };
+            // Central differences, one-sided at the grid's edge.
+            let (left, right) = (col.saturating_sub(1), (col + 1).min(cols - 1));
+            let (up, down) = (row.saturating_sub(1), (row + 1).min(rows - 1));
+            slope[i] = [
+                (relief.height[row * cols + right] - relief.height[row * cols + left])
+                    / (cell * (right - left) as f32),
+                (relief.height[down * cols + col] - relief.height[up * cols + col])
+                    / (cell * (down - up) as f32),
+            ];
+        }
+    }
+    let (blocks_x, blocks_y) = (
+        (cols - 1).div_ceil(MAX_BLOCK),
+        (rows - 1).div_ceil(MAX_BLOCK),
+    );
+    // Summed-area table of nodes that are not bare ground (inside, height, slope and hair 0):
+    // a square without any is merged without looking at its nodes (most of the field).
+    let sat_w = cols + 1;
+    let mut busy = vec![0u32; sat_w * (rows + 1)];
+    for y in 0..rows {
+        let mut run = 0;
+        for x in 0..cols {
+            let i = y * cols + x;
+            let bare = inside[i]
+                && relief.height[i] == 0.0
+                && slope[i] == [0.0, 0.0]
+                && relief.hair[i] == 0.0;
+            run += u32::from(!bare);
+            busy[(y + 1) * sat_w + x + 1] = busy[y * sat_w + x + 1] + run;
+        }
+    }
+    let busy_in = |e: Element| {
+        let (x0, y0) = (e.x, e.y);
+        let (x1, y1) = (x0 + e.size + 1, y0 + e.size + 1);
+        busy[y1 * sat_w + x1] + busy[y0 * sat_w + x0]
+            - busy[y0 * sat_w + x1]
+            - busy[y1 * sat_w + x0]
+    };
+    // A square may be one element if every node is inside, of one region, and near the
+    // bilinear patch of its corners in height, slope and hair weight.
+    let mergeable = |e: Element| {
+        if busy_in(e) == 0 {
+            return true;
+        }
+        let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
+        let c = [at(0, 0), at(e.size, 0), at(0, e.size), at(e.size, e.size)];
+        let bilinear = |v: [f32; 4], u: f32, w: f32| {
+            (v[0] * (1.0 - u) + v[1] * u) * (1.0 - w) + (v[2] * (1.0 - u) + v[3] * u) * w
+        };
+        let heights = c.map(|i| relief.height[i]);
+        let sx = c.map(|i| slope[i][0]);
+        let sy = c.map(|i| slope[i][1]);
+        let hair = c.map(|i| relief.hair[i]);
+        let first = region[c[0]];
+        let scale = 1.0 / e.size as f32;
+        let node_ok = |dx: usize, dy: usize| {
+            let i = at(dx, dy);
+            let (u, w) = (dx as f32 * scale, dy as f32 * scale);
+            inside[i]
+                && region[i] == first
+                && (relief.height[i] - bilinear(heights, u, w)).abs() <= FLAT_TOLERANCE_MM
+                && (slope[i][0] - bilinear(sx, u, w)).abs() <= SLOPE_TOLERANCE
+                && (slope[i][1] - bilinear(sy, u, w)).abs() <= SLOPE_TOLERANCE
+                && (relief.hair[i] - bilinear(hair, u, w)).abs() <= HAIR_TOLERANCE
+        };
+        // The centre and the edges' midpoints stray first on a curved surface: try them first.
+        let h = e.size / 2;
+        [(h, h), (h, 0), (0, h), (e.size, h), (h, e.size)]
+            .iter()
+            .all(|&(dx, dy)| node_ok(dx, dy))
+            && (0..=e.size).all(|dy| (0..=e.size).all(|dx| node_ok(dx, dy)))
+    };
+    let split = |root: Element, elements: &mut Vec<Element>| {
+        let mut stack = vec![root];
+        while let Some(e) = stack.pop() {
+            if e.x >= cols - 1 || e.y >= rows - 1 {
+                continue;
+            }
+            let fits = e.x + e.size < cols && e.y + e.size < rows;
+            if e.size == 1 {
+                let corners = [(0, 0), (1, 0), (0, 1), (1, 1)];
+                if corners
+                    .iter()
+                    .all(|&(dx, dy)| inside[(e.y + dy) * cols + e.x + dx])
+                {
+                    elements.push(e);
+                }
+            } else if fits && mergeable(e) {
+                elements.push(e);
+            } else {
+                let h = e.size / 2;
+                for (dx, dy) in [(0, 0), (h, 0), (0, h), (h, h)] {
+                    stack.push(Element {
+                        x: e.x + dx,
+                        y: e.y + dy,
+                        size: h,
+                    });
+                }
+            }
+        }
+    };
+    let mut elements = Vec::with_capacity(cols * rows / 16);
+    // Last block first (the order of a stack of all blocks).
+    for b in (0..blocks_x * blocks_y).rev() {
+        let (bx, by) = (b % blocks_x, b / blocks_x);
+        split(
+            Element {
+                x: bx * MAX_BLOCK,
+                y: by * MAX_BLOCK,
+                size: MAX_BLOCK,
+            },
+            &mut elements,
+        );
+    }
+    SurfacePlan {
+        region,
+        slope,
+        elements,
+    }
+}
+
+/// Adds the stone's top as planned: a merged square is a fan around its centre node through
+/// every node on its border that a neighbour uses as a corner, so the surface stays watertight
+/// (no T-junctions).
+pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &SurfacePlan) {
+    let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
+    let (elements, region, slope) = (&plan.elements, &plan.region, &plan.slope);
+    let node_xy = |col: usize, row: usize| {
+        (
+            relief.origin[0] + col as f32 * cell,
+            relief.origin[1] + row as f32 * cell,
+        )
+    };
+    // Nodes in use: every element's corners, and merged squares' centres.
+    let mut corner = vec![false; cols * rows];
+    let mut used = vec![false; cols * rows];
+    for e in elements {
+        for (dx, dy) in [(0, 0), (e.size, 0), (0, e.size), (e.size, e.size)] {
+            corner[(e.y + dy) * cols + e.x + dx] = true;
+            used[(e.y + dy) * cols + e.x + dx] = true;
+        }
+        if e.size > 1 {
+            used[(e.y + e.size / 2) * cols + e.x + e.size / 2] = true;
+        }
+    }
+
+    let mut index = vec![u32::MAX; cols * rows];
+    let count = used.iter().filter(|u| **u).count();
+    mesh.vertices.reserve(count);
+    for (i, (x, y)) in (0..rows)
+        .flat_map(|row| (0..cols).map(move |col| (row * cols + col, col, row)))
+        .filter(|&(i, _, _)| used[i])
+        .map(|(i, col, row)| (i, node_xy(col, row)))
+    {
+        let h = relief.height[i];
+        let [dzdx, dzdy] = slope[i];
+        let inv_len = 1.0 / (dzdx * dzdx + dzdy * dzdy + 1.0).sqrt();
+        index[i] = mesh.vertices.len() as u32;
+        mesh.vertices.push(Vertex {
+            position: [x, y, h],
+            normal: [-dzdx * inv_len, -dzdy * inv_len, inv_len],
+            relief: h,
+            region: region[i] as u32,
+            hair: relief.hair[i].clamp(0.0, 1.0),
+            occlusion: relief.occlusion[i],
+            key_light: relief.key_light[i],
+        });
+    }
+
+    // Counter-clockwise seen from +Z (y up), like the bezel's.
+    let mut border = Vec::with_capacity(4 * MAX_BLOCK);
+    for e in elements {
+        let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
+        if e.size == 1 {
+            let [a, b, c, d] = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)].map(|i| index[i]);
+            mesh.indices.extend_from_slice(&[a, b, c, a, c, d]);
+            continue;
+        }
+        let n = e.size;
+        border.clear();
+        border.extend((0..n).map(|k| at(k, 0)));
+        border.extend((0..n).map(|k| at(n, k)));
+        border.extend((0..n).map(|k| at(n - k, n)));
+        border.extend((0..n).map(|k| at(0, n - k)));
+        border.retain(|&i| corner[i]);
+        let centre = index[at(n / 2, n / 2)];
+        for k in 0..border.len() {
+            let (a, b) = (border[k], border[(k + 1) % border.len()]);
+            mesh.indices
+                .extend_from_slice(&[centre, index[a], index[b]]);
+        }
+    }
+}
+
+/// The gold bezel swept around the oval (flat across each profile segment, smooth along the
+/// oval) and the gold back.
+pub(super) fn add_bezel_and_back(mesh: &mut Mesh, p: &CameoParams) {
+    let (a, b) = (p.half_width, p.half_height);
+    let frame = |i: usize| {
+        let t = i as f32 / RING_SEGMENTS as f32 * std::f32::consts::TAU;
+        let (s, c) = t.sin_cos();
+        let n = [b * c, a * s];
+        let l = (n[0] * n[0] + n[1] * n[1]).sqrt();
+        ([a * c, b * s], [n[0] / l, n[1] / l])
+    };
+    let gold = |position: [f32; 3], normal: [f32; 3]| Vertex {
+        position,
+        normal,
+        relief: 0.0,
+        region: Region::Gold as u32,
+        hair: 0.0,
+        occlusion: 1.0,
+        key_light: 1.0,
+    };
+    for seg in BEZEL_PROFILE.windows(2) {
+        let ([d0, z0], [d1, z1]) = (seg[0], seg[1]);
+        let (td, tz) = (d1 - d0, z1 - z0);
+        let l = (td * td + tz * tz).sqrt();
+        let (nd, nz) = (-tz / l, td / l);
+        let base = mesh.vertices.len() as u32;
+        for i in 0..=RING_SEGMENTS {
+            let (e, n) = frame(i % RING_SEGMENTS);
+            let normal = [n[0] * nd, n[1] * nd, nz];
+            for (d, z) in [(d0, z0), (d1, z1)] {
+                mesh.vertices
+                    .push(gold([e[0] + n[0] * d, e[1] + n[1] * d, z], normal));
+            }
+        }
+        for i in 0..RING_SEGMENTS as u32 {
+            let (p0, p1) = (base + 2 * i, base + 2 * i + 1);
+            let (q0, q1) = (p0 + 2, p1 + 2);
+            // Counter-clockwise seen from the side the normal points to.
+            mesh.indices.extend_from_slice(&[p0, q0, q1, p0, q1, p1]);
+        }
+    }
+    let outer = BEZEL_PROFILE[BEZEL_PROFILE.len() - 1][0];
+    let centre = mesh.vertices.len() as u32;
+    mesh.vertices
+        .push(gold([0.0, 0.0, BACK_Z], [0.0, 0.0, -1.0]));
+    for i in 0..RING_SEGMENTS {
+        let (e, n) = frame(i);
+        mesh.vertices.push(gold(
+            [e[0] + n[0] * outer, e[1] + n[1] * outer, BACK_Z],
+            [0.0, 0.0, -1.0],
+        ));
+    }
+    for i in 0..RING_SEGMENTS as u32 {
+        let next = (i + 1) % RING_SEGMENTS as u32;
+        mesh.indices
+            .extend_from_slice(&[centre, centre + 1 + next, centre + 1 + i]);
+    }
+}
