@@ -1,0 +1,363 @@
+//! The person pass on synthetic heads (painted skin, hair, background) and its failure modes.
+
+use super::*;
+
+const BG: [u8; 3] = [90, 110, 140];
+const SKIN: [u8; 3] = [222, 172, 142];
+const BROWN: [u8; 3] = [62, 42, 28];
+
+/// 68 landmarks of a frontal face: eyes 60 px apart at y = 200, chin at y = 320.
+fn landmarks() -> Vec<[f32; 2]> {
+    let mut p = vec![[0f32; 2]; 68];
+    for (k, q) in p.iter_mut().enumerate().take(17) {
+        let th = std::f32::consts::PI * k as f32 / 16.0;
+        *q = [200.0 - 70.0 * th.cos(), 205.0 + 115.0 * th.sin()];
+    }
+    for k in 0..5 {
+        p[17 + k] = [140.0 + 11.0 * k as f32, 180.0];
+        p[22 + k] = [216.0 + 11.0 * k as f32, 180.0];
+    }
+    for k in 0..4 {
+        p[27 + k] = [200.0, 195.0 + 15.0 * k as f32];
+    }
+    for k in 0..5 {
+        p[31 + k] = [185.0 + 7.5 * k as f32, 250.0];
+    }
+    for (e, cx) in [(36, 170.0), (42, 230.0)] {
+        for k in 0..6 {
+            let th = std::f32::consts::TAU * k as f32 / 6.0;
+            p[e + k] = [cx - 10.0 * th.cos(), 200.0 - 4.0 * th.sin()];
+        }
+    }
+    for k in 0..12 {
+        let th = std::f32::consts::TAU * k as f32 / 12.0;
+        p[48 + k] = [200.0 - 25.0 * th.cos(), 275.0 - 10.0 * th.sin()];
+    }
+    for k in 0..8 {
+        let th = std::f32::consts::TAU * k as f32 / 8.0;
+        p[60 + k] = [200.0 - 18.0 * th.cos(), 275.0 - 4.0 * th.sin()];
+    }
+    p
+}
+
+/// A head on a plain ground: skin over the skull's ellipse and a neck; `hair(x, y)` says
+/// where hair is drawn; `beard` darkens the chin. Mild deterministic noise everywhere.
+fn photo(hair: impl Fn(f32, f32) -> bool, hair_colour: [u8; 3], beard: bool) -> RgbImage {
+    RgbImage::from_fn(400, 520, |x, y| {
+        let (fx, fy) = (x as f32, y as f32);
+        let head = ((fx - 200.0) / 72.0).powi(2) + ((fy - 205.0) / 125.0).powi(2) < 1.0;
+        let neck = (fx - 200.0).abs() < 45.0 && fy > 300.0 && fy < 420.0;
+        let chin = beard && head && fy > 288.0 && (fx - 200.0).abs() < 60.0;
+        let mut c = if hair(fx, fy) {
+            hair_colour
+        } else if chin {
+            BROWN
+        } else if head || neck {
+            SKIN
+        } else {
+            BG
+        };
+        let n = ((x.wrapping_mul(73_856_093) ^ y.wrapping_mul(19_349_663)) % 17) as i32 - 8;
+        for v in &mut c {
+            *v = (i32::from(*v) + n).clamp(0, 255) as u8;
+        }
+        image::Rgb(c)
+    })
+}
+
+/// Hair over the crown above the forehead's hairline, standing `stand` px out, and down
+/// both sides to `end` (image y).
+fn hair_to(stand: f32, end: f32) -> impl Fn(f32, f32) -> bool {
+    move |x, y| {
+        let outer =
+            ((x - 200.0) / (72.0 + stand)).powi(2) + ((y - 205.0) / (125.0 + stand)).powi(2) < 1.0;
+        let head = ((x - 200.0) / 72.0).powi(2) + ((y - 205.0) / 125.0).powi(2) < 1.0;
+        let crown = outer && y < 150.0;
+        let sides = outer && !head && y < 215.0;
+        let fall = (x - 200.0).abs() > 62.0 && (x - 200.0).abs() < 100.0 && y > 140.0 && y < end;
+        crown || sides || fall
+    }
+}
+
+#[test]
+fn bald_short_and_long_hair_are_told_apart() {
+    let lm = landmarks();
+    let bald = analyse(&photo(|_, _| false, BROWN, false), &lm).unwrap();
+    assert!(bald.hair.is_none(), "{:?}", bald.hair);
+    let short = analyse(&photo(hair_to(12.0, 0.0), BROWN, false), &lm).unwrap();
+    let h = short.hair.expect("short hair found");
+    assert!(h.crown > 0.6, "{h:?}");
+    assert!(h.length < 0.6, "short hair ends near the ears: {h:?}");
+    let long = analyse(&photo(hair_to(12.0, 470.0), BROWN, false), &lm).unwrap();
+    let l = long.hair.expect("long hair found");
+    assert!(l.length > 1.6, "long hair reaches the shoulders: {l:?}");
+    let big = analyse(&photo(hair_to(45.0, 0.0), BROWN, false), &lm).unwrap();
+    let b = big.hair.expect("big hair found");
+    assert!(b.top > h.top + 0.15, "volume: {:.2} vs {:.2}", b.top, h.top);
+    // In the cameo: bald stays bald, long hair ends lower, big hair stands higher.
+    let (sb, ss, sl, sg) = (
+        crate::gem::hair_style(&bald),
+        crate::gem::hair_style(&short),
+        crate::gem::hair_style(&long),
+        crate::gem::hair_style(&big),
+    );
+    assert!(sb.bald && !ss.bald && !sl.bald);
+    assert!(sl.end < ss.end - 100.0, "{sl:?} {ss:?}");
+    assert!(sg.volume > ss.volume + 5.0, "{sg:?} {ss:?}");
+}
+
+/// An open mouth drops the chin and the jaw, not the crown: the hair's reading holds.
+#[test]
+fn an_open_mouth_does_not_move_the_crown() {
+    let closed = landmarks();
+    let mut open = closed.clone();
+    // The jaw's lower points, the lower lip and the chin 30 px down (the mouth open by a
+    // quarter of the face's length); the photo is the same.
+    for (k, q) in open.iter_mut().enumerate() {
+        let lower_lip = (55..=59).contains(&k) || (65..=67).contains(&k);
+        if (4..=12).contains(&k) || lower_lip {
+            q[1] += 30.0 * if (4..=12).contains(&k) { 1.0 } else { 0.9 };
+        }
+    }
+    let img = photo(hair_to(12.0, 0.0), BROWN, false);
+    let a = analyse(&img, &closed)
+        .unwrap()
+        .hair
+        .expect("hair, mouth closed");
+    let b = analyse(&img, &open)
+        .unwrap()
+        .hair
+        .expect("hair, mouth open");
+    assert!(b.crown > 0.6, "{b:?}");
+    assert!((a.top - b.top).abs() < 0.05, "{a:?} vs {b:?}");
+}
+
+/// A segmentation of the synthetic photo: the head with `stand` px of hair, the neck, and
+/// the body below y = 420 are the person.
+fn person_mask(stand: f32) -> PersonMask {
+    let size = 130;
+    let step = 4.0;
+    let prob = (0..size * size)
+        .map(|i| {
+            let (x, y) = (
+                ((i % size) as f32 + 0.5) * step,
+                ((i / size) as f32 + 0.5) * step,
+            );
+            let head = ((x - 200.0) / (72.0 + stand)).powi(2)
+                + ((y - 205.0) / (125.0 + stand)).powi(2)
+                < 1.0;
+            let neck = (x - 200.0).abs() < 45.0 && y > 300.0;
+            f32::from(u8::from(head || neck || y > 420.0))
+        })
+        .collect();
+    PersonMask {
+        size,
+        origin: [0.0, 0.0],
+        step,
+        prob,
+    }
+}
+
+#[test]
+fn a_person_mask_is_read_bilinearly_and_not_beyond_its_grid() {
+    let m = PersonMask {
+        size: 2,
+        origin: [10.0, 20.0],
+        step: 5.0,
+        prob: vec![0.0, 1.0, 0.0, 1.0],
+    };
+    // Cell centres at x = 12.5 and 17.5: halfway between them is 0.5.
+    assert_eq!(m.at([15.0, 22.5]), Some(0.5));
+    assert_eq!(m.at([12.5, 25.0]), Some(0.0));
+    assert_eq!(m.at([19.9, 29.9]), Some(1.0));
+    assert_eq!(m.at([9.0, 25.0]), None);
+    assert_eq!(m.at([15.0, 31.0]), None);
+    assert_eq!(m.at([f32::NAN, 25.0]), None);
+    let broken = PersonMask {
+        prob: vec![0.5; 3],
+        ..m
+    };
+    assert_eq!(broken.at([15.0, 22.5]), None);
+}
+
+#[test]
+fn the_mask_window_covers_the_analysis_canvas() {
+    let lm = landmarks();
+    let (centre, side) = mask_window(&lm).unwrap();
+    // Eyes 60 px apart at y = 200: the canvas runs from 3.4 IOD above the eyes to 6 below.
+    assert!((side - 9.4 * 60.0).abs() < 1.0, "{side}");
+    assert!((centre[0] - 200.0).abs() < 0.5, "{centre:?}");
+    assert!((centre[1] - (200.0 + 1.3 * 60.0)).abs() < 1.0, "{centre:?}");
+    assert!(mask_window(&lm[..60]).is_err());
+}
+
+/// A wall the colour of the hair beside the head: colour alone cannot tell them apart, the
+/// segmentation can.
+#[test]
+fn a_segmentation_keeps_a_wall_the_colour_of_the_hair_out_of_it() {
+    let lm = landmarks();
+    let hair = hair_to(12.0, 0.0);
+    let wall = |x: f32, y: f32| x > 282.0 && y > 60.0 && y < 240.0;
+    let img = photo(|x, y| hair(x, y) || wall(x, y), BROWN, false);
+    let plain = analyse(&photo(&hair, BROWN, false), &lm).unwrap();
+    let p = plain.hair.expect("hair on the plain ground");
+    let colour = analyse(&img, &lm).unwrap();
+    let c = colour.hair.expect("hair beside the wall");
+    let mask = person_mask(12.0);
+    let seg = analyse_with(&img, &lm, Some(&mask)).unwrap();
+    let s = seg.hair.expect("hair with the segmentation");
+    assert!(
+        c.sides > p.sides + 0.1,
+        "the wall joins the hair by colour: {c:?} vs {p:?}"
+    );
+    assert!((s.sides - p.sides).abs() < 0.05, "{s:?} vs {p:?}");
+    let wall_hair = |q: &Person| {
+        (290..400)
+            .step_by(4)
+            .flat_map(|x| (80..220).step_by(4).map(move |y| (x, y)))
+            .filter(|&(x, y)| q.labels.at_pixel(x as f32, y as f32) == Label::Hair)
+            .count()
+    };
+    assert_eq!(wall_hair(&seg), 0);
+    assert!(wall_hair(&colour) > 100, "{}", wall_hair(&colour));
+    // Without a wall the segmentation changes nothing that matters.
+    let same = analyse_with(&photo(&hair, BROWN, false), &lm, Some(&mask)).unwrap();
+    let q = same.hair.expect("hair");
+    assert!(
+        (q.sides - p.sides).abs() < 0.05 && (q.top - p.top).abs() < 0.05,
+        "{q:?} {p:?}"
+    );
+    assert!(same.beard < BEARD_SHARE && !same.has_glasses());
+}
+
+/// Short grey hair over a charcoal suit whose collar rises beside the neck to the hair
+/// (as the suit of a grey-haired man in deepface's img39 joined his hair through the
+/// background): below the chin the suit is clothes, not hair falling to the shoulders;
+/// long hair falling over the same suit is still long.
+#[test]
+fn a_suit_below_the_chin_is_not_long_hair() {
+    const GREY: [u8; 3] = [165, 162, 160];
+    const SUIT: [u8; 3] = [100, 98, 96];
+    let suit = |x: f32, y: f32| {
+        let dx = (x - 200.0).abs();
+        y > 400.0 || (y > 215.0 && dx > 45.0 && dx < 110.0)
+    };
+    let dressed = |hair: &dyn Fn(f32, f32) -> bool| {
+        let base = photo(hair, GREY, false);
+        RgbImage::from_fn(base.width(), base.height(), |x, y| {
+            let (fx, fy) = (x as f32, y as f32);
+            let head = ((fx - 200.0) / 72.0).powi(2) + ((fy - 205.0) / 125.0).powi(2) < 1.0;
+            if suit(fx, fy) && !head && !hair(fx, fy) {
+                image::Rgb(SUIT)
+            } else {
+                *base.get_pixel(x, y)
+            }
+        })
+    };
+    let lm = landmarks();
+    let short = analyse(&dressed(&hair_to(12.0, 0.0)), &lm).unwrap();
+    // The suit's share labelled hair on the shoulders (well below the chin at y = 320).
+    let (mut n, mut hair) = (0, 0);
+    for y in (400..500).step_by(4) {
+        for x in (20..380).step_by(4) {
+            let label = short.labels.at_pixel(x as f32, y as f32);
+            if label != Label::Outside {
+                n += 1;
+                hair += usize::from(label == Label::Hair);
+            }
+        }
+    }
+    assert!(n > 500, "the shoulders are on the canvas: {n}");
+    assert!(hair * 20 < n, "{hair} of {n} suit samples are hair");
+    let h = short.hair.expect("short hair found");
+    assert!(h.length < 1.4, "the hair ends above the shoulders: {h:?}");
+    let long = analyse(&dressed(&hair_to(12.0, 470.0)), &lm).unwrap();
+    let l = long.hair.expect("long hair found");
+    assert!(l.length > 1.6, "long grey hair over the suit: {l:?}");
+}
+
+#[test]
+fn grey_hair_is_hair_and_a_beard_is_found_only_when_there() {
+    let lm = landmarks();
+    let grey = analyse(&photo(hair_to(12.0, 0.0), [168, 168, 170], false), &lm).unwrap();
+    assert!(
+        grey.hair.is_some_and(|h| h.brightness > 0.5),
+        "{:?}",
+        grey.hair
+    );
+    let shaven = analyse(&photo(hair_to(12.0, 0.0), BROWN, false), &lm).unwrap();
+    assert!(!shaven.has_beard(), "beard {:.2}", shaven.beard);
+    let bearded = analyse(&photo(hair_to(12.0, 0.0), BROWN, true), &lm).unwrap();
+    assert!(bearded.has_beard(), "beard {:.2}", bearded.beard);
+    // A full beard joined to the hair by sideburns, hanging below the chin, is not the
+    // scalp's hair: short hair stays short (sideburns to the nose's base; hair that ends
+    // two-thirds of a face length below the eyes starts to fall behind the neck).
+    let scalp = hair_to(12.0, 0.0);
+    let full_beard = move |x: f32, y: f32| {
+        let dx = (x - 200.0).abs();
+        let below = ((x - 200.0) / 86.0).powi(2) + ((y - 205.0) / 139.0).powi(2) < 1.0;
+        scalp(x, y) || (dx > 62.0 && dx < 78.0 && y > 150.0 && y < 300.0) || (below && y > 285.0)
+    };
+    let full = analyse(&photo(full_beard, BROWN, false), &lm).unwrap();
+    assert!(full.has_beard(), "beard {:.2}", full.beard);
+    let length = |p: &Person| p.hair.map_or(f32::NAN, |h| h.length);
+    assert!(
+        length(&full) < 0.5,
+        "hair length {:.2} with the beard, {:.2} without",
+        length(&full),
+        length(&shaven)
+    );
+}
+
+/// Glasses: a dark frame's bridge across the nose between the eyes is found; the same
+/// face without it is not taken for glasses, nor is a face in shadow all over.
+#[test]
+fn glasses_are_found_by_their_bridge() {
+    let lm = landmarks();
+    let bare = photo(hair_to(12.0, 0.0), BROWN, false);
+    let mut glasses = bare.clone();
+    let eye = |r: std::ops::Range<usize>| {
+        let n = r.len() as f32;
+        lm[r]
+            .iter()
+            .fold([0.0, 0.0], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n])
+    };
+    let (l, r) = (eye(36..42), eye(42..48));
+    // A 4-pixel bar from eye to eye, 2 pixels above their centres.
+    for x in l[0] as u32..=r[0] as u32 {
+        for dy in 0..4u32 {
+            let y = (0.5 * (l[1] + r[1])) as u32 - 3 + dy;
+            glasses.put_pixel(x, y, image::Rgb([25, 22, 20]));
+        }
+    }
+    let bare_p = analyse(&bare, &lm).unwrap();
+    let glasses_p = analyse(&glasses, &lm).unwrap();
+    assert!(!bare_p.has_glasses(), "bare {:.2}", bare_p.glasses);
+    assert!(glasses_p.has_glasses(), "glasses {:.2}", glasses_p.glasses);
+    let mut dim = bare.clone();
+    for p in dim.pixels_mut() {
+        p.0 = p.0.map(|v| v / 3);
+    }
+    let dim_p = analyse(&dim, &lm).unwrap();
+    assert!(!dim_p.has_glasses(), "dim {:.2}", dim_p.glasses);
+}
+
+#[test]
+fn bad_landmarks_are_named() {
+    let img = photo(|_, _| false, BROWN, false);
+    let mut lm = landmarks();
+    assert_eq!(analyse(&img, &lm[..5]), Err(PersonError::Landmarks(5)));
+    lm[30][1] = f32::NAN;
+    assert_eq!(analyse(&img, &lm), Err(PersonError::NonFinite(30)));
+    let tiny: Vec<[f32; 2]> = landmarks()
+        .iter()
+        .map(|p| [200.0 + 0.05 * (p[0] - 200.0), 200.0 + 0.05 * (p[1] - 200.0)])
+        .collect();
+    assert!(matches!(
+        analyse(&img, &tiny),
+        Err(PersonError::TooSmall(_))
+    ));
+    // A face at the photo's edge, mostly outside it: an answer, not a panic.
+    let edge: Vec<[f32; 2]> = landmarks().iter().map(|p| [p[0] - 230.0, p[1]]).collect();
+    assert!(analyse(&img, &edge).is_ok());
+}

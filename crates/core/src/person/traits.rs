@@ -1,0 +1,128 @@
+//! The hair's traits (how far it stands out, how long it falls, how it curls) and the facial
+//! hair's shares, measured on the labelled head frame.
+
+// The pass's shared types and constants (this file is a part of `person`, split out).
+use super::*;
+
+/// The middle value (the upper of the two for an even count); `None` when empty.
+pub(super) fn median(mut v: Vec<f32>) -> Option<f32> {
+    v.sort_by(f32::total_cmp);
+    v.get(v.len() / 2).copied()
+}
+
+/// The hair's traits from its labelled pixels.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn traits(
+    labels: &[Label],
+    col: &[Colour],
+    w: usize,
+    h: usize,
+    pos: &dyn Fn(usize) -> [f32; 2],
+    in_face: &[bool],
+    skull: &dyn Fn([f32; 2]) -> f32,
+    chin: f32,
+    half: f32,
+) -> Option<Hair> {
+    // Scalp hair only (the face's own hair-coloured pixels are brows and beard).
+    let hair: Vec<usize> = (0..w * h)
+        .filter(|&i| labels[i] == Label::Hair && !in_face[i])
+        .collect();
+    if hair.len() < 30 {
+        return None;
+    }
+    // The crown: the band above the forehead across the head's middle.
+    let crown_px: Vec<usize> = (0..w * h)
+        .filter(|&i| {
+            let p = pos(i);
+            labels[i] != Label::Outside && skull(p) < 1.0 && p[1] < -0.8 * chin
+        })
+        .collect();
+    let crown = if crown_px.is_empty() {
+        1.0
+    } else {
+        crown_px
+            .iter()
+            .filter(|&&i| labels[i] == Label::Hair)
+            .count() as f32
+            / crown_px.len() as f32
+    };
+    // Top: the highest hair over the head's middle, beyond the skull's top.
+    let top_t = hair
+        .iter()
+        .map(|&i| pos(i))
+        .filter(|p| p[0].abs() < 0.7 * half)
+        .map(|p| p[1])
+        .fold(f32::INFINITY, f32::min);
+    let top = if top_t.is_finite() {
+        ((-top_t - 0.96 * chin) / chin).max(0.0)
+    } else {
+        0.0
+    };
+    // Sides: the hair's reach beside the temples (the widest row between brow and eyes).
+    let side_reach = hair
+        .iter()
+        .map(|&i| pos(i))
+        .filter(|p| (-0.6 * chin..0.2 * chin).contains(&p[1]))
+        .map(|p| p[0].abs())
+        .fold(0.0f32, f32::max);
+    let sides = ((side_reach - 1.08 * half) / chin).max(0.0);
+    // Length: walk down beside the face while each row still has hair (gaps under 0.15 face
+    // lengths are bridged: a strand of background, an ear).
+    let row_has_hair = |t0: f32, t1: f32| {
+        hair.iter().any(|&i| {
+            let p = pos(i);
+            p[1] >= t0 && p[1] < t1 && p[0].abs() > 0.55 * half
+        })
+    };
+    let step = 0.05 * chin;
+    let mut t = -0.2 * chin;
+    let mut last = t;
+    while t < T_RANGE.1 {
+        if row_has_hair(t, t + step) {
+            last = t + step;
+        } else if t - last > 0.15 * chin {
+            break;
+        }
+        t += step;
+    }
+    let length = (last / chin).max(0.0);
+    // Curl: structure-tensor coherence of brightness over the hair (straight strands agree).
+    let lum: Vec<f32> = col.iter().map(|c| c[0]).collect();
+    let (mut jxx, mut jyy, mut jxy) = (vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]);
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let i = y * w + x;
+            let gx = lum[i + 1] - lum[i - 1];
+            let gy = lum[i + w] - lum[i - w];
+            jxx[i] = gx * gx;
+            jyy[i] = gy * gy;
+            jxy[i] = gx * gy;
+        }
+    }
+    let (jxx, jyy, jxy) = (
+        box_blur(&jxx, w, h, 3),
+        box_blur(&jyy, w, h, 3),
+        box_blur(&jxy, w, h, 3),
+    );
+    let (mut num, mut den) = (0.0, 0.0);
+    for &i in &hair {
+        let tr = jxx[i] + jyy[i];
+        if tr < 1e-6 {
+            continue;
+        }
+        let diff = ((jxx[i] - jyy[i]).powi(2) + 4.0 * jxy[i].powi(2)).sqrt();
+        num += diff;
+        den += tr;
+    }
+    let coherence = if den > 0.0 { num / den } else { 1.0 };
+    let curl = ((0.55 - coherence) / 0.35).clamp(0.0, 1.0);
+    let brightness = hair.iter().map(|&i| col[i][0]).sum::<f32>() / hair.len() as f32;
+    Some(Hair {
+        crown,
+        top,
+        sides,
+        length,
+        curl,
+        brightness,
+    })
+}
