@@ -1,0 +1,585 @@
+//! Pipelines, layouts and uniform buffers: built once with the device (the scene variants and
+//! styles on first use).
+
+// The GPU objects' shared formats, uniforms and imports (this file is a part of `gpu`).
+use super::*;
+
+/// Pipelines, layouts and uniform buffers: created once with the device.
+pub(crate) struct Pipelines {
+    pub samples: u32,
+    /// Scene pipelines by variant (the plain one built at start, the others on first use).
+    scene: Vec<(SceneVariant, wgpu::RenderPipeline)>,
+    scene_module: wgpu::ShaderModule,
+    scene_pipeline_layout: wgpu::PipelineLayout,
+    pub frame_uniform: wgpu::Buffer,
+    pub scene_bind_group: wgpu::BindGroup,
+    /// Group 1 of the scene pass: the engraving's maps and the lamp's shadow cube.
+    pub surface_layout: wgpu::BindGroupLayout,
+    /// Mipmapped, clamped at the edges: the engraving's maps.
+    pub linear_mipmap: wgpu::Sampler,
+    /// Depth comparison (less-equal) for the shadow cube, filtered (2x2 PCF where supported).
+    pub shadow_sampler: wgpu::Sampler,
+    /// The shadow pass: depth only, one draw per cube face, each with its own uniform.
+    pub shadow: wgpu::RenderPipeline,
+    pub shadow_uniforms: Vec<wgpu::Buffer>,
+    pub shadow_bind_groups: Vec<wgpu::BindGroup>,
+    /// Composite pipelines by output format (the image's, a window's), built on first use.
+    composite: Vec<(wgpu::TextureFormat, wgpu::RenderPipeline)>,
+    composite_module: wgpu::ShaderModule,
+    pub composite_layout: wgpu::BindGroupLayout,
+    pub composite_uniform: wgpu::Buffer,
+    pub sss: wgpu::RenderPipeline,
+    pub sss_layout: wgpu::BindGroupLayout,
+    /// Horizontal and vertical pass uniforms.
+    pub sss_uniforms: [wgpu::Buffer; 2],
+    pub linear_clamp: wgpu::Sampler,
+    /// Gallery style passes: layout, modules, pipelines by (style, output format) built on
+    /// first use, and one uniform buffer per place in a chain.
+    pub style_layout: wgpu::BindGroupLayout,
+    style_modules: Vec<(Style, wgpu::ShaderModule)>,
+    style_pipelines: Vec<((Style, wgpu::TextureFormat), wgpu::RenderPipeline)>,
+    pub style_uniforms: Vec<wgpu::Buffer>,
+}
+
+/// Styles in one chain on the GPU, at most.
+pub(crate) const MAX_GPU_STYLES: usize = 8;
+/// The ping-pong targets of a style chain (display values, like the output).
+pub(crate) const STYLE_FORMAT: wgpu::TextureFormat = OUTPUT_FORMAT;
+
+pub(super) fn uniform_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A float texture for the fragment stage. Textures read with `textureLoad` only are declared
+/// unfilterable so that any float format (and GL) is accepted; the SSS pass samples its colour
+/// input bilinearly, which needs it filterable.
+pub(super) fn texture_entry(binding: u32, filterable: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A full-screen-triangle pipeline (no vertex buffers, no depth) writing one target.
+pub(super) fn fullscreen_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::BindGroupLayout,
+    format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(&pipeline_layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[color_target(format)],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// A written depth buffer, nearer wins.
+pub(super) fn depth_less(format: wgpu::TextureFormat) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format,
+        depth_write_enabled: Some(true),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
+}
+
+pub(super) fn color_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTargetState> {
+    Some(wgpu::ColorTargetState {
+        format,
+        blend: None,
+        write_mask: wgpu::ColorWrites::ALL,
+    })
+}
+
+/// Which surface effects a scene pipeline has compiled in (the shader's `ENGRAVING` and
+/// `LAMP` override constants). On a CPU rasteriser even untaken branches cost: the plain scene
+/// pass ran about 1.6 times as long with both compiled in and switched off by uniforms.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct SceneVariant {
+    pub engraving: bool,
+    pub lamp: bool,
+}
+
+pub(super) fn scene_pipeline(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::PipelineLayout,
+    samples: u32,
+    variant: SceneVariant,
+) -> wgpu::RenderPipeline {
+    let attributes = wgpu::vertex_attr_array![
+        0 => Float32x3, // position
+        1 => Float32x3, // normal
+        2 => Float32,   // relief
+        3 => Uint32,    // region
+        4 => Float32,   // hair
+        6 => Float32,   // occlusion
+        7 => Float32,   // key light
+    ];
+    let constants = [
+        ("ENGRAVING", f64::from(u8::from(variant.engraving))),
+        ("LAMP", f64::from(u8::from(variant.lamp))),
+    ];
+    let options = wgpu::PipelineCompilationOptions {
+        constants: &constants,
+        ..Default::default()
+    };
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("glyptic scene pipeline"),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_main"),
+            compilation_options: options.clone(),
+            buffers: &[
+                Some(wgpu::VertexBufferLayout {
+                    array_stride: size_of::<Vertex>() as wgpu::BufferAddress,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &attributes,
+                }),
+                // Tangent frames (surface::tangents), a buffer of their own: only frames with
+                // the engraving compute them.
+                Some(wgpu::VertexBufferLayout {
+                    array_stride: 16,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &wgpu::vertex_attr_array![5 => Float32x4],
+                }),
+            ],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            // The gem module's winding is not part of the contract: draw both faces and let
+            // the shader turn the normal towards the viewer.
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(depth_less(DEPTH_FORMAT)),
+        multisample: wgpu::MultisampleState {
+            count: samples,
+            ..Default::default()
+        },
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some("fs_main"),
+            compilation_options: options,
+            targets: &[
+                color_target(DIFFUSE_FORMAT),
+                color_target(SPECULAR_FORMAT),
+                color_target(DEPTH_MASK_FORMAT),
+            ],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+impl Pipelines {
+    pub fn new(device: &wgpu::Device, samples: u32) -> Self {
+        let scene_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("glyptic scene"),
+            source: wgpu::ShaderSource::Wgsl(shaders::SCENE.into()),
+        });
+        let composite_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("glyptic composite"),
+            source: wgpu::ShaderSource::Wgsl(shaders::COMPOSITE.into()),
+        });
+
+        let frame_uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("glyptic frame uniform"),
+            contents: bytemuck::bytes_of(&FrameUniform::zeroed()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic scene layout"),
+            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+        });
+        let scene_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("glyptic scene bind group"),
+            layout: &scene_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: frame_uniform.as_entire_binding(),
+            }],
+        });
+        let fragment = wgpu::ShaderStages::FRAGMENT;
+        let surface_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic surface layout"),
+            entries: &[
+                texture_entry(0, true),
+                texture_entry(1, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: fragment,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: fragment,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::Cube,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 4,
+                    visibility: fragment,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
+                    count: None,
+                },
+            ],
+        });
+        let linear_mipmap = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("glyptic linear mipmap"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("glyptic shadow"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            compare: Some(wgpu::CompareFunction::LessEqual),
+            ..Default::default()
+        });
+        let scene_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glyptic scene pipeline layout"),
+                bind_group_layouts: &[Some(&scene_layout), Some(&surface_layout)],
+                immediate_size: 0,
+            });
+        let scene = vec![(
+            SceneVariant::default(),
+            scene_pipeline(
+                device,
+                &scene_module,
+                &scene_pipeline_layout,
+                samples,
+                SceneVariant::default(),
+            ),
+        )];
+
+        let shadow_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("glyptic shadow"),
+            source: wgpu::ShaderSource::Wgsl(shaders::SHADOW.into()),
+        });
+        let shadow_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic shadow layout"),
+            entries: &[uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+        });
+        let shadow_uniforms: Vec<wgpu::Buffer> = (0..6)
+            .map(|_| {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("glyptic shadow face uniform"),
+                    size: size_of::<ShadowFaceUniform>() as u64,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+            .collect();
+        let shadow_bind_groups = shadow_uniforms
+            .iter()
+            .map(|buffer| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("glyptic shadow face"),
+                    layout: &shadow_layout,
+                    entries: &[wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: buffer.as_entire_binding(),
+                    }],
+                })
+            })
+            .collect();
+        let shadow_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glyptic shadow pipeline layout"),
+                bind_group_layouts: &[Some(&shadow_layout)],
+                immediate_size: 0,
+            });
+        let shadow = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("glyptic shadow pipeline"),
+            layout: Some(&shadow_pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &shadow_module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: size_of::<Vertex>() as wgpu::BufferAddress,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(depth_less(SHADOW_FORMAT)),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &shadow_module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+
+        let composite_uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("glyptic composite uniform"),
+            contents: bytemuck::bytes_of(&CompositeUniform::zeroed()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let composite_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic composite layout"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+                texture_entry(1, false),
+                texture_entry(2, false),
+            ],
+        });
+        let composite = vec![(
+            OUTPUT_FORMAT,
+            fullscreen_pipeline(
+                device,
+                "glyptic composite pipeline",
+                &composite_module,
+                &composite_layout,
+                OUTPUT_FORMAT,
+            ),
+        )];
+
+        let sss_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("glyptic sss"),
+            source: wgpu::ShaderSource::Wgsl(shaders::SSS.into()),
+        });
+        let sss_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic sss layout"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+                texture_entry(1, true),
+                texture_entry(2, false),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let sss = fullscreen_pipeline(
+            device,
+            "glyptic sss pipeline",
+            &sss_module,
+            &sss_layout,
+            SSS_FORMAT,
+        );
+        let sss_uniform = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: (SSS_UNIFORM_FLOATS * 4) as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let sss_uniforms = [
+            sss_uniform("glyptic sss horizontal"),
+            sss_uniform("glyptic sss vertical"),
+        ];
+        let linear_clamp = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("glyptic linear clamp"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+
+        let style_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic style layout"),
+            entries: &[
+                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+                texture_entry(1, false),
+            ],
+        });
+        let style_modules = [
+            (Style::Toon, shaders::TOON),
+            (Style::FishEye, shaders::FISHEYE),
+            (Style::Chromatic, shaders::CHROMATIC),
+            (Style::Painterly, shaders::PAINTERLY),
+        ]
+        .into_iter()
+        .map(|(style, source)| {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(style.name()),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+            (style, module)
+        })
+        .collect();
+        let style_uniforms = (0..MAX_GPU_STYLES)
+            .map(|_| {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("glyptic style uniform"),
+                    size: 32,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+            .collect();
+
+        Self {
+            samples,
+            scene,
+            scene_module,
+            scene_pipeline_layout,
+            frame_uniform,
+            scene_bind_group,
+            surface_layout,
+            linear_mipmap,
+            shadow_sampler,
+            shadow,
+            shadow_uniforms,
+            shadow_bind_groups,
+            composite,
+            composite_module,
+            composite_layout,
+            composite_uniform,
+            sss,
+            sss_layout,
+            sss_uniforms,
+            linear_clamp,
+            style_layout,
+            style_modules,
+            style_pipelines: Vec::new(),
+            style_uniforms,
+        }
+    }
+}
+
+impl Pipelines {
+    /// Builds the composite pipeline for `format` if there is none yet.
+    /// Builds the scene pipeline of `variant` if there is none yet.
+    pub fn ensure_scene(&mut self, device: &wgpu::Device, variant: SceneVariant) {
+        if !self.scene.iter().any(|(v, _)| *v == variant) {
+            let pipeline = scene_pipeline(
+                device,
+                &self.scene_module,
+                &self.scene_pipeline_layout,
+                self.samples,
+                variant,
+            );
+            self.scene.push((variant, pipeline));
+        }
+    }
+
+    pub fn scene(&self, variant: SceneVariant) -> Option<&wgpu::RenderPipeline> {
+        self.scene
+            .iter()
+            .find(|(v, _)| *v == variant)
+            .map(|(_, p)| p)
+    }
+
+    pub fn ensure_composite(&mut self, device: &wgpu::Device, format: wgpu::TextureFormat) {
+        if !self.composite.iter().any(|(f, _)| *f == format) {
+            let pipeline = fullscreen_pipeline(
+                device,
+                "glyptic composite pipeline",
+                &self.composite_module,
+                &self.composite_layout,
+                format,
+            );
+            self.composite.push((format, pipeline));
+        }
+    }
+
+    /// Builds the pass of `style` writing `format` if there is none yet and the style has a
+    /// GPU pass ([`Pipelines::style`] then finds it).
+    pub fn ensure_style(
+        &mut self,
+        device: &wgpu::Device,
+        style: Style,
+        format: wgpu::TextureFormat,
+    ) {
+        if self
+            .style_pipelines
+            .iter()
+            .any(|(k, _)| *k == (style, format))
+        {
+            return;
+        }
+        if let Some((_, module)) = self.style_modules.iter().find(|(s, _)| *s == style) {
+            let pipeline =
+                fullscreen_pipeline(device, style.name(), module, &self.style_layout, format);
+            self.style_pipelines.push(((style, format), pipeline));
+        }
+    }
+
+    /// The pass of `style` writing `format` (see [`Pipelines::ensure_style`]).
+    pub fn style(
+        &self,
+        style: Style,
+        format: wgpu::TextureFormat,
+    ) -> Option<&wgpu::RenderPipeline> {
+        self.style_pipelines
+            .iter()
+            .find(|(k, _)| *k == (style, format))
+            .map(|(_, p)| p)
+    }
+
+    /// The composite pipeline for `format` (see [`Pipelines::ensure_composite`]).
+    pub fn composite(&self, format: wgpu::TextureFormat) -> Option<&wgpu::RenderPipeline> {
+        self.composite
+            .iter()
+            .find(|(f, _)| *f == format)
+            .map(|(_, p)| p)
+    }
+}
