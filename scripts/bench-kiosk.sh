@@ -5,10 +5,7 @@
 # time of the first face from a video is reported too). Writes bench/results/kiosk-startup.md.
 # Usage: scripts/bench-kiosk.sh [RUNS]   (default 5)
 set -euo pipefail
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-cd "$ROOT"
-bash scripts/setup.sh >/dev/null
-source scripts/env.sh
+source "$(dirname "${BASH_SOURCE[0]}")/ready.sh"
 runs="${1:-5}"
 cargo build --release --locked --no-default-features
 cp target/release/glyptic target/release/glyptic-noface

@@ -3,10 +3,7 @@
 # on and off, marble and agate, and the relief rebuild time; writes bench/results/render.md.
 # Usage: scripts/bench-render.sh [FRAMES]   (default 9)
 set -euo pipefail
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-cd "$ROOT"
-bash scripts/setup.sh >/dev/null
-source scripts/env.sh
+source "$(dirname "${BASH_SOURCE[0]}")/ready.sh"
 frames="${1:-9}"
 cargo build --release --locked --example bench_render
 mkdir -p bench/results

@@ -14,10 +14,7 @@
 # as labels alone (docs/person-labels.png and .md) and as an overlay on the astronaut's photo
 # (out/gallery/person/astronaut.png: it holds the photo, so it is not committed).
 set -euo pipefail
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-cd "$ROOT"
-bash scripts/setup.sh >/dev/null
-source scripts/env.sh
+source "$(dirname "${BASH_SOURCE[0]}")/ready.sh"
 OUT=out/gallery
 mkdir -p "$OUT"
 

@@ -6,10 +6,7 @@
 # grew 5 % or more after warm-up or the window ever waited 250 ms.
 # Usage: scripts/soak-kiosk.sh [FRAMES]   (default 10000; about 6 minutes)
 set -euo pipefail
-ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-cd "$ROOT"
-bash scripts/setup.sh >/dev/null
-source scripts/env.sh
+source "$(dirname "${BASH_SOURCE[0]}")/ready.sh"
 frames="${1:-10000}"
 cargo build --release --locked --example make_clip
 cargo build --release --locked

@@ -14,7 +14,6 @@ pub mod capture;
 #[cfg(feature = "face")]
 pub mod detect;
 pub mod kiosk;
-#[cfg(feature = "face")]
 pub mod pipeline;
 pub mod stage;
 #[cfg(feature = "face")]

@@ -5,7 +5,7 @@
 //! the work and records the time and the detail on it when the work succeeds; a subscriber at
 //! debug level logs each stage as it closes (`glyptic -v`). The same measurement goes to the
 //! calling thread's [`record`]ing, if there is one, and that is what the stage table, the
-//! batch CSV and the kiosk's trace are built from; with nobody recording, a stage costs one
+//! batch CSV and `glyptic track`'s per-frame times are built from; with nobody recording, a stage costs one
 //! disabled span and a clock read. Times are wall-clock milliseconds.
 
 use std::cell::RefCell;

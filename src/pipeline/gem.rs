@@ -9,13 +9,16 @@
 
 use std::path::Path;
 
+#[cfg(feature = "face")]
 use crate::assets::ModelPaths;
 use crate::capture::CaptureError;
+#[cfg(feature = "face")]
 use crate::detect::{PersonSegmenter, SegmentError};
 use crate::gem::{self, CameoParams, GemError};
 use crate::render::{Mesh, RenderError, RenderParams, Renderer};
 use crate::stage::timed;
 
+#[cfg(feature = "face")]
 use super::{FacePipeline, FaceResult, PipelineError};
 
 /// Whose hair the gem wears.
@@ -34,6 +37,7 @@ pub enum Hair {
 pub enum GemPipelineError {
     #[error(transparent)]
     Photo(#[from] CaptureError),
+    #[cfg(feature = "face")]
     #[error(transparent)]
     Face(#[from] PipelineError),
     #[error("building the cameo: {0}")]
@@ -44,6 +48,7 @@ pub enum GemPipelineError {
     Encode(#[from] image::ImageError),
 }
 
+#[cfg(feature = "face")]
 impl GemPipelineError {
     /// The photo was read but holds no face (a batch counts these apart from errors).
     pub fn is_no_face(&self) -> bool {
@@ -51,6 +56,7 @@ impl GemPipelineError {
     }
 }
 
+#[cfg(feature = "face")]
 /// A photo's gem before it is rendered.
 #[derive(Clone, Debug)]
 pub struct PhotoGem {
@@ -61,6 +67,7 @@ pub struct PhotoGem {
     pub mesh: Mesh,
 }
 
+#[cfg(feature = "face")]
 /// The loaded models and choices that turn photos into cameo meshes.
 pub struct GemPipeline {
     pub face: FacePipeline,
@@ -73,6 +80,7 @@ pub struct GemPipeline {
     pub carve_glasses: bool,
 }
 
+#[cfg(feature = "face")]
 impl GemPipeline {
     /// Loads the face pipeline and, for [`Hair::Photo`], the segmentation model (missing or
     /// broken: a warning, and the hair is read by colour alone).
@@ -159,6 +167,7 @@ impl GemPipeline {
     }
 }
 
+#[cfg(feature = "face")]
 fn load_segmenter(models: &ModelPaths, hair: Hair) -> Option<PersonSegmenter> {
     if hair == Hair::Classical {
         return None;
@@ -168,6 +177,7 @@ fn load_segmenter(models: &ModelPaths, hair: Hair) -> Option<PersonSegmenter> {
         .ok()
 }
 
+#[cfg(feature = "face")]
 fn describe_person(p: &crate::person::Person) -> String {
     let glasses = if p.has_glasses() { "yes" } else { "no" };
     let (beard, moustache) = (100.0 * p.beard, 100.0 * p.moustache);

@@ -3,6 +3,7 @@
 
 use std::time::Instant;
 
+#[cfg(feature = "face")]
 use glyptic::gem::HairStyle;
 use glyptic::kiosk::{blend_faces, idle_weight};
 

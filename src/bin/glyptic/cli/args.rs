@@ -1,0 +1,246 @@
+//! The argument groups several commands share: how the gem is shown (`ViewArgs`, with the
+//! scattering's `SssArgs`), whose face and what of the photo goes into it (`ChoiceArgs`), and
+//! frame sizes. The types they choose among are the library's own (clap derives on them).
+
+use anyhow::{Context, Result};
+use clap::ValueEnum;
+
+use glyptic::gem;
+use glyptic::render::{Material, RenderParams};
+
+/// How the gem is shown.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ViewArgs {
+    /// Stone of the cameo.
+    #[arg(long, value_enum, default_value_t = Material::Marble)]
+    pub material: Material,
+    /// Image size, WIDTHxHEIGHT pixels.
+    #[arg(long, default_value = "640x800")]
+    pub size: Size,
+    /// Orbit the view around the gem, degrees (0 looks straight at it).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub yaw: f32,
+    /// Tilt the view, degrees.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub pitch: f32,
+    /// How the portrait is carved: in profile (the classic cameo) or facing the viewer.
+    #[arg(long, value_enum, default_value_t = gem::View::Profile)]
+    pub portrait: gem::View,
+    #[command(flatten)]
+    pub sss: SssArgs,
+    /// Gallery styles after the render, in order: toon, dither, painterly, fisheye, chromatic
+    /// (e.g. `--style toon,fisheye`).
+    #[arg(long, value_name = "NAME[,NAME...]")]
+    pub style: Option<StyleChain>,
+    /// The moment (seconds) the moving styles (chromatic) show.
+    #[arg(long, default_value_t = 0.0, value_name = "S")]
+    pub style_time: f32,
+    /// An engraved Greek-key border round the ground (parallax occlusion mapping).
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    pub engraving: OnOff,
+    /// A raking lamp at the upper left whose shadows the relief casts on the ground.
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    pub lamp: OnOff,
+    /// Agate: cut the hair from a third, brown layer (off: white like the face).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub hair_layer: OnOff,
+}
+
+/// `--style`'s list.
+#[derive(Clone, Debug)]
+pub struct StyleChain(pub Vec<glyptic::styles::Style>);
+
+impl std::str::FromStr for StyleChain {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        glyptic::styles::Style::parse_chain(s).map(StyleChain)
+    }
+}
+
+/// Subsurface scattering options (`render`, `photo`, `batch`).
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct SssArgs {
+    /// Subsurface scattering: light diffusing through the stone.
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    pub sss: OnOff,
+    /// Blur taps per direction (odd, 3..=65).
+    #[arg(long, default_value_t = 21, value_name = "N")]
+    pub sss_taps: usize,
+    /// How much light scatters, 0..=1 (red's share; green and blue follow the reference balance).
+    #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S")]
+    pub sss_strength: f32,
+    /// How far light travels under the surface, mm (the kernel's reach).
+    #[arg(long, default_value_t = glyptic::sss::DEFAULT_WIDTH_MM, value_name = "MM")]
+    pub sss_width: f32,
+    /// Diffusion profile.
+    #[arg(long, value_enum, default_value_t = glyptic::sss::Profile::Marble)]
+    pub sss_profile: glyptic::sss::Profile,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OnOff {
+    On,
+    Off,
+}
+
+impl SssArgs {
+    /// The kernel parameters (even with `--sss off`, for `glyptic kernel`), validated.
+    pub(super) fn params(&self) -> Result<glyptic::sss::SssParams> {
+        let p = glyptic::sss::SssParams {
+            taps: self.sss_taps,
+            strength: glyptic::sss::SssParams::strength_rgb(self.sss_strength),
+            width_mm: self.sss_width,
+            profile: self.sss_profile,
+            falloff: self.sss_profile.falloff(),
+        };
+        p.validate().context("subsurface scattering")?;
+        Ok(p)
+    }
+}
+
+impl ViewArgs {
+    pub(super) fn params(&self) -> Result<RenderParams> {
+        Ok(RenderParams {
+            width: self.size.width,
+            height: self.size.height,
+            material: self.material,
+            yaw_deg: self.yaw,
+            pitch_deg: self.pitch,
+            sss: match self.sss.sss {
+                OnOff::On => Some(self.sss.params()?),
+                OnOff::Off => None,
+            },
+            styles: self.style.clone().map_or_else(Vec::new, |c| c.0),
+            style_time_s: self.style_time,
+            engraving: (self.engraving == OnOff::On)
+                .then(glyptic::render::surface::EngravingParams::default),
+            lamp: (self.lamp == OnOff::On).then(glyptic::render::Lamp::default),
+            hair_layer: self.hair_layer == OnOff::On,
+            ..RenderParams::default()
+        })
+    }
+}
+
+#[cfg(feature = "face")]
+/// Which face is the subject when a photo or frame holds several, and what of the photo
+/// besides the face goes into the gem.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct ChoiceArgs {
+    /// The subject among several faces: the largest, or the one nearest the image's centre
+    /// (a kiosk with people passing behind the visitor).
+    #[arg(long, value_enum, default_value_t = glyptic::detect::FaceChoice::Largest)]
+    pub prefer: glyptic::detect::FaceChoice,
+    /// The hair: the person's own, as the photo shows it (bald stays bald, long hair falls
+    /// over the shoulders), or the same classical hairstyle for everyone.
+    #[arg(long, value_enum, default_value_t = glyptic::pipeline::Hair::Photo)]
+    pub hair: glyptic::pipeline::Hair,
+    /// The portrait's caricature, GAIN,DETAIL: the gain multiplies the face's difference from
+    /// the mean face, the detail (0..1) exaggerates its small, telling differences more than
+    /// its large ones. `1,0` carves the fitted face as it is.
+    #[arg(long, value_parser = parse_caricature, default_value = "1,0.5")]
+    pub caricature: glyptic::shapemodel::Caricature,
+    /// How much of the photo's expression the portrait carves: 0 a calm, neutral face (as
+    /// classical cameos have), 1 all of it.
+    #[arg(long, value_parser = parse_expression, default_value = "0.5")]
+    pub expression: f32,
+    /// Glasses found on the photo: carved as a cutter would (the rims and temples as ridges on
+    /// the face), or left out.
+    #[arg(long, value_enum, default_value_t = GlassesArg::Carve)]
+    pub glasses: GlassesArg,
+}
+
+#[cfg(feature = "face")]
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum GlassesArg {
+    Carve,
+    Leave,
+}
+
+#[cfg(feature = "face")]
+fn parse_expression(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        Ok(v) => Err(format!("{v}: the expression's share must be 0..1")),
+        Err(e) => Err(format!("{s:?} is not a number ({e})")),
+    }
+}
+
+#[cfg(feature = "face")]
+fn parse_caricature(s: &str) -> Result<glyptic::shapemodel::Caricature, String> {
+    let (g, d) = s
+        .split_once(',')
+        .ok_or_else(|| format!("{s}: expected GAIN,DETAIL, e.g. 1,0.5"))?;
+    let number = |v: &str| {
+        v.trim()
+            .parse::<f32>()
+            .map_err(|e| format!("{s}: {v:?} is not a number ({e})"))
+    };
+    let c = glyptic::shapemodel::Caricature {
+        gain: number(g)?,
+        detail: number(d)?,
+    };
+    if c.is_valid() {
+        Ok(c)
+    } else {
+        Err(format!("{s}: the gain must be 0..4 and the detail 0..1"))
+    }
+}
+
+#[cfg(feature = "face")]
+impl ChoiceArgs {
+    pub fn apply(&self, options: &mut glyptic::detect::DetectOptions) {
+        options.prefer = self.prefer;
+    }
+
+    /// The subject's choice, the portrait's caricature and its share of the expression.
+    pub fn apply_face(&self, pipeline: &mut glyptic::pipeline::FacePipeline) {
+        self.apply(&mut pipeline.faces.detect_options);
+        pipeline.caricature = self.caricature;
+        pipeline.portrait_expression = self.expression;
+    }
+
+    /// The photo -> gem pipeline with these choices and `view`'s portrait.
+    pub fn gem_pipeline(&self, view: &ViewArgs) -> Result<glyptic::pipeline::GemPipeline> {
+        let mut p = glyptic::pipeline::GemPipeline::load(
+            &glyptic::assets::ModelPaths::locate(),
+            view.portrait.cameo(),
+            self.hair,
+        )?;
+        self.apply_face(&mut p.face);
+        p.carve_glasses = self.glasses == GlassesArg::Carve;
+        Ok(p)
+    }
+}
+
+/// `WxH` in pixels.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct Size {
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Frame sizes accepted on the command line, pixels per side.
+const SIZE_RANGE: std::ops::RangeInclusive<u32> = 16..=8192;
+
+impl std::str::FromStr for Size {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (w, h) = s
+            .split_once(['x', 'X'])
+            .ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT"))?;
+        let parse = |v: &str| {
+            v.trim()
+                .parse::<u32>()
+                .map_err(|_| format!("`{v}` is not a whole number of pixels"))
+        };
+        let (width, height) = (parse(w)?, parse(h)?);
+        if !SIZE_RANGE.contains(&width) || !SIZE_RANGE.contains(&height) {
+            return Err(format!(
+                "{width}x{height}: each side must be {}..={} pixels",
+                SIZE_RANGE.start(),
+                SIZE_RANGE.end()
+            ));
+        }
+        Ok(Size { width, height })
+    }
+}

@@ -1,0 +1,265 @@
+//! The commands that look at one stage alone: `landmarks` (faces and their 68 points), `fit`
+//! (the morphable model on a landmark file) and `kernel` (the scattering kernel's taps).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, anyhow, bail};
+
+use glyptic::gem;
+
+#[cfg(feature = "face")]
+use super::ChoiceArgs;
+use super::{OnOff, Size, SssArgs, check_output_dirs, write_atomic};
+
+#[derive(clap::Args, Debug)]
+pub struct KernelArgs {
+    /// Taps (odd, 3..=65).
+    pub taps: usize,
+    /// How much light scatters, 0..=1.
+    #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S")]
+    pub strength: f32,
+    /// Diffusion profile.
+    #[arg(long, value_enum, default_value_t = glyptic::sss::Profile::Marble)]
+    pub profile: glyptic::sss::Profile,
+}
+
+#[cfg(feature = "face")]
+#[derive(clap::Args, Debug)]
+pub struct LandmarksArgs {
+    /// A photo (JPEG, PNG, PPM, ...).
+    pub image: PathBuf,
+    /// Print one JSON object: `{"faces": [{"box": [x, y, w, h], "score": s, "points": [[x, y],
+    /// ...68]}], "times_ms": {...}}`, image pixels, 0-based, subject first (see --prefer).
+    #[arg(long)]
+    pub json: bool,
+    /// At most this many faces (the first in --prefer's order).
+    #[arg(long, value_name = "N")]
+    pub max_faces: Option<usize>,
+    #[command(flatten)]
+    pub choice: ChoiceArgs,
+    /// Also write the subject's landmarks as iBUG .pts (1-based, as menpo reads them).
+    #[arg(long, value_name = "FILE.pts")]
+    pub pts: Option<PathBuf>,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct FitArgs {
+    /// 68 landmarks, iBUG .pts (1-based coordinates, as menpo writes them); a landmark that
+    /// was not found may be written `nan nan`.
+    #[arg(long, value_name = "FILE.pts")]
+    pub landmarks: PathBuf,
+    /// Size of the image the landmarks belong to, WIDTHxHEIGHT pixels.
+    #[arg(long)]
+    pub size: Size,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Leave out the contour landmarks (face outline).
+    #[arg(long)]
+    pub no_contour: bool,
+    /// Outer iterations.
+    #[arg(long, default_value_t = 5)]
+    pub iterations: usize,
+    /// Use a perspective (pinhole) camera with this horizontal field of view, degrees, centred
+    /// on the image; for faces close to the camera (a webcam: about 60). Default: orthographic.
+    #[arg(long, value_name = "DEG")]
+    pub fov: Option<f64>,
+    /// Fit this many times and report the median time (the model is loaded once).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub repeat: u32,
+    /// Also write the fitted face mesh (model millimetres) as Wavefront OBJ.
+    #[arg(long, value_name = "FILE.obj")]
+    pub obj: Option<PathBuf>,
+}
+
+/// `glyptic landmarks`: detection and 68 landmarks per face, with per-stage times.
+#[cfg(feature = "face")]
+pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
+    let path = &args.image;
+    let (found, stages) = glyptic::stage::record(|| -> Result<_> {
+        let img = glyptic::pipeline::gem::decode(path)?;
+        let mut pipeline =
+            glyptic::pipeline::LandmarkPipeline::load(&glyptic::assets::ModelPaths::locate())?;
+        args.choice.apply(&mut pipeline.detect_options);
+        let mut detections = pipeline
+            .detect(&img)
+            .with_context(|| path.display().to_string())?;
+        if let Some(n) = args.max_faces {
+            detections.truncate(n);
+        }
+        let faces = pipeline
+            .landmarks(&img, &detections)
+            .with_context(|| path.display().to_string())?;
+        Ok((img, faces))
+    });
+    let (img, faces) = found?;
+    if let (Some(pts), Some(face)) = (&args.pts, faces.first()) {
+        write_atomic(
+            pts,
+            glyptic::landmarks::pts::write_pts(&face.points).as_bytes(),
+        )?;
+    }
+    if args.json {
+        let times: serde_json::Map<String, serde_json::Value> = stages
+            .iter()
+            .map(|s| (s.name.to_string(), serde_json::json!(s.ms)))
+            .collect();
+        let faces: Vec<serde_json::Value> = faces
+            .iter()
+            .map(|f| {
+                serde_json::json!({
+                    "box": f.detection.bbox, "score": f.detection.score, "points": f.points,
+                })
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::json!({ "image": path.display().to_string(), "width": img.width(),
+                "height": img.height(), "faces": faces, "times_ms": times })
+        );
+    } else {
+        super::print_stages(&stages);
+        if faces.is_empty() {
+            println!("no face found in {}", path.display());
+        }
+        for (i, f) in faces.iter().enumerate() {
+            let [x, y, w, h] = f.detection.bbox;
+            println!(
+                "face {}: box {x:.0},{y:.0} {w:.0}x{h:.0}, score {:.2}, 68 landmarks",
+                i + 1,
+                f.detection.score
+            );
+        }
+    }
+    if args.pts.is_some() && faces.is_empty() {
+        bail!(
+            "{}: no face found, so no landmarks to write",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
+    check_output_dirs(args.obj.iter())?;
+    let path = &args.landmarks;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let points = glyptic::landmarks::pts::read_pts_with_missing(&text)
+        .with_context(|| path.display().to_string())?;
+    let (w, h) = (args.size.width as f32, args.size.height as f32);
+    let outside = points
+        .iter()
+        .filter(|p| {
+            p[0].is_finite()
+                && p[1].is_finite()
+                && !(p[0] >= -0.5 * w && p[0] <= 1.5 * w && p[1] >= -0.5 * h && p[1] <= 1.5 * h)
+        })
+        .count();
+    if outside > 0 {
+        bail!(
+            "{}: {outside} landmarks lie far outside a {}x{} image",
+            path.display(),
+            args.size.width,
+            args.size.height
+        );
+    }
+    let load = Instant::now();
+    let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir())?;
+    let load_ms = load.elapsed().as_secs_f64() * 1e3;
+    let opts = glyptic::fit::FitOptions {
+        contour: !args.no_contour,
+        iterations: args.iterations,
+        ..Default::default()
+    };
+    let intrinsics = match args.fov {
+        Some(fov) if fov > 1.0 && fov < 170.0 => {
+            Some(glyptic::fit::Intrinsics::from_fov(w as f64, h as f64, fov))
+        }
+        Some(fov) => bail!("--fov {fov}: the field of view must be between 1 and 170 degrees"),
+        None => None,
+    };
+    let mut times = Vec::with_capacity(args.repeat as usize);
+    let mut fitted = None;
+    for _ in 0..args.repeat {
+        let t = Instant::now();
+        let result = match intrinsics {
+            Some(k) => glyptic::fit::fit_perspective(&model, &points, &opts, k),
+            None => glyptic::fit::fit(&model, &points, &opts),
+        };
+        fitted = Some(result.with_context(|| path.display().to_string())?);
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    let fit = fitted.ok_or_else(|| anyhow!("no fit was run"))?;
+    times.sort_by(f64::total_cmp);
+    let fit_ms = times[times.len() / 2];
+    let [yaw, pitch, roll] = fit.pose.yaw_pitch_roll_deg();
+    if let Some(obj) = &args.obj {
+        let mesh = model.instance(&fit.shape, &fit.expression);
+        let comment = format!(
+            "glyptic fit of {}\nSurrey Face Model mesh, model millimetres (non-commercial licence)",
+            path.display()
+        );
+        write_atomic(
+            obj,
+            gem::to_obj(&mesh, &model.shape.triangles, &comment).as_bytes(),
+        )?;
+    }
+    if args.json {
+        let out = serde_json::json!({
+            "yaw_deg": yaw, "pitch_deg": pitch, "roll_deg": roll,
+            "scale_px_per_mm": fit.pose.scale,
+            // Where the model origin projects, image pixels (x right, y down): with the rotation
+            // and scale this is the whole orthographic camera.
+            "translation_px": [fit.pose.translation.x, -fit.pose.translation.y],
+            "rotation": (0..3).map(|r| (0..3).map(|c| fit.pose.rotation[(r, c)]).collect::<Vec<f64>>()).collect::<Vec<_>>(),
+            "shape": fit.shape, "expression": fit.expression,
+            "expression_names": model.blendshapes.names,
+            "reprojection_px": fit.reprojection_px, "max_reprojection_px": fit.max_reprojection_px,
+            "mapped_landmarks": fit.mapped_landmarks, "noise_mm": fit.noise_mm,
+            "iterations": fit.iterations, "fit_ms": fit_ms, "load_ms": load_ms,
+            "contour": !args.no_contour,
+            "camera": if fit.perspective.is_some() { "perspective" } else { "orthographic" },
+            "depth_mm": fit.perspective.map(|p| p.depth_mm()),
+        });
+        println!("{out}");
+    } else {
+        println!(
+            "{:<16} {load_ms:>9.1} ms  {} vertices",
+            "load face model",
+            model.shape.num_vertices()
+        );
+        println!(
+            "{:<16} {fit_ms:>9.2} ms  yaw {yaw:.1} pitch {pitch:.1} roll {roll:.1} deg, reprojection {:.2} px mean, {:.2} px max over {} mapped landmarks, landmark noise {:.2} mm, {} iterations",
+            "fit",
+            fit.reprojection_px,
+            fit.max_reprojection_px,
+            fit.mapped_landmarks,
+            fit.noise_mm,
+            fit.iterations
+        );
+    }
+    Ok(())
+}
+
+/// `glyptic kernel N`.
+pub(super) fn print_kernel(args: &KernelArgs) -> Result<()> {
+    let p = SssArgs {
+        sss: OnOff::On,
+        sss_taps: args.taps,
+        sss_strength: args.strength,
+        sss_width: glyptic::sss::SssParams::default().width_mm,
+        sss_profile: args.profile,
+    }
+    .params()?;
+    let k = glyptic::sss::kernel(&p)?;
+    let [r, g, b] = k.sums();
+    println!(
+        "# {} taps, {:?} profile, strength {:.3} {:.3} {:.3}, range {} (= the blur radius)",
+        p.taps, p.profile, p.strength[0], p.strength[1], p.strength[2], k.range
+    );
+    println!("# offset  weight r g b (sums {r:.6} {g:.6} {b:.6})");
+    print!("{}", k.to_text());
+    Ok(())
+}

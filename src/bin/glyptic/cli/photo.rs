@@ -1,0 +1,253 @@
+//! `glyptic photo` and `glyptic render`: a photo (or a face mesh, or the mean face) to a gem
+//! image through [`glyptic::pipeline::gem`], the GPU coming up on a thread meanwhile.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result, anyhow, bail};
+
+use glyptic::gem;
+use glyptic::render::{RenderParams, Renderer};
+use glyptic::stage::{Stage, timed};
+
+#[cfg(feature = "face")]
+use super::{ChoiceArgs, GlassesArg};
+use super::{ViewArgs, check_output_dirs, print_stages, write_atomic};
+
+#[derive(clap::Args, Debug)]
+pub struct RenderArgs {
+    /// Output PNG.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub view: ViewArgs,
+    /// Use this face mesh instead of the mean face: Wavefront OBJ in model millimetres
+    /// (y up, face towards +z), e.g. one written by `glyptic photo --obj`.
+    #[arg(long, value_name = "FILE.obj", conflicts_with = "photo")]
+    pub face: Option<PathBuf>,
+    /// Fit the face in this photo instead (as `glyptic photo`).
+    #[arg(long, value_name = "IMAGE")]
+    pub photo: Option<PathBuf>,
+    /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
+    #[arg(long, value_name = "FILE.obj")]
+    pub gem_obj: Option<PathBuf>,
+}
+
+#[cfg(feature = "face")]
+#[derive(clap::Args, Debug)]
+pub struct PhotoArgs {
+    /// Portrait photo (JPEG, PNG, PPM, BMP, TIFF, WebP).
+    pub image: PathBuf,
+    /// Output PNG.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub view: ViewArgs,
+    #[command(flatten)]
+    pub choice: ChoiceArgs,
+    /// Also write the 68 landmarks as an iBUG .pts file (1-based, like menpo's).
+    #[arg(long, value_name = "FILE.pts")]
+    pub landmarks_out: Option<PathBuf>,
+    /// Also write the fitted face mesh (model millimetres) as Wavefront OBJ.
+    #[arg(long, value_name = "FILE.obj")]
+    pub obj: Option<PathBuf>,
+    /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
+    #[arg(long, value_name = "FILE.obj")]
+    pub gem_obj: Option<PathBuf>,
+}
+
+/// Starts the GPU device and pipelines on another thread: they do not depend on the face, so
+/// they come up while the photo is decoded and fitted.
+pub(super) fn spawn_renderer()
+-> std::thread::JoinHandle<Result<(Renderer, f64), glyptic::render::RenderError>> {
+    std::thread::spawn(|| {
+        let t = Instant::now();
+        Renderer::new_headless().map(|r| (r, t.elapsed().as_secs_f64() * 1e3))
+    })
+}
+
+/// Waits for [`spawn_renderer`] and prints its stage line.
+pub(super) fn join_renderer(
+    handle: std::thread::JoinHandle<Result<(Renderer, f64), glyptic::render::RenderError>>,
+) -> Result<Renderer> {
+    let (renderer, init_ms) = handle
+        .join()
+        .map_err(|_| anyhow!("the renderer thread panicked"))?
+        .context("starting the renderer")?;
+    print_stages(&[Stage {
+        name: "gpu init",
+        ms: init_ms,
+        detail: format!("{} (in parallel)", renderer.adapter_info()),
+    }]);
+    Ok(renderer)
+}
+
+pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
+    #[cfg(not(feature = "face"))]
+    if let Some(image) = &args.photo {
+        bail!(
+            "{}: this build has no face pipeline (cargo feature `face`): render the mean face or --face FILE.obj",
+            image.display()
+        );
+    }
+    #[cfg(feature = "face")]
+    if let Some(image) = &args.photo {
+        return photo(&PhotoArgs {
+            image: image.clone(),
+            output: args.output.clone(),
+            view: args.view.clone(),
+            choice: ChoiceArgs {
+                prefer: glyptic::detect::FaceChoice::Largest,
+                hair: glyptic::pipeline::Hair::Photo,
+                caricature: glyptic::shapemodel::Caricature::default(),
+                expression: glyptic::pipeline::PORTRAIT_EXPRESSION,
+                glasses: GlassesArg::Carve,
+            },
+            landmarks_out: None,
+            obj: None,
+            gem_obj: args.gem_obj.clone(),
+        });
+    }
+    let start = Instant::now();
+    let params = args.view.params()?;
+    check_output_dirs([&args.output].into_iter().chain(args.gem_obj.as_ref()))?;
+    let renderer_thread = spawn_renderer();
+    let (mesh, stages) = glyptic::stage::record(|| -> Result<_> {
+        let (face, triangles) = match &args.face {
+            Some(path) => timed(
+                "load face",
+                || read_face_obj(path),
+                |(p, t)| format!("{} vertices, {} triangles", p.len() / 3, t.len()),
+            )?,
+            None => {
+                let sfm = glyptic::assets::sfm_dir();
+                let model = timed(
+                    "load face model",
+                    || glyptic::shapemodel::SurreyModel::load_dir(&sfm),
+                    |m| format!("{} vertices (mean face)", m.shape.num_vertices()),
+                )?;
+                (model.instance(&[], &[]), model.shape.triangles.clone())
+            }
+        };
+        Ok(glyptic::pipeline::gem::build_gem(
+            &face,
+            &triangles,
+            &args.view.portrait.cameo(),
+        )?)
+    });
+    print_stages(&stages);
+    let mesh = mesh?;
+    let mut renderer = join_renderer(renderer_thread)?;
+    let png = render_png(&mut renderer, &mesh, &params, &args.output)?;
+    if let Some(obj) = &args.gem_obj {
+        write_gem_obj(obj, &mesh, "the mean face")?;
+    }
+    write_atomic(&args.output, &png)?;
+    print_stages(&[Stage {
+        name: "total",
+        ms: start.elapsed().as_secs_f64() * 1e3,
+        detail: args.output.display().to_string(),
+    }]);
+    Ok(())
+}
+
+/// Renders the gem and encodes its PNG, printing the stages (`output` names it in errors).
+pub(super) fn render_png(
+    renderer: &mut Renderer,
+    mesh: &glyptic::render::Mesh,
+    params: &RenderParams,
+    output: &Path,
+) -> Result<Vec<u8>> {
+    let (png, stages) =
+        glyptic::stage::record(|| glyptic::pipeline::gem::render_png(renderer, mesh, params));
+    print_stages(&stages);
+    png.with_context(|| output.display().to_string())
+}
+
+/// A face mesh from an OBJ file: positions `[x0, y0, z0, ...]` and triangles.
+fn read_face_obj(path: &Path) -> Result<(Vec<f32>, Vec<[u32; 3]>)> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read the face mesh", path.display()))?;
+    let mesh = glyptic::gem::parse_obj(&text)
+        .with_context(|| format!("{}: cannot read the face mesh", path.display()))?;
+    if mesh.1.is_empty() {
+        bail!("{}: the face mesh has no triangles", path.display());
+    }
+    Ok(mesh)
+}
+
+/// Writes the cameo mesh as OBJ (gem millimetres, normals).
+fn write_gem_obj(path: &Path, mesh: &glyptic::render::Mesh, source: &str) -> Result<()> {
+    let comment = format!(
+        "glyptic cameo from {source}\ngem millimetres: the cameo in the XY plane facing +Z, ground at z = 0"
+    );
+    write_atomic(path, gem::mesh_to_obj(mesh, &comment).as_bytes())
+}
+
+#[cfg(feature = "face")]
+pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
+    let start = Instant::now();
+    let params = args.view.params()?;
+    check_output_dirs(
+        [
+            Some(&args.output),
+            args.landmarks_out.as_ref(),
+            args.obj.as_ref(),
+            args.gem_obj.as_ref(),
+        ]
+        .into_iter()
+        .flatten(),
+    )?;
+    let image_path = &args.image;
+
+    // The GPU device and pipelines are independent of the face: start them now.
+    let renderer_thread = spawn_renderer();
+    let (made, stages) = glyptic::stage::record(|| -> Result<_> {
+        let mut pipeline = args.choice.gem_pipeline(&args.view)?;
+        let gem = pipeline
+            .photo(image_path)
+            .with_context(|| image_path.display().to_string())?;
+        Ok((pipeline, gem))
+    });
+    print_stages(&stages);
+    let (pipeline, gem) = made?;
+    let triangles = &pipeline.face.model.shape.triangles;
+
+    let mut renderer = join_renderer(renderer_thread)?;
+    let png = render_png(&mut renderer, &gem.mesh, &params, &args.output)?;
+    let t = Instant::now();
+    // Everything succeeded: now write, so a failure above leaves no output behind.
+    if let Some(pts) = &args.landmarks_out {
+        write_atomic(
+            pts,
+            glyptic::landmarks::pts::write_pts(&gem.face.landmarks).as_bytes(),
+        )?;
+    }
+    if let Some(obj) = &args.obj {
+        let comment = format!(
+            "glyptic fitted face from {}\nSurrey Face Model mesh, model millimetres (non-commercial licence)",
+            image_path.display()
+        );
+        write_atomic(
+            obj,
+            gem::to_obj(&gem.face.mesh, triangles, &comment).as_bytes(),
+        )?;
+    }
+    if let Some(obj) = &args.gem_obj {
+        write_gem_obj(obj, &gem.mesh, &image_path.display().to_string())?;
+    }
+    write_atomic(&args.output, &png)?;
+    print_stages(&[
+        Stage {
+            name: "write",
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            detail: args.output.display().to_string(),
+        },
+        Stage {
+            name: "total",
+            ms: start.elapsed().as_secs_f64() * 1e3,
+            detail: String::new(),
+        },
+    ]);
+    Ok(())
+}
