@@ -40,15 +40,8 @@ fn main() -> Result<()> {
         let name = photo
             .file_stem()
             .map_or("?".into(), |s| s.to_string_lossy().into_owned());
-        let img = match image::open(photo) {
-            Ok(img) => img.to_rgb8(),
-            Err(e) => {
-                println!("| {name} | cannot read: {e} | | | | |");
-                continue;
-            }
-        };
-        let face = match pipeline.process(&img) {
-            Ok(f) => f,
+        let face = match pipeline.photo(photo) {
+            Ok((_, f)) => f,
             Err(e) => {
                 println!("| {name} | no gem: {e} | | | | |");
                 continue;

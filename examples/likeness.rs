@@ -230,15 +230,8 @@ fn main() -> Result<()> {
     for (name, &id) in &ids {
         let path = dir.join(name);
         let t = std::time::Instant::now();
-        let img = match glyptic::capture::load_photo(&path) {
-            Ok(i) => i,
-            Err(e) => {
-                eprintln!("{name}: {e}");
-                continue;
-            }
-        };
-        let face = match pipeline.process(&img) {
-            Ok(f) => f,
+        let (img, face) = match pipeline.photo(&path) {
+            Ok(found) => found,
             Err(e) => {
                 eprintln!("{name}: no gem: {e}");
                 continue;

@@ -66,15 +66,8 @@ fn main() -> Result<()> {
         let name = photo
             .file_stem()
             .map_or("?".into(), |s| s.to_string_lossy().into_owned());
-        let img = match glyptic::capture::load_photo(photo) {
-            Ok(i) => i,
-            Err(e) => {
-                println!("| {name} | {e} |");
-                continue;
-            }
-        };
-        let face = match pipeline.process(&img) {
-            Ok(f) => f,
+        let (img, face) = match pipeline.photo(photo) {
+            Ok(found) => found,
             Err(e) => {
                 println!("| {name} | no face: {e} |");
                 continue;

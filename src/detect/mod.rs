@@ -202,18 +202,24 @@ pub enum DetectError {
     InvalidOptions(String),
 }
 
-/// CenterFace with an ONNX Runtime session, ready to run.
-pub struct FaceDetector {
-    session: Session,
-    model_path: PathBuf,
+/// An ONNX Runtime session and the file it came from (what errors and `Debug` name).
+pub(crate) struct OnnxModel {
+    pub(crate) session: Session,
+    pub(crate) path: PathBuf,
 }
 
-impl std::fmt::Debug for FaceDetector {
+impl std::fmt::Debug for OnnxModel {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("FaceDetector")
-            .field("model_path", &self.model_path)
+        f.debug_struct("OnnxModel")
+            .field("path", &self.path)
             .finish_non_exhaustive()
     }
+}
+
+/// CenterFace with an ONNX Runtime session, ready to run.
+#[derive(Debug)]
+pub struct FaceDetector {
+    model: OnnxModel,
 }
 
 impl FaceDetector {
@@ -236,14 +242,16 @@ impl FaceDetector {
         let env = ort_environment(ort_library)?;
         let session = centerface::session(&env, &bytes, model, config)?;
         Ok(Self {
-            session,
-            model_path: model.to_path_buf(),
+            model: OnnxModel {
+                session,
+                path: model.to_path_buf(),
+            },
         })
     }
 
     /// The model file this detector was loaded from.
     pub fn model_path(&self) -> &Path {
-        &self.model_path
+        &self.model.path
     }
 
     /// Finds faces, sorted by score, highest first. An empty image is an error; an image with
@@ -270,11 +278,12 @@ impl FaceDetector {
         threshold: f32,
     ) -> Result<Vec<Detection>, DetectError> {
         let infer_err = |reason: String| DetectError::Inference {
-            path: self.model_path.clone(),
+            path: self.model.path.clone(),
             reason,
         };
         let tensor = TensorRef::from_array_view(input).map_err(|e| infer_err(e.to_string()))?;
         let outputs = self
+            .model
             .session
             .run(ort::inputs![centerface::INPUT => tensor])
             .map_err(|e| infer_err(e.to_string()))?;

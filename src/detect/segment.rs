@@ -15,7 +15,6 @@
 use std::path::{Path, PathBuf};
 
 use image::RgbImage;
-use ort::session::Session;
 use ort::value::TensorRef;
 
 use super::{DetectError, SessionConfig, ort_environment};
@@ -48,17 +47,9 @@ pub enum SegmentError {
 }
 
 /// The segmentation network with an ONNX Runtime session, ready to run.
+#[derive(Debug)]
 pub struct PersonSegmenter {
-    session: Session,
-    model_path: PathBuf,
-}
-
-impl std::fmt::Debug for PersonSegmenter {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PersonSegmenter")
-            .field("model_path", &self.model_path)
-            .finish_non_exhaustive()
-    }
+    model: super::OnnxModel,
 }
 
 impl PersonSegmenter {
@@ -86,8 +77,10 @@ impl PersonSegmenter {
             )));
         }
         Ok(PersonSegmenter {
-            session,
-            model_path: model.to_path_buf(),
+            model: super::OnnxModel {
+                session,
+                path: model.to_path_buf(),
+            },
         })
     }
 
@@ -99,15 +92,16 @@ impl PersonSegmenter {
     ) -> Result<PersonMask, SegmentError> {
         let (centre, side) = mask_window(landmarks)?;
         let input = sample_window(img, centre, side).ok_or_else(|| SegmentError::Inference {
-            path: self.model_path.clone(),
+            path: self.model.path.clone(),
             reason: format!("empty {}x{} image", img.width(), img.height()),
         })?;
         let infer_err = |reason: String| SegmentError::Inference {
-            path: self.model_path.clone(),
+            path: self.model.path.clone(),
             reason,
         };
         let tensor = TensorRef::from_array_view(&input).map_err(|e| infer_err(e.to_string()))?;
         let outputs = self
+            .model
             .session
             .run(ort::inputs![INPUT => tensor])
             .map_err(|e| infer_err(e.to_string()))?;

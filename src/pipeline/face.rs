@@ -18,6 +18,8 @@ const LANDMARK_REFINE_ROUNDS: usize = 1;
 #[derive(Debug, thiserror::Error)]
 pub enum PipelineError {
     #[error(transparent)]
+    Photo(#[from] crate::capture::CaptureError),
+    #[error(transparent)]
     Detect(#[from] DetectError),
     #[error(transparent)]
     Landmarks(#[from] LandmarkError),
@@ -254,6 +256,16 @@ impl FacePipeline {
             },
         )?;
         Ok(Some((found, fit, faces.len())))
+    }
+
+    /// Decodes the photo at `path` (stage `decode`) and [`FacePipeline::process`]es it.
+    pub fn photo(
+        &mut self,
+        path: &std::path::Path,
+    ) -> Result<(image::RgbImage, FaceResult), PipelineError> {
+        let img = super::gem::decode(path)?;
+        let face = self.process(&img)?;
+        Ok((img, face))
     }
 
     /// [`FacePipeline::fit_subject`] with the fitted mesh; no face is an error.

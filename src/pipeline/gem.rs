@@ -35,8 +35,6 @@ pub enum Hair {
 /// Why a photo did not become a gem image.
 #[derive(Debug, thiserror::Error)]
 pub enum GemPipelineError {
-    #[error(transparent)]
-    Photo(#[from] CaptureError),
     #[cfg(feature = "face")]
     #[error(transparent)]
     Face(#[from] PipelineError),
@@ -118,13 +116,22 @@ impl GemPipeline {
 
     /// Decodes the photo at `path` and makes its gem.
     pub fn photo(&mut self, path: &Path) -> Result<PhotoGem, GemPipelineError> {
-        let img = decode(path)?;
-        self.image(&img)
+        let (img, face) = self.face.photo(path)?;
+        self.gem_for(&img, face)
     }
 
     /// The subject's face, their cameo and its mesh.
     pub fn image(&mut self, img: &image::RgbImage) -> Result<PhotoGem, GemPipelineError> {
         let face = self.face.process(img)?;
+        self.gem_for(img, face)
+    }
+
+    /// The cameo and its mesh for a face found in `img`.
+    fn gem_for(
+        &mut self,
+        img: &image::RgbImage,
+        face: FaceResult,
+    ) -> Result<PhotoGem, GemPipelineError> {
         let cameo = self.person_cameo(img, &face.landmarks);
         let mesh = build_gem(&face.portrait, &self.face.model.shape.triangles, &cameo)?;
         Ok(PhotoGem { face, cameo, mesh })
