@@ -45,12 +45,15 @@ pub mod shaders;
 pub mod sss;
 pub mod styles;
 pub mod surface;
+mod timing;
 
 use std::sync::{Arc, Mutex};
 
 use self::gpu::{MeshBuffers, Pipelines, Targets};
 
 pub use self::camera::{FOV_Y_DEG, ZOOM_RANGE};
+pub use self::timing::PassTimes;
+use self::timing::{PassTimer, TimedPass};
 pub use glyptic_core::scene::{
     KEY_LIGHT_AZIMUTH_DEG, KEY_LIGHT_ELEVATION_DEG, Mesh, Region, Vertex, key_light_dir,
 };
@@ -239,86 +242,6 @@ const SHADOW_BIAS_MM: f32 = 0.12;
 const SHADOW_PCF_MM: f32 = 0.35;
 /// Composite: exposure, vignette strength, vertical gradient strength, dither (8-bit steps).
 const COMPOSITE_PARAMS: [f32; 4] = [1.0, 0.45, 0.35, 1.0];
-
-/// GPU time of each pass of the last frame, from timestamp queries (where the device has them).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PassTimes {
-    pub scene_ms: f64,
-    /// Both blur directions; `None` with SSS off.
-    pub sss_ms: Option<f64>,
-    pub composite_ms: f64,
-    /// The lamp's six shadow-cube faces; `None` without a lamp.
-    pub shadow_ms: Option<f64>,
-    /// Each style of the chain, in order: its pass's GPU time, or for those done on the CPU
-    /// after the readback (from the first serial one on) their wall time.
-    pub styles_ms: Vec<(crate::styles::Style, f64)>,
-}
-
-/// A pass with timestamp queries, in the order the frame ran them (its query slots).
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum TimedPass {
-    Shadow,
-    Scene,
-    Sss,
-    Composite,
-    Style(crate::styles::Style),
-}
-
-/// Timestamp queries around each pass: scene, the SSS passes, composite, the GPU styles.
-struct PassTimer {
-    queries: wgpu::QuerySet,
-    resolve: wgpu::Buffer,
-    read: wgpu::Buffer,
-    /// Nanoseconds per timestamp tick.
-    period_ns: f64,
-}
-
-/// The most passes a frame times: six shadow faces, scene, two SSS, composite and the GPU
-/// styles.
-const TIMED_PASSES: u32 = 10 + gpu::MAX_GPU_STYLES as u32;
-
-impl PassTimer {
-    fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
-        let count = 2 * TIMED_PASSES;
-        let bytes = u64::from(count) * 8;
-        Self {
-            queries: device.create_query_set(&wgpu::QuerySetDescriptor {
-                label: Some("glyptic pass times"),
-                ty: wgpu::QueryType::Timestamp,
-                count,
-            }),
-            resolve: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("glyptic pass times resolve"),
-                size: bytes,
-                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            }),
-            read: device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("glyptic pass times read"),
-                size: bytes,
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }),
-            period_ns: f64::from(queue.get_timestamp_period()),
-        }
-    }
-
-    /// The timestamp writes of the next pass, recorded in `passes` (its slot is its place
-    /// there: the queries are resolved as one run from 0, so none may be skipped).
-    fn writes(
-        &self,
-        passes: &mut Vec<TimedPass>,
-        pass: TimedPass,
-    ) -> wgpu::RenderPassTimestampWrites<'_> {
-        let index = passes.len() as u32;
-        passes.push(pass);
-        wgpu::RenderPassTimestampWrites {
-            query_set: &self.queries,
-            beginning_of_pass_write_index: Some(2 * index),
-            end_of_pass_write_index: Some(2 * index + 1),
-        }
-    }
-}
 
 /// How many of `styles`, from the first, have a GPU pass (those before the first serial one).
 fn gpu_style_count(styles: &[crate::styles::Style]) -> usize {
@@ -683,42 +606,6 @@ impl Renderer {
         }
         self.queue.submit([encoder.finish()]);
         Ok(())
-    }
-
-    /// Reads the pass timestamps of the frame just waited for.
-    fn read_pass_times(&self) -> Option<PassTimes> {
-        let t = self.timer.as_ref()?;
-        let slice = t.read.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
-        let mapped = matches!(rx.try_recv(), Ok(Ok(())));
-        let ticks: Option<Vec<u64>> = mapped
-            .then(|| {
-                slice.get_mapped_range().ok().map(|view| {
-                    view.chunks_exact(8)
-                        .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
-                        .collect()
-                })
-            })
-            .flatten();
-        t.read.unmap();
-        let ticks = ticks?;
-        let mut times = PassTimes::default();
-        for (slot, pass) in self.timed_passes.iter().enumerate() {
-            let (a, b) = (*ticks.get(2 * slot)?, *ticks.get(2 * slot + 1)?);
-            let ms = b.saturating_sub(a) as f64 * t.period_ns / 1e6;
-            match *pass {
-                TimedPass::Shadow => *times.shadow_ms.get_or_insert(0.0) += ms,
-                TimedPass::Scene => times.scene_ms += ms,
-                TimedPass::Sss => *times.sss_ms.get_or_insert(0.0) += ms,
-                TimedPass::Composite => times.composite_ms += ms,
-                TimedPass::Style(style) => times.styles_ms.push((style, ms)),
-            }
-        }
-        Some(times)
     }
 
     /// Waits for the frame and copies the padded rows into an image.

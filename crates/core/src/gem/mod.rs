@@ -20,10 +20,12 @@
 //! Everything here is pure computation: no files, no GPU.
 
 pub mod basrelief;
+mod blur;
 mod builder;
 pub mod face;
 pub mod measure;
 mod obj;
+mod poisson;
 pub mod relief;
 mod shading;
 pub mod template;

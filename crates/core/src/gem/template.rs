@@ -16,6 +16,9 @@
 //! A fitted face is placed into this frame by [`super::anchors`] (scale and shift fitted on
 //! brow, chin, forehead, tragus and jaw), so the head follows the face and the face always
 //! leads: the builder uses the template only outside the face's footprint. Pure computation.
+//!
+//! Why one long file: the shapes are one height field, each drawn over the last with the same
+//! frame and helpers; split, every part would need them all.
 
 /// Which way the portrait looks out of the stone: one type for the cameo, the kiosk's TOML
 /// (`portrait = "profile"`) and the command line (`--portrait`).

