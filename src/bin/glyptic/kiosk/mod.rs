@@ -1,6 +1,6 @@
 //! `glyptic kiosk`: the museum window. A visitor's face becomes a cameo, live.
 //!
-//! Threads: the window's event loop (this module: input, controls, rendering), a gem thread
+//! Threads: the window's event loop (input, controls, rendering: `window`), a gem thread
 //! that builds cameos from face meshes (the fitted face, or the ease back to the default face),
 //! and with the `face` feature the capture and face threads of [`glyptic::stream`]. All hand
 //! over through one-slot channels where the newest item wins: the window never waits for them.
@@ -9,7 +9,6 @@
 //! a control, the orbit, the size); every frame then draws that texture and the controls
 //! (egui) into the window's surface. On a CPU rasteriser a gem frame costs tenths of a second
 //! while a controls frame costs milliseconds, so buttons answer at once.
-
 //!
 //! Modules: [`window`] (the surface, one frame), [`news`] (what the window takes from the
 //! other threads), [`gem_thread`], [`face_thread`], [`ui`] (the controls), [`trace`] (status,
