@@ -3,6 +3,8 @@
 //!
 //! Data is found through `glyptic::assets` (set `GLYPTIC_ROOT` to the project root).
 //! Coordinates are image pixels with pixel centres at `i + 0.5`, as in `glyptic::detect`.
+//! About 700 lines: the detector's and the segmenter's tests share the photos and helpers
+//! at the top.
 #![cfg(feature = "face")]
 
 use crate::common;

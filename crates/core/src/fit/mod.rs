@@ -19,6 +19,9 @@
 //!
 //! All of this is pure computation on [`SurreyModel`]: no I/O, no allocation proportional to
 //! the mesh until [`SurreyModel::instance`] is called for the full face.
+//!
+//! About 700 lines: the loop and the types its parts share (options, correspondences, the
+//! problem); the parts are `blocks`, `joint`, `outline`, `solve` and the camera modules.
 
 mod blocks;
 mod camera;
