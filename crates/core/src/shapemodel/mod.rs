@@ -468,6 +468,8 @@ impl SurreyModel {
         let mapping = parse_mapping(&text(MAPPING_FILE)?, MAPPING_FILE)?;
         let contour = parse_model_contour(&text(CONTOURS_FILE)?, CONTOURS_FILE)?;
         let edges = parse_edge_topology(&text(EDGE_TOPOLOGY_FILE)?, EDGE_TOPOLOGY_FILE)?;
+        // Checked before the rows are packed, which assumes they agree.
+        check_blendshape_rows(&shape, &blendshapes)?;
         let packed = PackedRows::new(&shape, &blendshapes);
         let model = SurreyModel {
             shape,
@@ -486,17 +488,6 @@ impl SurreyModel {
     fn validate(&self) -> Result<(), ModelError> {
         let n = self.shape.num_vertices() as u32;
         let nt = self.shape.triangles.len() as u32;
-        if self.blendshapes.offsets.nrows() != self.shape.mean.len() {
-            return Err(ModelError::invalid(
-                BLENDSHAPES_FILE,
-                "rows",
-                format!(
-                    "{} rows, but the shape model has {} coordinates",
-                    self.blendshapes.offsets.nrows(),
-                    self.shape.mean.len()
-                ),
-            ));
-        }
         for (lm, v) in &self.mapping.to_vertex {
             if *v >= n {
                 return Err(ModelError::invalid(
@@ -538,4 +529,20 @@ impl SurreyModel {
         }
         Ok(())
     }
+}
+
+/// The expression blendshapes must have one row per coordinate of the shape model.
+fn check_blendshape_rows(shape: &ShapeModel, blendshapes: &Blendshapes) -> Result<(), ModelError> {
+    if blendshapes.offsets.nrows() == shape.mean.len() {
+        return Ok(());
+    }
+    Err(ModelError::invalid(
+        BLENDSHAPES_FILE,
+        "rows",
+        format!(
+            "{} rows, but the shape model has {} coordinates",
+            blendshapes.offsets.nrows(),
+            shape.mean.len()
+        ),
+    ))
 }

@@ -159,6 +159,47 @@ fn a_mapping_to_a_missing_vertex_is_rejected_with_file_and_field() {
     std::fs::remove_dir_all(&tmp).ok();
 }
 
+/// A well-formed blendshapes file for another model (its rows disagree with the shape
+/// model's coordinates) is a typed error naming the file, not a panic while the model's rows
+/// are packed (issue #19).
+#[test]
+fn blendshapes_of_another_size_are_refused_by_name() {
+    let src = crate::common::sfm_dir();
+    let tmp = std::env::temp_dir().join(format!("glyptic-sfm-rows-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    for f in [
+        shapemodel::SHAPE_FILE,
+        shapemodel::MAPPING_FILE,
+        shapemodel::CONTOURS_FILE,
+        shapemodel::EDGE_TOPOLOGY_FILE,
+    ] {
+        std::fs::copy(src.join(f), tmp.join(f)).unwrap();
+    }
+    // One blendshape of three rows: cereal's u64 count, then a u64-prefixed name and an Eigen
+    // matrix (int32 rows, int32 cols, column-major floats).
+    let mut blend = Vec::new();
+    blend.extend_from_slice(&1u64.to_le_bytes());
+    blend.extend_from_slice(&5u64.to_le_bytes());
+    blend.extend_from_slice(b"smile");
+    blend.extend_from_slice(&3i32.to_le_bytes());
+    blend.extend_from_slice(&1i32.to_le_bytes());
+    for v in [0.5f32, -0.5, 1.0] {
+        blend.extend_from_slice(&v.to_le_bytes());
+    }
+    assert!(shapemodel::parse_blendshapes(&blend, "b.bin").is_ok());
+    std::fs::write(tmp.join(shapemodel::BLENDSHAPES_FILE), &blend).unwrap();
+    let loaded = std::panic::catch_unwind(|| SurreyModel::load_dir(&tmp));
+    std::fs::remove_dir_all(&tmp).ok();
+    let err = loaded.expect("no panic").unwrap_err();
+    let text = err.to_string();
+    assert!(
+        matches!(err, ModelError::Invalid { .. })
+            && text.contains(shapemodel::BLENDSHAPES_FILE)
+            && text.contains("3 rows"),
+        "{text}"
+    );
+}
+
 /// The caricature: none leaves the face alone; the gain scales the difference from the mean
 /// face; the detail grows the small components' millimetres towards the first's; the mean face
 /// stays the mean face; nonsense leaves the coefficients alone.

@@ -17,11 +17,13 @@ pub struct ViewArgs {
     /// Image size, WIDTHxHEIGHT pixels.
     #[arg(long, default_value = "640x800")]
     pub size: Size,
-    /// Orbit the view around the gem, degrees (0 looks straight at it).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    /// Orbit the view around the gem, degrees (0 looks straight at it), -360..=360.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true,
+          value_parser = finite_in::<f32>(-360.0, 360.0))]
     pub yaw: f32,
-    /// Tilt the view, degrees.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    /// Tilt the view, degrees, -360..=360.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true,
+          value_parser = finite_in::<f32>(-360.0, 360.0))]
     pub pitch: f32,
     /// How the portrait is carved: in profile (the classic cameo) or facing the viewer.
     #[arg(long, value_enum, default_value_t = gem::View::Profile)]
@@ -33,7 +35,8 @@ pub struct ViewArgs {
     #[arg(long, value_name = "NAME[,NAME...]")]
     pub style: Option<StyleChain>,
     /// The moment (seconds) the moving styles (chromatic) show.
-    #[arg(long, default_value_t = 0.0, value_name = "S")]
+    #[arg(long, default_value_t = 0.0, value_name = "S", allow_negative_numbers = true,
+          value_parser = finite_in::<f32>(0.0, 1e6))]
     pub style_time: f32,
     /// An engraved Greek-key border round the ground (parallax occlusion mapping).
     #[arg(long, value_enum, default_value_t = OnOff::Off)]
@@ -67,10 +70,12 @@ pub struct SssArgs {
     #[arg(long, default_value_t = 21, value_name = "N")]
     pub sss_taps: usize,
     /// How much light scatters, 0..=1 (red's share; green and blue follow the reference balance).
-    #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S")]
+    #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S",
+          allow_negative_numbers = true, value_parser = finite_in::<f32>(0.0, 1.0))]
     pub sss_strength: f32,
     /// How far light travels under the surface, mm (the kernel's reach).
-    #[arg(long, default_value_t = glyptic::sss::DEFAULT_WIDTH_MM, value_name = "MM")]
+    #[arg(long, default_value_t = glyptic::sss::DEFAULT_WIDTH_MM, value_name = "MM",
+          allow_negative_numbers = true, value_parser = finite_in::<f32>(0.0, 20.0))]
     pub sss_width: f32,
     /// Diffusion profile.
     #[arg(long, value_enum, default_value_t = glyptic::sss::Profile::Marble)]
@@ -242,5 +247,30 @@ impl std::str::FromStr for Size {
             ));
         }
         Ok(Size { width, height })
+    }
+}
+
+/// A number option's parser: a finite value within `lo..=hi`, or an error that says the range
+/// (NaN, infinities and out-of-range values never reach the work: `--style-time nan` used to
+/// render a black gem).
+pub fn finite_in<T>(
+    lo: f64,
+    hi: f64,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static
+where
+    T: std::str::FromStr + Into<f64> + Copy + Send + Sync + 'static,
+    T::Err: std::fmt::Display,
+{
+    move |s: &str| {
+        let v: T = s
+            .trim()
+            .parse()
+            .map_err(|e| format!("{s:?} is not a number ({e})"))?;
+        let x: f64 = v.into();
+        if x.is_finite() && (lo..=hi).contains(&x) {
+            Ok(v)
+        } else {
+            Err(format!("{s}: must be a finite number in {lo}..={hi}"))
+        }
     }
 }

@@ -154,6 +154,11 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         .csv
         .clone()
         .unwrap_or_else(|| args.output.join("batch.csv"));
+    // No gem and not the CSV may replace a photo of the batch, nor each other.
+    super::check_outputs(
+        files.iter().map(PathBuf::as_path),
+        outputs.iter().map(PathBuf::as_path).chain([csv.as_path()]),
+    )?;
     let jobs = args
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
@@ -277,7 +282,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     write_csv(&csv, &rows)?;
     let ok = rows.iter().filter(|r| r.status == "ok").count();
     let secs = start.elapsed().as_secs_f64();
-    println!(
+    say!(
         "{ok} of {} images made into gems in {secs:.1} s ({:.2} s per image after {:.1} s start-up, {jobs} face workers); per-image status and times in {}",
         rows.len(),
         (secs - loaded_ms / 1e3) / rows.len() as f64,

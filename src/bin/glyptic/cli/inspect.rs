@@ -10,14 +10,15 @@ use glyptic::gem;
 
 #[cfg(feature = "face")]
 use super::ChoiceArgs;
-use super::{OnOff, Size, SssArgs, check_output_dirs, write_atomic};
+use super::{OnOff, Size, SssArgs, check_outputs, write_atomic};
 
 #[derive(clap::Args, Debug)]
 pub struct KernelArgs {
     /// Taps (odd, 3..=65).
     pub taps: usize,
     /// How much light scatters, 0..=1.
-    #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S")]
+    #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S",
+          allow_negative_numbers = true, value_parser = super::finite_in::<f32>(0.0, 1.0))]
     pub strength: f32,
     /// Diffusion profile.
     #[arg(long, value_enum, default_value_t = glyptic::sss::Profile::Marble)]
@@ -63,7 +64,8 @@ pub struct FitArgs {
     pub iterations: usize,
     /// Use a perspective (pinhole) camera with this horizontal field of view, degrees, centred
     /// on the image; for faces close to the camera (a webcam: about 60). Default: orthographic.
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true,
+          value_parser = super::finite_in::<f64>(1.0, 170.0))]
     pub fov: Option<f64>,
     /// Fit this many times and report the median time (the model is loaded once).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10_000))]
@@ -77,6 +79,7 @@ pub struct FitArgs {
 #[cfg(feature = "face")]
 pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
     let path = &args.image;
+    check_outputs([path.as_path()], args.pts.as_deref())?;
     let (found, stages) = glyptic::stage::record(|| -> Result<_> {
         let img = glyptic::pipeline::gem::decode(path)?;
         let mut pipeline =
@@ -113,7 +116,7 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
                 })
             })
             .collect();
-        println!(
+        say!(
             "{}",
             serde_json::json!({ "image": path.display().to_string(), "width": img.width(),
                 "height": img.height(), "faces": faces, "times_ms": times })
@@ -121,11 +124,11 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
     } else {
         super::print_stages(&stages);
         if faces.is_empty() {
-            println!("no face found in {}", path.display());
+            say!("no face found in {}", path.display());
         }
         for (i, f) in faces.iter().enumerate() {
             let [x, y, w, h] = f.detection.bbox;
-            println!(
+            say!(
                 "face {}: box {x:.0},{y:.0} {w:.0}x{h:.0}, score {:.2}, 68 landmarks",
                 i + 1,
                 f.detection.score
@@ -142,7 +145,7 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
 }
 
 pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
-    check_output_dirs(args.obj.iter())?;
+    check_outputs([args.landmarks.as_path()], args.obj.as_deref())?;
     let path = &args.landmarks;
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read", path.display()))?;
@@ -223,14 +226,14 @@ pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
             "camera": if fit.perspective.is_some() { "perspective" } else { "orthographic" },
             "depth_mm": fit.perspective.map(|p| p.depth_mm()),
         });
-        println!("{out}");
+        say!("{out}");
     } else {
-        println!(
+        say!(
             "{:<16} {load_ms:>9.1} ms  {} vertices",
             "load face model",
             model.shape.num_vertices()
         );
-        println!(
+        say!(
             "{:<16} {fit_ms:>9.2} ms  yaw {yaw:.1} pitch {pitch:.1} roll {roll:.1} deg, reprojection {:.2} px mean, {:.2} px max over {} mapped landmarks, landmark noise {:.2} mm, {} iterations",
             "fit",
             fit.reprojection_px,
@@ -255,11 +258,16 @@ pub(super) fn print_kernel(args: &KernelArgs) -> Result<()> {
     .params()?;
     let k = glyptic::sss::kernel(&p)?;
     let [r, g, b] = k.sums();
-    println!(
+    say!(
         "# {} taps, {:?} profile, strength {:.3} {:.3} {:.3}, range {} (= the blur radius)",
-        p.taps, p.profile, p.strength[0], p.strength[1], p.strength[2], k.range
+        p.taps,
+        p.profile,
+        p.strength[0],
+        p.strength[1],
+        p.strength[2],
+        k.range
     );
-    println!("# offset  weight r g b (sums {r:.6} {g:.6} {b:.6})");
-    print!("{}", k.to_text());
+    say!("# offset  weight r g b (sums {r:.6} {g:.6} {b:.6})");
+    say!("{}", k.to_text().trim_end_matches('\n'));
     Ok(())
 }

@@ -86,16 +86,72 @@ pub fn run(cli: Cli) -> Result<()> {
     }
 }
 
-/// Fails early, before any work, if an output's folder is missing.
-fn check_output_dirs<'a>(outputs: impl IntoIterator<Item = &'a PathBuf>) -> Result<()> {
+/// Fails early, before any work, when an output could not be written or would destroy
+/// something: its folder is missing, it is an input of the same run (`photo a.jpg -o a.jpg`),
+/// two outputs are the same file (`-o x --obj x`), or it exists and is not a regular file (a
+/// symlink, a device, a folder: glyptic replaces only regular files).
+pub(crate) fn check_outputs<'a>(
+    inputs: impl IntoIterator<Item = &'a Path>,
+    outputs: impl IntoIterator<Item = &'a Path>,
+) -> Result<()> {
+    let inputs: Vec<&Path> = inputs.into_iter().collect();
+    let mut seen: Vec<(&Path, PathBuf)> = Vec::new();
     for out in outputs {
-        if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
+        let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
+        if let Some(dir) = dir
             && !dir.is_dir()
         {
             bail!("{}: output folder does not exist", dir.display());
         }
+        check_replaceable(out)?;
+        let key = same_file_key(out);
+        for input in &inputs {
+            if same_file_key(input) == key {
+                bail!(
+                    "{}: this is also an input ({}); choose another output",
+                    out.display(),
+                    input.display()
+                );
+            }
+        }
+        if let Some((other, _)) = seen.iter().find(|(_, k)| *k == key) {
+            bail!(
+                "{}: named twice as an output (also as {}); choose another",
+                out.display(),
+                other.display()
+            );
+        }
+        seen.push((out, key));
     }
     Ok(())
+}
+
+/// A path as a comparable key: its folder resolved (links, `..`) and its name.
+fn same_file_key(path: &Path) -> PathBuf {
+    if let Ok(full) = std::fs::canonicalize(path) {
+        return full;
+    }
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let dir = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    match path.file_name() {
+        Some(name) => dir.join(name),
+        None => dir,
+    }
+}
+
+/// An existing output must be a regular file for glyptic to replace it.
+fn check_replaceable(path: &Path) -> Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if !m.file_type().is_file() => bail!(
+            "{}: exists and is not a regular file (a link, folder or device); glyptic replaces \
+             only regular files",
+            path.display()
+        ),
+        _ => Ok(()),
+    }
 }
 
 /// Encodes `rgba` as PNG and writes it whole (or not at all) to `path`.
@@ -114,13 +170,14 @@ fn print_stages(stages: &[Stage]) {
         return;
     }
     for s in stages {
-        println!("{:<16} {:>9.1} ms  {}", s.name, s.ms, s.detail);
+        say!("{:<16} {:>9.1} ms  {}", s.name, s.ms, s.detail);
     }
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same folder, so that a failure
 /// never leaves a partial file and an existing file is replaced whole.
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    check_replaceable(path)?;
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())

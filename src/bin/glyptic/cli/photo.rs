@@ -12,7 +12,7 @@ use glyptic::stage::{Stage, timed};
 
 #[cfg(feature = "face")]
 use super::{ChoiceArgs, GlassesArg};
-use super::{ViewArgs, check_output_dirs, print_stages, write_atomic};
+use super::{ViewArgs, check_outputs, print_stages, write_atomic};
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
@@ -110,7 +110,12 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
     }
     let start = Instant::now();
     let params = args.view.params()?;
-    check_output_dirs([&args.output].into_iter().chain(args.gem_obj.as_ref()))?;
+    check_outputs(
+        args.face.as_deref(),
+        [args.output.as_path()]
+            .into_iter()
+            .chain(args.gem_obj.as_deref()),
+    )?;
     let renderer_thread = spawn_renderer();
     let (mesh, stages) = glyptic::stage::record(|| -> Result<_> {
         let (face, triangles) = match &args.face {
@@ -188,12 +193,13 @@ fn write_gem_obj(path: &Path, mesh: &glyptic::render::Mesh, source: &str) -> Res
 pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     let start = Instant::now();
     let params = args.view.params()?;
-    check_output_dirs(
+    check_outputs(
+        [args.image.as_path()],
         [
-            Some(&args.output),
-            args.landmarks_out.as_ref(),
-            args.obj.as_ref(),
-            args.gem_obj.as_ref(),
+            Some(args.output.as_path()),
+            args.landmarks_out.as_deref(),
+            args.obj.as_deref(),
+            args.gem_obj.as_deref(),
         ]
         .into_iter()
         .flatten(),

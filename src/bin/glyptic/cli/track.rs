@@ -95,7 +95,7 @@ impl StageTimes {
     fn print(&self) {
         for (name, v) in &self.by_name {
             let (med, p95, n) = quantiles(v);
-            println!("  {name:<18} median {med:>7.2} ms   p95 {p95:>7.2} ms   ({n} frames)");
+            say!("  {name:<18} median {med:>7.2} ms   p95 {p95:>7.2} ms   ({n} frames)");
         }
     }
 }
@@ -149,6 +149,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
     } else {
         None
     };
+    super::check_outputs(args.source.as_deref(), args.jsonl.as_deref())?;
     let mut jsonl = match &args.jsonl {
         Some(p) => Some(std::io::BufWriter::new(
             std::fs::File::create(p).with_context(|| format!("{}: cannot create", p.display()))?,
@@ -239,6 +240,16 @@ pub fn track(args: &TrackArgs) -> Result<()> {
             for e in stream.events().try_iter() {
                 match e {
                     StreamEvent::Capture(CaptureEvent::Ended { note }) => end_note = note,
+                    // A run is analysis, not a kiosk: a source that cannot be reached before
+                    // its first frame, or fails for good, ends it (it used to retry forever).
+                    StreamEvent::Capture(CaptureEvent::Unavailable { reason, .. })
+                        if processed == 0 =>
+                    {
+                        bail!("{}: {reason}", source_name(args))
+                    }
+                    StreamEvent::Capture(CaptureEvent::Failed { error }) => {
+                        bail!("{}: {error}", source_name(args))
+                    }
                     StreamEvent::Capture(e) => tracing::warn!("capture: {e:?}"),
                     StreamEvent::Error { frame_index, error } => {
                         tracing::warn!("frame {frame_index}: {error}")
@@ -265,7 +276,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
         if let Some((summary, _)) = stream.stop() {
             errors += summary.errors;
             detections = summary.detections;
-            println!(
+            say!(
                 "capture: {} frames read, {} replaced by newer ones before processing, {} bad, {} unavailable attempts",
                 summary.capture.frames,
                 summary.capture.replaced,
@@ -278,16 +289,28 @@ pub fn track(args: &TrackArgs) -> Result<()> {
         w.flush().context("writing the JSON lines")?;
     }
     let secs = start.elapsed().as_secs_f64();
-    println!(
+    say!(
         "{processed} frames processed in {secs:.2} s ({:.1} frames/s): {with_face} with a face, \
          {detections} full-frame detections, {errors} errors",
         processed as f64 / secs
     );
     if let Some(note) = end_note {
-        println!("source: {note}");
+        say!("source: {note}");
     }
     times.print();
+    if processed == 0 {
+        bail!("{}: no frame could be read", source_name(args));
+    }
     Ok(())
+}
+
+/// How the source is named in errors: its path, or the camera.
+fn source_name(args: &TrackArgs) -> String {
+    match (&args.source, args.camera) {
+        (Some(path), _) => path.display().to_string(),
+        (None, Some(n)) => format!("camera {n} (/dev/video{n})"),
+        (None, None) => "the source".into(),
+    }
 }
 
 /// A source that failed to open on the capture thread: reports the error as fatal.

@@ -58,7 +58,8 @@ pub struct KioskArgs {
     #[arg(long, value_name = "N")]
     pub frames: Option<u64>,
     /// Quit after this many seconds (scripted runs).
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true,
+          value_parser = crate::cli::finite_in::<f64>(0.0, 1e7))]
     pub seconds: Option<f64>,
     /// When quitting, save the last presented frame (controls included) as PNG.
     #[arg(long, value_name = "FILE.png")]
@@ -90,6 +91,8 @@ pub fn kiosk(args: &KioskArgs) -> Result<()> {
     config
         .check(args.config.as_deref().unwrap_or(Path::new("command line")))
         .map_err(|e| anyhow!(e))?;
+    // A screenshot that cannot be written is said now, not after the run.
+    crate::cli::check_outputs(config.video.as_deref(), args.screenshot.as_deref())?;
     std::fs::create_dir_all(&args.snapshots)
         .with_context(|| format!("{}: cannot create", args.snapshots.display()))?;
 

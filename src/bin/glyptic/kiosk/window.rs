@@ -309,7 +309,7 @@ impl Running {
         }
         self.count_frame(rendered_gem);
         if args.trace {
-            println!("{}", self.trace_line(rendered_gem));
+            say!("{}", self.trace_line(rendered_gem));
         }
         let out_of_frames = args.frames.is_some_and(|n| self.timeline.frames >= n);
         let out_of_time = args
