@@ -355,6 +355,38 @@ fn track_ends_with_an_error_when_nothing_can_be_read() {
     }
 }
 
+/// An error says each thing once (issue #19: "Is a directory (os error 21): Is a directory
+/// (os error 21)"), and a run without XDG_RUNTIME_DIR (a server, a container) prints no
+/// driver complaint about it.
+#[test]
+fn errors_say_each_thing_once_and_drivers_stay_quiet() {
+    let dir = scratch("say-once");
+    let run = glyptic()
+        .arg("photo")
+        .arg(&dir)
+        .arg("-o")
+        .arg(dir.join("gem.png"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.matches("os error 21").count(), 1, "{stderr}");
+    assert_eq!(
+        stderr.matches(&*dir.display().to_string()).count(),
+        1,
+        "{stderr}"
+    );
+    let run = glyptic()
+        .args(["render", "--size", "32x40", "--sss", "off", "-o"])
+        .arg(dir.join("gem.png"))
+        .env_remove("XDG_RUNTIME_DIR")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}");
+    assert!(!stderr.contains("XDG_RUNTIME_DIR"), "{stderr}");
+}
+
 #[test]
 fn einstein_photo_makes_a_gem_with_landmarks_and_mesh() {
     let d = scratch("einstein");

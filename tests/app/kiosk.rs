@@ -375,7 +375,7 @@ fn injected_pointer_events_drive_the_controls_without_moving_the_camera() {
 }
 
 #[test]
-fn a_bad_config_is_refused_by_name_and_a_missing_video_is_reported_on_screen() {
+fn a_bad_config_or_a_missing_video_is_refused_by_name_and_a_missing_camera_is_waited_for() {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let x = Xvfb::start();
     let dir = scratch("faults");
@@ -390,28 +390,20 @@ fn a_bad_config_is_refused_by_name_and_a_missing_video_is_reported_on_screen() {
     );
     assert!(!stderr.contains("panicked"), "{stderr}");
 
-    // No video: the kiosk keeps running with the default face and says why.
-    let lines = traced(
-        kiosk(&x)
-            .args([
-                "--video",
-                "/nonexistent/visitor.avi",
-                "--seconds",
-                "6",
-                "--trace",
-            ])
-            .args(["--size", "400x600"]),
-    );
-    let last = lines.last().expect("frames were presented");
-    assert!(last["gems"].as_u64() >= Some(1), "no default gem: {last}");
-    assert!(
-        last["status"]
-            .as_str()
-            .unwrap()
-            .contains("visitor.avi: video not found"),
-        "{}",
-        last["status"]
-    );
+    // A video that is not there, or is a folder: refused by name before the window opens,
+    // exit 1 (it used to run on with exit 0).
+    for (video, problem) in [
+        ("/nonexistent/visitor.avi", "visitor.avi: video not found"),
+        (dir.to_str().unwrap(), "not a video file"),
+    ] {
+        let run = kiosk(&x)
+            .args(["--video", video, "--seconds", "6"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains(problem), "{stderr}");
+    }
 
     // No camera at start: said on screen, the default gem stays, the kiosk keeps running.
     #[cfg(feature = "webcam")]

@@ -24,15 +24,58 @@ use clap::Parser;
 use tracing_subscriber::EnvFilter;
 
 fn main() -> ExitCode {
+    ensure_runtime_dir();
     let args = cli::Cli::parse();
     init_log(args.verbose, args.quiet);
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            // `{:#}` joins the context chain on one line: "photo.jpg: no face found".
-            eprintln!("glyptic: error: {err:#}");
+            eprintln!("glyptic: error: {}", one_line(&err));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// The error and its causes on one line ("photo.jpg: no face found"), each piece once: many
+/// errors already say their source, and `{:#}` would repeat it ("Is a directory (os error
+/// 21): Is a directory (os error 21)").
+fn one_line(err: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for part in err
+        .chain()
+        .map(|e| e.to_string())
+        .collect::<Vec<_>>()
+        .iter()
+        .rev()
+    {
+        if line.is_empty() || part.contains(line.as_str()) {
+            line = part.clone();
+        } else if !line.contains(part.as_str()) {
+            line = format!("{part}: {line}");
+        }
+    }
+    line
+}
+
+/// Graphics drivers (Mesa's Wayland probe) print "XDG_RUNTIME_DIR is invalid or not set" on
+/// every run without one, as on a server or in a container: give the process a private one,
+/// as `scripts/env.sh` does for the shell.
+fn ensure_runtime_dir() {
+    use std::os::unix::fs::{MetadataExt as _, PermissionsExt as _};
+    let usable = std::env::var_os("XDG_RUNTIME_DIR")
+        .map(std::path::PathBuf::from)
+        .is_some_and(|p| p.is_absolute() && p.is_dir());
+    if usable {
+        return;
+    }
+    let uid = std::fs::metadata("/proc/self").map_or(0, |m| m.uid());
+    let dir = std::env::temp_dir().join(format!("glyptic-xdg-{uid}"));
+    let made = std::fs::create_dir_all(&dir)
+        .and_then(|()| std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700)));
+    if made.is_ok() {
+        // SAFETY: called first thing in `main`, before any thread exists that could read the
+        // environment concurrently.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
     }
 }
 

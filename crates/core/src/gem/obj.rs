@@ -30,8 +30,12 @@ pub fn parse_obj(text: &str) -> Result<(Vec<f32>, Vec<[u32; 3]>), ObjError> {
                 let xyz: Vec<f32> = words
                     .take(3)
                     .map(|w| {
-                        w.parse::<f32>()
-                            .map_err(|_| bad(format!("bad coordinate {w:?}")))
+                        w.parse::<f32>().map_err(|_| {
+                            bad(format!(
+                                "bad coordinate {}",
+                                crate::landmarks::pts::excerpt(w)
+                            ))
+                        })
                     })
                     .collect::<Result<_, _>>()?;
                 if xyz.len() != 3 {
@@ -44,9 +48,12 @@ pub fn parse_obj(text: &str) -> Result<(Vec<f32>, Vec<[u32; 3]>), ObjError> {
                 let ids: Vec<u32> = words
                     .map(|w| {
                         let first = w.split('/').next().unwrap_or("");
-                        let i: i64 = first
-                            .parse()
-                            .map_err(|_| bad(format!("bad vertex reference {w:?}")))?;
+                        let i: i64 = first.parse().map_err(|_| {
+                            bad(format!(
+                                "bad vertex reference {}",
+                                crate::landmarks::pts::excerpt(w)
+                            ))
+                        })?;
                         let index = if i < 0 { count as i64 + i } else { i - 1 };
                         if index < 0 || index >= count as i64 {
                             return Err(bad(format!("vertex {i} does not exist ({count} so far)")));

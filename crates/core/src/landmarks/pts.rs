@@ -32,6 +32,15 @@ pub fn read_pts_with_missing(text: &str) -> Result<Vec<[f32; 2]>, LandmarkError>
 }
 
 fn parse_pts(text: &str, allow_missing: bool) -> Result<Vec<[f32; 2]>, LandmarkError> {
+    // A byte-order mark (Windows editors) and old Mac line ends are still a .pts file.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let normalized;
+    let text = if text.contains('\r') {
+        normalized = text.replace("\r\n", "\n").replace('\r', "\n");
+        normalized.as_str()
+    } else {
+        text
+    };
     let err = |line: usize, problem: String| LandmarkError::Parse {
         format: "pts",
         line,
@@ -56,14 +65,14 @@ fn parse_pts(text: &str, allow_missing: bool) -> Result<Vec<[f32; 2]>, LandmarkE
         let Some((key, value)) = line.split_once(':') else {
             return Err(err(
                 no,
-                format!("expected 'key: value' or '{{', found {line:?}"),
+                format!("expected 'key: value' or '{{', found {}", excerpt(line)),
             ));
         };
         if key.trim() == "n_points" {
             let n = value
                 .trim()
                 .parse::<usize>()
-                .map_err(|e| err(no, format!("n_points {:?}: {e}", value.trim())))?;
+                .map_err(|e| err(no, format!("n_points {}: {e}", excerpt(value.trim()))))?;
             declared = Some(n);
         }
     }
@@ -82,7 +91,7 @@ fn parse_pts(text: &str, allow_missing: bool) -> Result<Vec<[f32; 2]>, LandmarkE
         let (Some(xs), Some(ys), None) = (fields.next(), fields.next(), fields.next()) else {
             return Err(err(
                 no,
-                format!("expected two numbers 'x y', found {line:?}"),
+                format!("expected two numbers 'x y', found {}", excerpt(line)),
             ));
         };
         let is_nan = |s: &str| s.eq_ignore_ascii_case("nan");
@@ -94,7 +103,7 @@ fn parse_pts(text: &str, allow_missing: bool) -> Result<Vec<[f32; 2]>, LandmarkE
             match s.parse::<f32>() {
                 Ok(v) if v.is_finite() => Ok(v),
                 Ok(v) => Err(err(no, format!("non-finite coordinate {v}"))),
-                Err(e) => Err(err(no, format!("coordinate {s:?}: {e}"))),
+                Err(e) => Err(err(no, format!("coordinate {}: {e}", excerpt(s)))),
             }
         };
         points.push([parse(xs)? - 1.0, parse(ys)? - 1.0]);
@@ -106,7 +115,10 @@ fn parse_pts(text: &str, allow_missing: bool) -> Result<Vec<[f32; 2]>, LandmarkE
         ));
     }
     if let Some((no, line)) = lines.find(|(_, l)| !l.is_empty()) {
-        return Err(err(no, format!("unexpected text after '}}': {line:?}")));
+        return Err(err(
+            no,
+            format!("unexpected text after '}}': {}", excerpt(line)),
+        ));
     }
     if let Some(n) = declared
         && n != points.len()
@@ -244,9 +256,41 @@ fn yx_point(p: &serde_json::Value, index: usize) -> Result<[f32; 2], LandmarkErr
     }
 }
 
+/// A line of a file as an error quotes it: whole when short, else its start and its length
+/// (a 5 MB line must not become a 5 MB message).
+pub fn excerpt(line: &str) -> String {
+    const MAX: usize = 60;
+    match line.char_indices().nth(MAX) {
+        None => format!("{line:?}"),
+        Some((cut, _)) => format!("{:?}... ({} bytes)", &line[..cut], line.len()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A byte-order mark, CRLF and CR-only line ends read as the plain file does; a huge bad
+    /// line is quoted by its start and length (issue #19).
+    #[test]
+    fn bom_old_line_ends_and_long_lines() {
+        let plain = "version: 1\nn_points: 2\n{\n1 2\n3 4\n}\n";
+        let want = read_pts(plain).unwrap();
+        for text in [
+            format!("\u{feff}{plain}"),
+            plain.replace('\n', "\r\n"),
+            plain.replace('\n', "\r"),
+        ] {
+            assert_eq!(read_pts(&text).unwrap(), want, "{text:?}");
+        }
+        let long = format!("n_points: 1\n{{\n{}\n}}\n", "a".repeat(5_000_000) + " 1");
+        let msg = read_pts(&long).unwrap_err().to_string();
+        assert!(
+            msg.len() < 300 && msg.contains("5000000 bytes"),
+            "{}",
+            &msg[..300.min(msg.len())]
+        );
+    }
 
     #[test]
     fn missing_points_only_where_allowed() {

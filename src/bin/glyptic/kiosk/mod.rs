@@ -91,6 +91,23 @@ pub fn kiosk(args: &KioskArgs) -> Result<()> {
     config
         .check(args.config.as_deref().unwrap_or(Path::new("command line")))
         .map_err(|e| anyhow!(e))?;
+    // A video named at start must be there: a missing file or a folder is a mistake in the
+    // set-up, said now with exit 1 (a camera, which may come later, is waited for on screen).
+    if let Some(video) = &config.video {
+        match std::fs::metadata(video) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                anyhow::bail!("{}: video not found", video.display())
+            }
+            Err(e) => anyhow::bail!("{}: cannot read the video: {e}", video.display()),
+            Ok(m) if !m.is_file() => {
+                anyhow::bail!(
+                    "{}: not a video file (a folder or a device)",
+                    video.display()
+                )
+            }
+            Ok(_) => {}
+        }
+    }
     // A screenshot that cannot be written is said now, not after the run.
     crate::cli::check_outputs(config.video.as_deref(), args.screenshot.as_deref())?;
     std::fs::create_dir_all(&args.snapshots)
