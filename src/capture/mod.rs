@@ -61,10 +61,13 @@ pub enum CaptureError {
 /// Reads and decodes a photo to RGB, checking its declared size before decoding it.
 pub fn load_photo(path: &Path) -> Result<image::RgbImage, CaptureError> {
     let p = || path.to_path_buf();
-    let bytes = std::fs::read(path).map_err(|source| match source.kind() {
-        std::io::ErrorKind::NotFound => CaptureError::NotFound { path: p() },
-        _ => CaptureError::Io { path: p(), source },
-    })?;
+    let bytes =
+        crate::files::read_limited(path, crate::files::MAX_PHOTO_BYTES).map_err(|source| {
+            match source.kind() {
+                std::io::ErrorKind::NotFound => CaptureError::NotFound { path: p() },
+                _ => CaptureError::Io { path: p(), source },
+            }
+        })?;
     decode_photo(&bytes, path)
 }
 

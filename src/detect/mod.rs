@@ -235,10 +235,13 @@ impl FaceDetector {
         ort_library: &Path,
         config: &SessionConfig,
     ) -> Result<Self, DetectError> {
-        let bytes = std::fs::read(model).map_err(|source| DetectError::Io {
-            path: model.to_path_buf(),
-            source,
-        })?;
+        let bytes =
+            crate::files::read_limited(model, crate::files::MAX_MODEL_BYTES).map_err(|source| {
+                DetectError::Io {
+                    path: model.to_path_buf(),
+                    source,
+                }
+            })?;
         let env = ort_environment(ort_library)?;
         let session = centerface::session(&env, &bytes, model, config)?;
         Ok(Self {

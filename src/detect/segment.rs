@@ -56,10 +56,13 @@ impl PersonSegmenter {
     /// Loads the model (set-up converts it: [`crate::assets::ModelPaths::segmenter`]) with ONNX Runtime from
     /// `ort_library`, on one thread.
     pub fn load(model: &Path, ort_library: &Path) -> Result<Self, SegmentError> {
-        let bytes = std::fs::read(model).map_err(|source| SegmentError::Io {
-            path: model.to_path_buf(),
-            source,
-        })?;
+        let bytes =
+            crate::files::read_limited(model, crate::files::MAX_MODEL_BYTES).map_err(|source| {
+                SegmentError::Io {
+                    path: model.to_path_buf(),
+                    source,
+                }
+            })?;
         let model_err = |reason: String| SegmentError::Model {
             path: model.to_path_buf(),
             reason,

@@ -10,6 +10,7 @@
 //! file lives: readers take the path (or bytes) they are given. So this crate builds and tests
 //! alone (`cargo test -p glyptic-core`), and its benches measure computation only.
 
+pub mod files;
 pub mod fit;
 pub mod gem;
 pub mod landmarks;

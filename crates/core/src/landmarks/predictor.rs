@@ -244,10 +244,13 @@ impl ShapePredictor {
 
     /// Reads and parses a model file; errors name the file.
     pub fn load(path: &Path) -> Result<Self, LandmarkError> {
-        let bytes = std::fs::read(path).map_err(|source| LandmarkError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let bytes =
+            crate::files::read_limited(path, crate::files::MAX_MODEL_BYTES).map_err(|source| {
+                LandmarkError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                }
+            })?;
         Self::from_bytes(&bytes).map_err(|e| LandmarkError::File {
             path: path.to_path_buf(),
             source: Box::new(e),

@@ -448,7 +448,7 @@ impl SurreyModel {
     pub fn load_dir(dir: &Path) -> Result<Self, ModelError> {
         let read = |name: &str| -> Result<Vec<u8>, ModelError> {
             let path = dir.join(name);
-            std::fs::read(&path).map_err(|source| {
+            crate::files::read_limited(&path, crate::files::MAX_MODEL_BYTES).map_err(|source| {
                 if source.kind() == std::io::ErrorKind::NotFound {
                     ModelError::Missing { path: path.clone() }
                 } else {

@@ -25,7 +25,7 @@ pub struct BatchArgs {
     /// Folder for the gems (`NAME-gem.png` for each `NAME.ext`); made if missing.
     #[arg(short, long, value_name = "OUTDIR")]
     pub output: PathBuf,
-    /// Face workers (default: one per core).
+    /// Face workers (default and most: one per core).
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
     /// Per-image status and times (default: OUTDIR/batch.csv).
@@ -159,10 +159,10 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         files.iter().map(PathBuf::as_path),
         outputs.iter().map(PathBuf::as_path).chain([csv.as_path()]),
     )?;
-    let jobs = args
-        .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .clamp(1, files.len());
+    // Never more workers than cores: each holds a decoded photo and its buffers, and more
+    // would only multiply the memory a hostile image can take, not the speed.
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let jobs = args.jobs.unwrap_or(cores).clamp(1, cores.min(files.len()));
 
     // The GPU comes up while the models load.
     let renderer_thread = super::photo::spawn_renderer();

@@ -147,7 +147,7 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
 pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
     check_outputs([args.landmarks.as_path()], args.obj.as_deref())?;
     let path = &args.landmarks;
-    let text = std::fs::read_to_string(path)
+    let text = glyptic::files::read_text_limited(path, glyptic::files::MAX_TEXT_BYTES)
         .with_context(|| format!("{}: cannot read", path.display()))?;
     let points = glyptic::landmarks::pts::read_pts_with_missing(&text)
         .with_context(|| path.display().to_string())?;

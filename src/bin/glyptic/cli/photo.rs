@@ -171,7 +171,7 @@ pub(super) fn render_png(
 
 /// A face mesh from an OBJ file: positions `[x0, y0, z0, ...]` and triangles.
 fn read_face_obj(path: &Path) -> Result<(Vec<f32>, Vec<[u32; 3]>)> {
-    let text = std::fs::read_to_string(path)
+    let text = glyptic::files::read_text_limited(path, glyptic::files::MAX_MESH_BYTES)
         .with_context(|| format!("{}: cannot read the face mesh", path.display()))?;
     let mesh = glyptic::gem::parse_obj(&text)
         .with_context(|| format!("{}: cannot read the face mesh", path.display()))?;
