@@ -209,9 +209,11 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     // The GPU device and pipelines are independent of the face: start them now.
     let renderer_thread = spawn_renderer();
     let (made, stages) = glyptic::stage::record(|| -> Result<_> {
+        // The photo first: a file that is no photo is said before a second of model loading.
+        let img = glyptic::pipeline::gem::decode(image_path)?;
         let mut pipeline = args.choice.gem_pipeline(&args.view)?;
         let gem = pipeline
-            .photo(image_path)
+            .image(&img)
             .with_context(|| image_path.display().to_string())?;
         Ok((pipeline, gem))
     });
