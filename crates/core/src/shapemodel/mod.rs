@@ -488,6 +488,24 @@ impl SurreyModel {
     fn validate(&self) -> Result<(), ModelError> {
         let n = self.shape.num_vertices() as u32;
         let nt = self.shape.triangles.len() as u32;
+        // A cut-off mapping still parses (TOML tables simply end); the fit would then use a
+        // few landmarks without a word. The brows, nose, eyes and outer lips (iBUG 18-60) are
+        // what any 68-point fit stands on: all must be mapped.
+        let missing: Vec<u32> = (18..=60)
+            .filter(|lm| !self.mapping.to_vertex.contains_key(lm))
+            .collect();
+        if let (Some(first), Some(last)) = (missing.first(), missing.last()) {
+            return Err(ModelError::invalid(
+                MAPPING_FILE,
+                "landmark_mappings",
+                format!(
+                    "maps {} landmarks; iBUG 18-60 (brows, nose, eyes, lips) must all be mapped, \
+                     {} are not ({first}..{last}): is the file cut off?",
+                    self.mapping.to_vertex.len(),
+                    missing.len()
+                ),
+            ));
+        }
         for (lm, v) in &self.mapping.to_vertex {
             if *v >= n {
                 return Err(ModelError::invalid(

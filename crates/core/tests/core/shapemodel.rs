@@ -200,6 +200,33 @@ fn blendshapes_of_another_size_are_refused_by_name() {
     );
 }
 
+/// A landmark mapping cut off half-way still parses as TOML; it is refused when the model is
+/// put together, by name, instead of fitting 22 landmarks without a word (issue #19).
+#[test]
+fn a_cut_off_landmark_mapping_is_refused() {
+    let src = crate::common::sfm_dir();
+    let tmp = std::env::temp_dir().join(format!("glyptic-sfm-cut-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    for f in [
+        shapemodel::SHAPE_FILE,
+        shapemodel::BLENDSHAPES_FILE,
+        shapemodel::CONTOURS_FILE,
+        shapemodel::EDGE_TOPOLOGY_FILE,
+    ] {
+        std::fs::copy(src.join(f), tmp.join(f)).unwrap();
+    }
+    let map = std::fs::read_to_string(src.join(shapemodel::MAPPING_FILE)).unwrap();
+    let cut = map.find("40 =").expect("landmark 40 is mapped");
+    std::fs::write(tmp.join(shapemodel::MAPPING_FILE), &map[..cut]).unwrap();
+    let loaded = SurreyModel::load_dir(&tmp);
+    std::fs::remove_dir_all(&tmp).ok();
+    let text = loaded.unwrap_err().to_string();
+    assert!(
+        text.contains("ibug_to_sfm.txt") && text.contains("cut off"),
+        "{text}"
+    );
+}
+
 /// The caricature: none leaves the face alone; the gain scales the difference from the mean
 /// face; the detail grows the small components' millimetres towards the first's; the mean face
 /// stays the mean face; nonsense leaves the coefficients alone.
