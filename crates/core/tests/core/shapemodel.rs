@@ -7,6 +7,24 @@ fn model() -> SurreyModel {
     SurreyModel::load_dir(&crate::common::sfm_dir()).expect("run scripts/setup.sh first")
 }
 
+/// A fresh copy of the model folder (`tag` names it) with `file` written as `contents`.
+fn model_with(tag: &str, file: &str, contents: &[u8]) -> std::path::PathBuf {
+    let src = crate::common::sfm_dir();
+    let tmp = std::env::temp_dir().join(format!("glyptic-sfm-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    for f in [
+        shapemodel::SHAPE_FILE,
+        shapemodel::BLENDSHAPES_FILE,
+        shapemodel::MAPPING_FILE,
+        shapemodel::CONTOURS_FILE,
+        shapemodel::EDGE_TOPOLOGY_FILE,
+    ] {
+        std::fs::copy(src.join(f), tmp.join(f)).unwrap();
+    }
+    std::fs::write(tmp.join(file), contents).unwrap();
+    tmp
+}
+
 #[test]
 fn loads_the_real_model_with_known_values() {
     let m = model();
@@ -127,22 +145,12 @@ fn truncated_or_corrupt_files_give_typed_errors() {
 #[test]
 fn a_mapping_to_a_missing_vertex_is_rejected_with_file_and_field() {
     let src = crate::common::sfm_dir();
-    let tmp = std::env::temp_dir().join(format!("glyptic-sfm-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).unwrap();
-    for f in [
-        shapemodel::SHAPE_FILE,
-        shapemodel::BLENDSHAPES_FILE,
-        shapemodel::CONTOURS_FILE,
-        shapemodel::EDGE_TOPOLOGY_FILE,
-    ] {
-        std::fs::copy(src.join(f), tmp.join(f)).unwrap();
-    }
     let map = std::fs::read_to_string(src.join(shapemodel::MAPPING_FILE)).unwrap();
-    std::fs::write(
-        tmp.join(shapemodel::MAPPING_FILE),
-        map.replace("31 =   114", "31 =  9999"),
-    )
-    .unwrap();
+    let tmp = model_with(
+        "vertex",
+        shapemodel::MAPPING_FILE,
+        map.replace("31 =   114", "31 =  9999").as_bytes(),
+    );
     let err = SurreyModel::load_dir(&tmp).unwrap_err();
     assert!(matches!(err, ModelError::Invalid { .. }));
     let text = err.to_string();
@@ -164,17 +172,6 @@ fn a_mapping_to_a_missing_vertex_is_rejected_with_file_and_field() {
 /// are packed (issue #19).
 #[test]
 fn blendshapes_of_another_size_are_refused_by_name() {
-    let src = crate::common::sfm_dir();
-    let tmp = std::env::temp_dir().join(format!("glyptic-sfm-rows-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).unwrap();
-    for f in [
-        shapemodel::SHAPE_FILE,
-        shapemodel::MAPPING_FILE,
-        shapemodel::CONTOURS_FILE,
-        shapemodel::EDGE_TOPOLOGY_FILE,
-    ] {
-        std::fs::copy(src.join(f), tmp.join(f)).unwrap();
-    }
     // One blendshape of three rows: cereal's u64 count, then a u64-prefixed name and an Eigen
     // matrix (int32 rows, int32 cols, column-major floats).
     let mut blend = Vec::new();
@@ -187,7 +184,7 @@ fn blendshapes_of_another_size_are_refused_by_name() {
         blend.extend_from_slice(&v.to_le_bytes());
     }
     assert!(shapemodel::parse_blendshapes(&blend, "b.bin").is_ok());
-    std::fs::write(tmp.join(shapemodel::BLENDSHAPES_FILE), &blend).unwrap();
+    let tmp = model_with("rows", shapemodel::BLENDSHAPES_FILE, &blend);
     let loaded = std::panic::catch_unwind(|| SurreyModel::load_dir(&tmp));
     std::fs::remove_dir_all(&tmp).ok();
     let err = loaded.expect("no panic").unwrap_err();
@@ -205,19 +202,9 @@ fn blendshapes_of_another_size_are_refused_by_name() {
 #[test]
 fn a_cut_off_landmark_mapping_is_refused() {
     let src = crate::common::sfm_dir();
-    let tmp = std::env::temp_dir().join(format!("glyptic-sfm-cut-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).unwrap();
-    for f in [
-        shapemodel::SHAPE_FILE,
-        shapemodel::BLENDSHAPES_FILE,
-        shapemodel::CONTOURS_FILE,
-        shapemodel::EDGE_TOPOLOGY_FILE,
-    ] {
-        std::fs::copy(src.join(f), tmp.join(f)).unwrap();
-    }
     let map = std::fs::read_to_string(src.join(shapemodel::MAPPING_FILE)).unwrap();
     let cut = map.find("40 =").expect("landmark 40 is mapped");
-    std::fs::write(tmp.join(shapemodel::MAPPING_FILE), &map[..cut]).unwrap();
+    let tmp = model_with("cut", shapemodel::MAPPING_FILE, &map.as_bytes()[..cut]);
     let loaded = SurreyModel::load_dir(&tmp);
     std::fs::remove_dir_all(&tmp).ok();
     let text = loaded.unwrap_err().to_string();

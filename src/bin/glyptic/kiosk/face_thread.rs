@@ -58,12 +58,6 @@ impl Live {
             .name("face setup".into())
             .spawn(move || {
                 let started = (|| -> Result<FaceStream> {
-                    // A missing video is said before the models load (a second).
-                    if let Some(path) = &config.video
-                        && !path.exists()
-                    {
-                        anyhow::bail!("{}: video not found", path.display());
-                    }
                     let pipeline = glyptic::pipeline::FacePipeline::load(
                         &glyptic::assets::ModelPaths::locate(),
                     )?;
