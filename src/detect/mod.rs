@@ -235,15 +235,15 @@ impl FaceDetector {
         ort_library: &Path,
         config: &SessionConfig,
     ) -> Result<Self, DetectError> {
-        let bytes =
-            crate::files::read_limited(model, crate::files::MAX_MODEL_BYTES).map_err(|source| {
-                DetectError::Io {
-                    path: model.to_path_buf(),
-                    source,
-                }
-            })?;
         let env = ort_environment(ort_library)?;
-        let session = centerface::session(&env, &bytes, model, config)?;
+        // The session is built while the file's checksum is verified.
+        let session = crate::files::read_model(model, |bytes| {
+            centerface::session(&env, bytes, model, config)
+        })
+        .map_err(|source| DetectError::Io {
+            path: model.to_path_buf(),
+            source,
+        })??;
         Ok(Self {
             model: OnnxModel {
                 session,

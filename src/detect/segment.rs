@@ -56,21 +56,21 @@ impl PersonSegmenter {
     /// Loads the model (set-up converts it: [`crate::assets::ModelPaths::segmenter`]) with ONNX Runtime from
     /// `ort_library`, on one thread.
     pub fn load(model: &Path, ort_library: &Path) -> Result<Self, SegmentError> {
-        let bytes =
-            crate::files::read_limited(model, crate::files::MAX_MODEL_BYTES).map_err(|source| {
-                SegmentError::Io {
-                    path: model.to_path_buf(),
-                    source,
-                }
-            })?;
         let model_err = |reason: String| SegmentError::Model {
             path: model.to_path_buf(),
             reason,
         };
         let env = ort_environment(ort_library)?;
-        let session = super::centerface::session_builder(&env, &SessionConfig::default())
-            .and_then(|mut b| b.commit_from_memory(&bytes).map_err(|e| e.to_string()))
-            .map_err(model_err)?;
+        // The session is built while the file's checksum is verified.
+        let session = crate::files::read_model(model, |bytes| {
+            super::centerface::session_builder(&env, &SessionConfig::default())
+                .and_then(|mut b| b.commit_from_memory(bytes).map_err(|e| e.to_string()))
+        })
+        .map_err(|source| SegmentError::Io {
+            path: model.to_path_buf(),
+            source,
+        })?
+        .map_err(model_err)?;
         let has = |names: Vec<&str>, want: &str| names.contains(&want);
         if !has(session.inputs().iter().map(|o| o.name()).collect(), INPUT)
             || !has(session.outputs().iter().map(|o| o.name()).collect(), OUTPUT)

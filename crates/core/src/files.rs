@@ -50,9 +50,149 @@ pub fn read_text_limited(path: &Path, max: u64) -> std::io::Result<String> {
         .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text"))
 }
 
+/// The checksum list a folder of model files may hold, in `sha256sum`'s format
+/// (`<64 hex digits>  <file name>` a line; `sha256sum -c SHA256SUMS` checks it by hand).
+/// Set-up's `models/` and `shapemodel/sfm/` carry one for the files it fetches.
+pub const CHECKSUM_LIST: &str = "SHA256SUMS";
+
+/// What the [`CHECKSUM_LIST`] beside `path` says its SHA-256 must be: `None` when the folder
+/// has no list or the list does not name the file (a model of the user's own). The list is
+/// looked up beside the path as given, not beside a link's target.
+pub fn listed_sha256(path: &Path) -> std::io::Result<Option<[u8; 32]>> {
+    let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
+        return Ok(None);
+    };
+    let list = dir.join(CHECKSUM_LIST);
+    let text = match read_text_limited(&list, MAX_TEXT_BYTES) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    let bad = |line: usize, problem: &str| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("{} line {line}: {problem}", list.display()),
+        )
+    };
+    let name = name.to_string_lossy();
+    for (k, line) in text.lines().enumerate() {
+        let line = line.trim_end_matches('\r');
+        if line.trim().is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let (hex, file) = line
+            .split_once(char::is_whitespace)
+            .ok_or_else(|| bad(k + 1, "not `<sha256>  <file name>`"))?;
+        let file = file.trim_start().trim_start_matches('*');
+        if file != name {
+            continue;
+        }
+        return parse_sha256(hex)
+            .map(Some)
+            .ok_or_else(|| bad(k + 1, "not 64 hexadecimal digits"));
+    }
+    Ok(None)
+}
+
+fn parse_sha256(hex: &str) -> Option<[u8; 32]> {
+    if hex.len() != 64 || !hex.is_ascii() {
+        return None;
+    }
+    let mut out = [0u8; 32];
+    for (i, b) in out.iter_mut().enumerate() {
+        *b = u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).ok()?;
+    }
+    Some(out)
+}
+
+fn hex(digest: &[u8]) -> String {
+    digest.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Checks `bytes`, read from `path`, against the [`CHECKSUM_LIST`] beside it (see
+/// [`listed_sha256`]); a mismatch is an `InvalidData` error saying the copy is damaged.
+pub fn verify_listed(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use sha2::Digest as _;
+    let Some(want) = listed_sha256(path)? else {
+        return Ok(());
+    };
+    let got: [u8; 32] = sha2::Sha256::digest(bytes).into();
+    if got == want {
+        return Ok(());
+    }
+    Err(std::io::Error::new(
+        std::io::ErrorKind::InvalidData,
+        format!(
+            "damaged or replaced: its SHA-256 is {}..., but {CHECKSUM_LIST} beside it lists {}... \
+             (fetch it again: scripts/setup.sh)",
+            &hex(&got)[..16],
+            &hex(&want)[..16]
+        ),
+    ))
+}
+
+/// A model file read with [`read_limited`] (cap [`MAX_MODEL_BYTES`]) and handed to `parse`
+/// while, on another thread, its checksum is verified ([`verify_listed`]): dlib's model is
+/// 100 MB, and hashing it (~60 ms) beside the parse costs no time on two cores. A damaged
+/// file is refused as damaged (the outer error), whatever `parse` made of it; a file that
+/// reads and verifies gives `parse`'s own result.
+pub fn read_model<T, E>(
+    path: &Path,
+    parse: impl FnOnce(&[u8]) -> Result<T, E>,
+) -> std::io::Result<Result<T, E>> {
+    let bytes = read_limited(path, MAX_MODEL_BYTES)?;
+    let (parsed, verified) = std::thread::scope(|s| {
+        let check = s.spawn(|| verify_listed(path, &bytes));
+        let parsed = parse(&bytes);
+        let verified = check
+            .join()
+            .unwrap_or_else(|_| Err(std::io::Error::other("checksum thread failed")));
+        (parsed, verified)
+    });
+    verified?;
+    Ok(parsed)
+}
+
+/// A small model file (cap [`MAX_MODEL_BYTES`]), verified ([`verify_listed`]) before it is
+/// returned: for files that hash in a few milliseconds.
+pub fn read_verified(path: &Path) -> std::io::Result<Vec<u8>> {
+    let bytes = read_limited(path, MAX_MODEL_BYTES)?;
+    verify_listed(path, &bytes)?;
+    Ok(bytes)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn checksum_lists_are_honoured_and_damage_is_named() {
+        use sha2::Digest as _;
+        let dir = std::env::temp_dir().join(format!("glyptic-sums-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let model = dir.join("m.bin");
+        std::fs::write(&model, b"weights").unwrap();
+        let parse = |b: &[u8]| Ok::<usize, ()>(b.len());
+        // No list, or a list without the file: not checked.
+        assert_eq!(read_model(&model, parse).unwrap(), Ok(7));
+        let sum = hex(&sha2::Sha256::digest(b"weights"));
+        let list = dir.join(CHECKSUM_LIST);
+        std::fs::write(&list, format!("{sum}  other.bin\n")).unwrap();
+        assert_eq!(read_model(&model, parse).unwrap(), Ok(7));
+        // Listed and equal (CRLF, a comment and the binary-mode star are fine).
+        std::fs::write(&list, format!("# models\r\n{sum} *m.bin\r\n")).unwrap();
+        assert_eq!(read_model(&model, parse).unwrap(), Ok(7));
+        // One byte changed: refused as damaged, whatever the parser thought.
+        std::fs::write(&model, b"weighs!").unwrap();
+        let e = read_model(&model, parse).unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::InvalidData);
+        assert!(e.to_string().contains("damaged"), "{e}");
+        // A malformed list names itself and the line.
+        std::fs::write(&list, "xyz  m.bin\n").unwrap();
+        let e = read_model(&model, parse).unwrap_err();
+        assert!(e.to_string().contains("SHA256SUMS line 1"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     #[test]
     fn devices_folders_and_oversized_files_are_refused() {

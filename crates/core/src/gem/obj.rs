@@ -41,6 +41,9 @@ pub fn parse_obj(text: &str) -> Result<(Vec<f32>, Vec<[u32; 3]>), ObjError> {
                 if xyz.len() != 3 {
                     return Err(bad("a vertex needs three coordinates".into()));
                 }
+                if xyz.iter().any(|v| !v.is_finite()) {
+                    return Err(bad("a vertex coordinate is NaN or infinite".into()));
+                }
                 positions.extend_from_slice(&xyz);
             }
             Some("f") => {

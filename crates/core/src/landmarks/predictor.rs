@@ -242,19 +242,18 @@ impl ShapePredictor {
         })
     }
 
-    /// Reads and parses a model file; errors name the file.
+    /// Reads and parses a model file, verified against the checksum list beside it if there
+    /// is one ([`crate::files::read_model`]); errors name the file.
     pub fn load(path: &Path) -> Result<Self, LandmarkError> {
-        let bytes =
-            crate::files::read_limited(path, crate::files::MAX_MODEL_BYTES).map_err(|source| {
-                LandmarkError::Io {
-                    path: path.to_path_buf(),
-                    source,
-                }
-            })?;
-        Self::from_bytes(&bytes).map_err(|e| LandmarkError::File {
-            path: path.to_path_buf(),
-            source: Box::new(e),
-        })
+        crate::files::read_model(path, Self::from_bytes)
+            .map_err(|source| LandmarkError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?
+            .map_err(|e| LandmarkError::File {
+                path: path.to_path_buf(),
+                source: Box::new(e),
+            })
     }
 
     /// Landmarks per shape (68).

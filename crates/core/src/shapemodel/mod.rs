@@ -34,6 +34,21 @@ pub const MAPPING_FILE: &str = "ibug_to_sfm.txt";
 pub const CONTOURS_FILE: &str = "sfm_model_contours.json";
 pub const EDGE_TOPOLOGY_FILE: &str = "sfm_3448_edge_topology.json";
 
+/// The contents of the five files of a Surrey model folder, for [`SurreyModel::from_parts`].
+#[derive(Clone, Copy, Debug)]
+pub struct ModelFiles<'a> {
+    /// [`SHAPE_FILE`]
+    pub shape: &'a [u8],
+    /// [`BLENDSHAPES_FILE`]
+    pub blendshapes: &'a [u8],
+    /// [`MAPPING_FILE`]
+    pub mapping: &'a str,
+    /// [`CONTOURS_FILE`]
+    pub contours: &'a str,
+    /// [`EDGE_TOPOLOGY_FILE`]
+    pub edge_topology: &'a str,
+}
+
 /// Why a model file could not be used. Each variant names the file and what is wrong.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
@@ -68,6 +83,32 @@ impl ModelError {
             file: file.to_string(),
             field: field.into(),
             problem: problem.into(),
+        }
+    }
+
+    /// The error with its file named by its path in `dir` (the parsers know only file names).
+    fn in_folder(self, dir: &Path) -> Self {
+        let path = |file: String| dir.join(file).display().to_string();
+        match self {
+            ModelError::Binary {
+                file,
+                field,
+                source,
+            } => ModelError::Binary {
+                file: path(file),
+                field,
+                source,
+            },
+            ModelError::Invalid {
+                file,
+                field,
+                problem,
+            } => ModelError::Invalid {
+                file: path(file),
+                field,
+                problem,
+            },
+            other => other,
         }
     }
 }
@@ -444,11 +485,12 @@ impl SurreyModel {
         })
     }
 
-    /// Reads the five files from `dir` and checks that they agree with each other.
+    /// Reads the five files from `dir` (each verified against the checksum list beside them,
+    /// if there is one: [`crate::files::read_verified`]) and checks that they agree.
     pub fn load_dir(dir: &Path) -> Result<Self, ModelError> {
         let read = |name: &str| -> Result<Vec<u8>, ModelError> {
             let path = dir.join(name);
-            crate::files::read_limited(&path, crate::files::MAX_MODEL_BYTES).map_err(|source| {
+            crate::files::read_verified(&path).map_err(|source| {
                 if source.kind() == std::io::ErrorKind::NotFound {
                     ModelError::Missing { path: path.clone() }
                 } else {
@@ -463,11 +505,24 @@ impl SurreyModel {
             String::from_utf8(read(name)?)
                 .map_err(|_| ModelError::invalid(name, "text", "not valid UTF-8"))
         };
-        let shape = parse_shape_model(&read(SHAPE_FILE)?, SHAPE_FILE)?;
-        let blendshapes = parse_blendshapes(&read(BLENDSHAPES_FILE)?, BLENDSHAPES_FILE)?;
-        let mapping = parse_mapping(&text(MAPPING_FILE)?, MAPPING_FILE)?;
-        let contour = parse_model_contour(&text(CONTOURS_FILE)?, CONTOURS_FILE)?;
-        let edges = parse_edge_topology(&text(EDGE_TOPOLOGY_FILE)?, EDGE_TOPOLOGY_FILE)?;
+        Self::from_parts(&ModelFiles {
+            shape: &read(SHAPE_FILE)?,
+            blendshapes: &read(BLENDSHAPES_FILE)?,
+            mapping: &text(MAPPING_FILE)?,
+            contours: &text(CONTOURS_FILE)?,
+            edge_topology: &text(EDGE_TOPOLOGY_FILE)?,
+        })
+        .map_err(|e| e.in_folder(dir))
+    }
+
+    /// Parses the five files' contents (named as in eos's folder in errors) and checks that
+    /// they agree with each other: what [`SurreyModel::load_dir`] does once it has read them.
+    pub fn from_parts(files: &ModelFiles) -> Result<Self, ModelError> {
+        let shape = parse_shape_model(files.shape, SHAPE_FILE)?;
+        let blendshapes = parse_blendshapes(files.blendshapes, BLENDSHAPES_FILE)?;
+        let mapping = parse_mapping(files.mapping, MAPPING_FILE)?;
+        let contour = parse_model_contour(files.contours, CONTOURS_FILE)?;
+        let edges = parse_edge_topology(files.edge_topology, EDGE_TOPOLOGY_FILE)?;
         // Checked before the rows are packed, which assumes they agree.
         check_blendshape_rows(&shape, &blendshapes)?;
         let packed = PackedRows::new(&shape, &blendshapes);
