@@ -7,6 +7,7 @@ mod common;
 
 mod capture;
 mod cli;
+mod corpus;
 mod detect;
 mod kiosk;
 mod pipeline;

@@ -51,10 +51,12 @@ fn parse_pts(text: &str, allow_missing: bool) -> Result<Vec<[f32; 2]>, LandmarkE
     // Header.
     loop {
         let Some((no, line)) = lines.next() else {
-            return Err(err(
-                text.lines().count(),
-                "no '{' opening the point list".into(),
-            ));
+            let problem = if text.trim().is_empty() {
+                "the file is empty".into()
+            } else {
+                "no '{' opening the point list".into()
+            };
+            return Err(err(text.lines().count().max(1), problem));
         };
         if line.is_empty() {
             continue;

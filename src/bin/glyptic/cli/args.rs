@@ -67,7 +67,7 @@ pub struct SssArgs {
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     pub sss: OnOff,
     /// Blur taps per direction (odd, 3..=65).
-    #[arg(long, default_value_t = 21, value_name = "N")]
+    #[arg(long, default_value_t = 21, value_name = "N", value_parser = odd_taps)]
     pub sss_taps: usize,
     /// How much light scatters, 0..=1 (red's share; green and blue follow the reference balance).
     #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S",
@@ -253,6 +253,20 @@ impl std::str::FromStr for Size {
 /// A number option's parser: a finite value within `lo..=hi`, or an error that says the range
 /// (NaN, infinities and out-of-range values never reach the work: `--style-time nan` used to
 /// render a black gem).
+/// A blur's tap count: odd (a centre tap and as many on each side) and 3..=65 (the renderer's
+/// kernel buffer), refused when the command line is read.
+pub fn odd_taps(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|e| format!("{s:?} is not a whole number ({e})"))?;
+    if n % 2 == 1 && (3..=65).contains(&n) {
+        Ok(n)
+    } else {
+        Err(format!("{n}: must be odd and 3..=65"))
+    }
+}
+
 pub fn finite_in<T>(
     lo: f64,
     hi: f64,

@@ -25,9 +25,9 @@ pub struct BatchArgs {
     /// Folder for the gems (`NAME-gem.png` for each `NAME.ext`); made if missing.
     #[arg(short, long, value_name = "OUTDIR")]
     pub output: PathBuf,
-    /// Face workers (default and most: one per core).
-    #[arg(long, value_name = "N")]
-    pub jobs: Option<usize>,
+    /// Face workers, 1 or more (default and most: one per core).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub jobs: Option<u16>,
     /// Per-image status and times (default: OUTDIR/batch.csv).
     #[arg(long, value_name = "FILE.csv")]
     pub csv: Option<PathBuf>,
@@ -147,6 +147,12 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
             glyptic::capture::source::IMAGE_EXTENSIONS.join(", ")
         );
     }
+    if args.output.exists() && !args.output.is_dir() {
+        bail!(
+            "{}: not a folder (the gems go into a folder, made if missing)",
+            args.output.display()
+        );
+    }
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot make the output folder", args.output.display()))?;
     let outputs = output_names(&files, &args.output);
@@ -162,7 +168,10 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     // Never more workers than cores: each holds a decoded photo and its buffers, and more
     // would only multiply the memory a hostile image can take, not the speed.
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let jobs = args.jobs.unwrap_or(cores).clamp(1, cores.min(files.len()));
+    let jobs = args
+        .jobs
+        .map_or(cores, usize::from)
+        .clamp(1, cores.min(files.len()));
 
     // The GPU comes up while the models load.
     let renderer_thread = super::photo::spawn_renderer();

@@ -15,6 +15,7 @@ use super::{OnOff, Size, SssArgs, check_outputs, write_atomic};
 #[derive(clap::Args, Debug)]
 pub struct KernelArgs {
     /// Taps (odd, 3..=65).
+    #[arg(value_parser = super::args::odd_taps)]
     pub taps: usize,
     /// How much light scatters, 0..=1.
     #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S",

@@ -101,7 +101,11 @@ pub(crate) fn check_outputs<'a>(
         if let Some(dir) = dir
             && !dir.is_dir()
         {
-            bail!("{}: output folder does not exist", dir.display());
+            bail!(
+                "{}: output folder does not exist ({})",
+                out.display(),
+                dir.display()
+            );
         }
         check_replaceable(out)?;
         let key = same_file_key(out);
