@@ -56,6 +56,15 @@ impl VideoSource {
             reason,
         };
         if !self.path.is_file() {
+            // A looping video that has played and is gone (a share unmounted, a file being
+            // replaced) is waited for, as an unplugged camera is; missing at the start, it is
+            // a mistake.
+            if self.looping && self.pass_offset_s > 0.0 {
+                return Err(SourceError::Unavailable {
+                    source_name: self.path.display().to_string(),
+                    reason: "video file gone".into(),
+                });
+            }
             return Err(fatal("video file not found".into()));
         }
         let cap = VideoCapture::from_file(&self.path, videoio::CAP_FFMPEG)

@@ -579,3 +579,159 @@ fn the_build_without_the_face_pipeline_shows_the_default_gem() {
         "{stderr}"
     );
 }
+
+/// A clip of a face swaying (so that every fit gives a new cameo), `n` frames at 10 fps.
+fn sway_clip(dir: &Path, n: u64) -> PathBuf {
+    let (still, _, _) = common::framed("lenna.png", 320, 240);
+    let frames: Vec<image::RgbImage> = (0..n)
+        .map(|i| {
+            let deg = 8.0 * (i as f32 * std::f32::consts::TAU / n as f32).sin();
+            common::rotated(&still, [160.0, 110.0], deg)
+        })
+        .collect();
+    let video = dir.join("sway.avi");
+    glyptic::capture::video::write_mjpeg_avi(&video, &frames, 10.0).unwrap();
+    video
+}
+
+/// The first trace line whose status says `what`, and its index.
+fn said(lines: &[serde_json::Value], what: &str) -> Option<usize> {
+    lines
+        .iter()
+        .position(|l| l["status"].as_str().is_some_and(|s| s.contains(what)))
+}
+
+/// Issue #19: a worker thread that dies is restarted, the gem stays on screen and the kiosk
+/// carries on (faults injected with `GLYPTIC_KIOSK_FAULT`: the gem thread panics at its third
+/// cameo; the capture thread panics at its 25th frame, taking the face side with it).
+#[test]
+fn dead_workers_are_restarted_and_the_gem_stays_on_screen() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("restart");
+    let video = sway_clip(&dir, 30);
+    let run = |fault: &str| {
+        traced(
+            kiosk(&x)
+                .env("GLYPTIC_KIOSK_FAULT", fault)
+                .arg("--video")
+                .arg(&video)
+                .args(["--seconds", "14", "--trace", "--size", "320x480"]),
+        )
+    };
+
+    let lines = run("gem-panic-once:3");
+    let last = lines.last().unwrap();
+    assert_eq!(last["gem_restarts"], 1, "{last}");
+    let restarted = said(&lines, "gem thread restarted").expect("the restart is on screen");
+    let gems_then = lines[restarted]["gems"].as_u64().unwrap();
+    assert!(
+        gems_then >= 2,
+        "the gem from before the fault is still there"
+    );
+    assert!(
+        last["gems"].as_u64().unwrap() > gems_then,
+        "no cameo after the restart: {last}"
+    );
+
+    let lines = run("capture-panic:25");
+    let last = lines.last().unwrap();
+    assert_eq!(last["face_restarts"], 1, "{last}");
+    let restarted = said(&lines, "face tracking stopped; restarting").expect("said on screen");
+    let updates_then = lines[restarted]["face_updates"].as_u64().unwrap();
+    assert!(
+        last["face_updates"].as_u64().unwrap() > updates_then + 10,
+        "face tracking did not resume: {last}"
+    );
+    assert!(
+        lines[restarted..]
+            .iter()
+            .all(|l| l["gems"].as_u64() >= Some(1))
+    );
+}
+
+/// A worker that dies each time it is restarted: the kiosk gives up with exit 1 and says why
+/// (a supervisor such as systemd starts it afresh), instead of sitting on a dead window.
+#[test]
+fn a_worker_that_keeps_dying_ends_the_kiosk_with_an_error() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let run = kiosk(&x)
+        .env("GLYPTIC_KIOSK_FAULT", "gem-panic:1")
+        .args(["--seconds", "30", "--size", "320x480"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{stderr}");
+    let last = stderr.lines().last().unwrap_or("");
+    assert!(
+        last.contains("the gem thread died 4 times within 60 s") && last.contains("injected fault"),
+        "{stderr}"
+    );
+}
+
+/// A soak with a camera that comes and goes: the looping video is taken away twice for a few
+/// seconds (as an unplugged camera: retried, said on screen) and put back; the gem stays, the
+/// tracking resumes each time without restarting anything, and the kiosk ends normally.
+#[test]
+fn a_camera_that_comes_and_goes_is_waited_for() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("comes-and-goes");
+    let video = sway_clip(&dir, 20);
+    let away = dir.join("sway.avi.away");
+    let mut child = kiosk(&x)
+        .arg("--video")
+        .arg(&video)
+        .args(["--seconds", "24", "--trace", "--size", "320x480"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Read the trace as it comes: a full pipe would stall the kiosk.
+    let mut stdout = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut out = Vec::new();
+        std::io::Read::read_to_end(&mut stdout, &mut out).map(|_| out)
+    });
+    let t0 = Instant::now();
+    for (at, gone) in [(7.0, 4.0), (15.0, 3.0)] {
+        std::thread::sleep(Duration::from_secs_f64(at).saturating_sub(t0.elapsed()));
+        std::fs::rename(&video, &away).unwrap();
+        std::thread::sleep(Duration::from_secs_f64(gone));
+        std::fs::rename(&away, &video).unwrap();
+    }
+    let run = child.wait_with_output().unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let lines = trace(&reader.join().unwrap().unwrap());
+    let last = lines.last().unwrap();
+    let gone = said(&lines, "no camera: video file gone").expect("the outage is said on screen");
+    let back = gone
+        + lines[gone..]
+            .iter()
+            .position(|l| !l["status"].as_str().unwrap_or("").contains("no camera"))
+            .expect("and the return");
+    let updates = |i: usize| lines[i]["face_updates"].as_u64().unwrap();
+    assert!(
+        updates(lines.len() - 1) > updates(back) + 10,
+        "tracking did not resume: {last}"
+    );
+    assert_eq!(
+        last["face_restarts"], 0,
+        "nothing had to be restarted: {last}"
+    );
+    assert!(lines[gone..].iter().all(|l| l["gems"].as_u64() >= Some(1)));
+    let outages = lines
+        .windows(2)
+        .filter(|w| {
+            let s =
+                |l: &serde_json::Value| l["status"].as_str().unwrap_or("").contains("no camera");
+            !s(&w[0]) && s(&w[1])
+        })
+        .count();
+    assert_eq!(outages, 2, "two outages seen");
+}

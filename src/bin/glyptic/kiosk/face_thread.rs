@@ -21,12 +21,51 @@ pub(super) enum FaceNews {
         latency_ms: f64,
     },
     Status(String),
+    /// The face side died more often than it may be restarted: the kiosk cannot go on.
+    Fatal(String),
 }
 
 /// Starts the models loading and the stream on a thread of its own; the window polls.
 pub(super) struct Live {
+    config: KioskConfig,
     stream: Option<FaceStream>,
     starting: Option<crossbeam_channel::Receiver<Result<FaceStream, String>>>,
+    /// When the face side died lately (see [`super::news::MAX_RESTARTS`]).
+    deaths: Vec<std::time::Instant>,
+    pub(super) restarts: u64,
+}
+
+/// A frame source that panics at its Nth frame (`GLYPTIC_KIOSK_FAULT=capture-panic:N`, for
+/// tests): the capture thread dies, and with it the face side.
+struct Faulty {
+    inner: Box<dyn FrameSource>,
+    at: u64,
+    frames: u64,
+}
+
+impl FrameSource for Faulty {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+
+    fn next_frame(
+        &mut self,
+    ) -> Result<Option<glyptic::capture::RawFrame>, glyptic::capture::SourceError> {
+        self.frames += 1;
+        if self.frames == self.at {
+            panic!("injected fault: capture-panic at frame {}", self.at);
+        }
+        self.inner.next_frame()
+    }
+
+    fn frame_rate(&self) -> Option<f64> {
+        self.inner.frame_rate()
+    }
+}
+
+fn capture_fault() -> Option<u64> {
+    let v = std::env::var("GLYPTIC_KIOSK_FAULT").ok()?;
+    v.strip_prefix("capture-panic:")?.trim().parse().ok()
 }
 
 fn open_source(config: &KioskConfig) -> Box<dyn FrameSource> {
@@ -52,6 +91,20 @@ fn open_source(config: &KioskConfig) -> Box<dyn FrameSource> {
 
 impl Live {
     pub(super) fn start(config: &KioskConfig) -> Result<Self> {
+        Ok(Live {
+            config: config.clone(),
+            stream: None,
+            starting: Some(Self::spawn_setup(config, capture_fault())?),
+            deaths: Vec::new(),
+            restarts: 0,
+        })
+    }
+
+    /// Loads the models and starts the stream on a thread of its own.
+    fn spawn_setup(
+        config: &KioskConfig,
+        fault: Option<u64>,
+    ) -> Result<crossbeam_channel::Receiver<Result<FaceStream, String>>> {
         let (tx, rx) = crossbeam_channel::bounded(1);
         let config = config.clone();
         std::thread::Builder::new()
@@ -63,8 +116,17 @@ impl Live {
                     )?;
                     let tracker = Tracker::new(pipeline, TrackOptions::default());
                     let hair = config.visitor_hair;
-                    let capture =
-                        Capture::spawn(move || open_source(&config), CaptureOptions::default());
+                    let capture = Capture::spawn(
+                        move || match fault {
+                            Some(at) => Box::new(Faulty {
+                                inner: open_source(&config),
+                                at,
+                                frames: 0,
+                            }),
+                            None => open_source(&config),
+                        },
+                        CaptureOptions::default(),
+                    );
                     Ok(FaceStream::spawn_with(
                         capture,
                         tracker,
@@ -78,10 +140,33 @@ impl Live {
                 let _ = tx.send(started.map_err(|e| format!("{e:#}")));
             })
             .context("starting the face set-up thread")?;
-        Ok(Live {
-            stream: None,
-            starting: Some(rx),
-        })
+        Ok(rx)
+    }
+
+    /// The face side stopped (a thread died): start it again, unless it died too often.
+    fn restart(&mut self) -> FaceNews {
+        self.stream = None;
+        let now = std::time::Instant::now();
+        self.deaths
+            .retain(|t| now.duration_since(*t) < super::news::RESTART_WINDOW);
+        self.deaths.push(now);
+        if self.deaths.len() > super::news::MAX_RESTARTS {
+            tracing::error!("face tracking stopped again: giving up");
+            return FaceNews::Fatal(format!(
+                "face tracking stopped {} times within {} s",
+                self.deaths.len(),
+                super::news::RESTART_WINDOW.as_secs()
+            ));
+        }
+        tracing::error!("face tracking stopped (a worker thread died); restarting it");
+        match Self::spawn_setup(&self.config, None) {
+            Ok(rx) => {
+                self.starting = Some(rx);
+                self.restarts += 1;
+                FaceNews::Status("face tracking stopped; restarting".into())
+            }
+            Err(e) => FaceNews::Fatal(format!("{e:#}")),
+        }
     }
 
     /// News since the last call, newest face last.
@@ -124,13 +209,17 @@ impl Live {
                 StreamEvent::Error { error, .. } => format!("face: {error}"),
             }));
         }
-        if let Ok(Some(u)) = stream.updates().try_recv() {
-            news.push(FaceNews::Update {
+        match stream.updates().try_recv() {
+            Ok(Some(u)) => news.push(FaceNews::Update {
                 hair: u.hair,
                 face: u.face.map(|f| f.portrait),
                 frame: u.frame_index,
                 latency_ms: u.latency_ms,
-            });
+            }),
+            Ok(None) => {}
+            // The kiosk's sources never end (videos loop, cameras are waited for): a closed
+            // stream is a dead thread.
+            Err(_) => news.push(self.restart()),
         }
         news
     }

@@ -22,10 +22,41 @@ pub(super) enum GemNote {
     Ready { default_face: Arc<Vec<f32>> },
     /// The model or the builder could not be made: no cameo will come.
     Failed(String),
+    /// The thread panicked (the message); the window restarts it.
+    Died(String),
+}
+
+/// A fault to inject for tests (`GLYPTIC_KIOSK_FAULT`): `gem-panic:N` makes every gem thread
+/// panic on its Nth cameo, `gem-panic-once:N` only the first gem thread.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct GemFault {
+    pub(super) at: u64,
+    pub(super) every_thread: bool,
+}
+
+impl GemFault {
+    /// Reads `GLYPTIC_KIOSK_FAULT`; anything else there is ignored (other faults, typos).
+    pub(super) fn from_env() -> Option<Self> {
+        let v = std::env::var("GLYPTIC_KIOSK_FAULT").ok()?;
+        let (kind, n) = v.split_once(':')?;
+        let at = n.trim().parse().ok()?;
+        match kind {
+            "gem-panic" => Some(GemFault {
+                at,
+                every_thread: true,
+            }),
+            "gem-panic-once" => Some(GemFault {
+                at,
+                every_thread: false,
+            }),
+            _ => None,
+        }
+    }
 }
 
 /// A cameo to build: a face (model mm) and its hair (the classical style for the default face
 /// or before the visitor's hair is known).
+#[derive(Clone)]
 pub(super) struct GemJob {
     pub(super) face: Vec<f32>,
     pub(super) hair: HairStyle,
@@ -43,73 +74,109 @@ pub(super) struct GemThread {
 }
 
 impl GemThread {
-    pub(super) fn spawn(portrait: View) -> Result<Self> {
+    /// Starts the thread. Its first cameo is `first` (a restarted thread carries on with the
+    /// last face it was given) or the model's mean face.
+    pub(super) fn spawn(
+        portrait: View,
+        first: Option<GemJob>,
+        fault: Option<GemFault>,
+    ) -> Result<Self> {
         let (faces, jobs) = latest::<GemJob>();
         let (send, out) = latest::<Result<BuiltGem, String>>();
         let (note_tx, notes) = crossbeam_channel::bounded(4);
         std::thread::Builder::new()
             .name("gem".into())
             .spawn(move || {
-                let params = portrait.cameo();
-                let setup = (|| -> Result<_> {
-                    let dir = glyptic::assets::sfm_dir();
-                    let model = glyptic::shapemodel::SurreyModel::load_dir(&dir)
-                        .with_context(|| format!("{}: the face model", dir.display()))?;
-                    let builder = CameoBuilder::new(&params)?;
-                    Ok((
-                        model.instance(&[], &[]),
-                        model.shape.triangles.clone(),
-                        builder,
-                    ))
-                })();
-                let (mean, triangles, mut builder) = match setup {
-                    Ok(s) => s,
-                    Err(e) => {
-                        let _ = note_tx.try_send(GemNote::Failed(format!("{e:#}")));
-                        return;
-                    }
-                };
-                let _ = note_tx.try_send(GemNote::Ready {
-                    default_face: Arc::new(mean.clone()),
+                let died = note_tx.clone();
+                let run = std::panic::AssertUnwindSafe(|| {
+                    work(portrait, first, fault, &jobs, &send, &note_tx)
                 });
-                let mut face = mean.clone();
-                let mut hair = params.hair;
-                let mut warm = Vec::new();
-                loop {
-                    if hair != builder.params().hair {
-                        let with_hair = CameoParams {
-                            hair,
-                            ..params.clone()
-                        };
-                        // Parameters that passed once pass again; should they not, the
-                        // previous hair stays.
-                        if let Ok(b) = CameoBuilder::new(&with_hair) {
-                            builder = b;
-                        }
-                    }
-                    // A visitor's faces follow each other: each solve starts from the last.
-                    // The default face starts cold, so it is always the same gem.
-                    if face == mean {
-                        warm.clear();
-                    }
-                    let t = Instant::now();
-                    let built = builder
-                        .build_after(&face, &triangles, &mut warm)
-                        .map(|mesh| BuiltGem {
-                            mesh: Arc::new(mesh),
-                            ms: t.elapsed().as_secs_f64() * 1e3,
-                        })
-                        .map_err(|e| format!("cameo: {e}"));
-                    if send.send(built).is_err() {
-                        return;
-                    }
-                    match jobs.recv() {
-                        Ok(next) => (face, hair) = (next.face, next.hair),
-                        Err(_) => return,
-                    }
+                if let Err(panic) = std::panic::catch_unwind(run) {
+                    let why = panic
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| panic.downcast_ref::<String>().cloned())
+                        .unwrap_or_else(|| "a panic".into());
+                    let _ = died.try_send(GemNote::Died(why));
                 }
             })
             .context("starting the gem thread")?;
         Ok(GemThread { faces, out, notes })
+    }
+}
+
+/// The gem thread's work: load the model, then one cameo per job until the window goes.
+fn work(
+    portrait: View,
+    first: Option<GemJob>,
+    fault: Option<GemFault>,
+    jobs: &LatestReceiver<GemJob>,
+    send: &LatestSender<Result<BuiltGem, String>>,
+    note_tx: &crossbeam_channel::Sender<GemNote>,
+) {
+    let params = portrait.cameo();
+    let setup = (|| -> Result<_> {
+        let dir = glyptic::assets::sfm_dir();
+        let model = glyptic::shapemodel::SurreyModel::load_dir(&dir)
+            .with_context(|| format!("{}: the face model", dir.display()))?;
+        let builder = CameoBuilder::new(&params)?;
+        Ok((
+            model.instance(&[], &[]),
+            model.shape.triangles.clone(),
+            builder,
+        ))
+    })();
+    let (mean, triangles, mut builder) = match setup {
+        Ok(s) => s,
+        Err(e) => {
+            let _ = note_tx.try_send(GemNote::Failed(format!("{e:#}")));
+            return;
+        }
+    };
+    let _ = note_tx.try_send(GemNote::Ready {
+        default_face: Arc::new(mean.clone()),
+    });
+    let (mut face, mut hair) = match first {
+        Some(job) => (job.face, job.hair),
+        None => (mean.clone(), params.hair),
+    };
+    let mut warm = Vec::new();
+    let mut built_count = 0u64;
+    loop {
+        built_count += 1;
+        if fault.is_some_and(|f| f.at == built_count) {
+            panic!("injected fault: gem-panic at cameo {built_count}");
+        }
+        if hair != builder.params().hair {
+            let with_hair = CameoParams {
+                hair,
+                ..params.clone()
+            };
+            // Parameters that passed once pass again; should they not, the
+            // previous hair stays.
+            if let Ok(b) = CameoBuilder::new(&with_hair) {
+                builder = b;
+            }
+        }
+        // A visitor's faces follow each other: each solve starts from the last.
+        // The default face starts cold, so it is always the same gem.
+        if face == mean {
+            warm.clear();
+        }
+        let t = Instant::now();
+        let built = builder
+            .build_after(&face, &triangles, &mut warm)
+            .map(|mesh| BuiltGem {
+                mesh: Arc::new(mesh),
+                ms: t.elapsed().as_secs_f64() * 1e3,
+            })
+            .map_err(|e| format!("cameo: {e}"));
+        if send.send(built).is_err() {
+            return;
+        }
+        match jobs.recv() {
+            Ok(next) => (face, hair) = (next.face, next.hair),
+            Err(_) => return,
+        }
     }
 }

@@ -186,6 +186,12 @@ impl ApplicationHandler for App {
             if r.poll() {
                 r.window.request_redraw();
             }
+            // A worker that cannot be restarted: nothing more can be shown.
+            if let Some(e) = r.fatal.take() {
+                self.error = Some(e);
+                event_loop.exit();
+                return;
+            }
             event_loop.set_control_flow(ControlFlow::WaitUntil(
                 Instant::now() + Duration::from_millis(16),
             ));

@@ -13,11 +13,11 @@ use anyhow::{Context, Result, anyhow};
 use winit::event_loop::ActiveEventLoop;
 use winit::window::{Fullscreen, Window};
 
-use glyptic::gem::HairStyle;
+use glyptic::gem::{HairStyle, View};
 use glyptic::kiosk::{Controls, KioskConfig, Orbit};
 use glyptic::render::{Mesh, RenderParams, Renderer};
 
-use super::gem_thread::{GemJob, GemThread};
+use super::gem_thread::{GemFault, GemJob, GemThread};
 use super::trace::{Rate, Timeline};
 use super::ui::{UiFrame, style};
 use super::{Continue, KioskArgs};
@@ -53,6 +53,15 @@ pub(super) struct Running {
     pub(super) idle_seconds: f32,
     pub(super) ease_seconds: f32,
     pub(super) gems: GemThread,
+    /// The gem thread's portrait, the last job sent to it (a restarted thread carries on
+    /// with it), the fault injected for tests, and when it died lately.
+    pub(super) portrait: View,
+    pub(super) last_job: Option<GemJob>,
+    pub(super) gem_fault: Option<GemFault>,
+    pub(super) gem_deaths: Vec<Instant>,
+    /// Why the kiosk cannot go on (set by a worker that cannot be restarted): the window
+    /// closes and the process exits 1.
+    pub(super) fatal: Option<anyhow::Error>,
     #[cfg(feature = "face")]
     pub(super) live: super::face_thread::Live,
     pub(super) default_face: Option<Arc<Vec<f32>>>,
@@ -97,7 +106,8 @@ impl Running {
                 .create_window(attributes)
                 .context("creating the window")?,
         );
-        let gems = GemThread::spawn(config.portrait)?;
+        let gem_fault = GemFault::from_env();
+        let gems = GemThread::spawn(config.portrait, None, gem_fault)?;
         #[cfg(feature = "face")]
         let live = super::face_thread::Live::start(config)?;
 
@@ -153,6 +163,11 @@ impl Running {
             idle_seconds: config.idle_seconds,
             ease_seconds: config.ease_seconds,
             gems,
+            portrait: config.portrait,
+            last_job: None,
+            gem_fault,
+            gem_deaths: Vec::new(),
+            fatal: None,
             #[cfg(feature = "face")]
             live,
             default_face: None,
@@ -190,6 +205,8 @@ impl Running {
                 face_latency_ms: 0.0,
                 face_frame: 0,
                 poll_max_ms: 0.0,
+                gem_restarts: 0,
+                face_restarts: 0,
             },
         })
     }
