@@ -1103,7 +1103,9 @@ fn pts_reading_and_round_trip() {
 #[test]
 fn pts_errors() {
     let bad = [
-        ("", "'{'"),
+        ("", "empty"),
+        ("\n  \n", "empty"),
+        ("n_points: 1\n", "'{'"),
         ("version: 1\nn_points: 2\n{\n1 2\n}\n", "n_points"),
         ("n_points: 1\n{\n1 2\n", "'}'"),
         ("n_points: 1\n{\n1 x\n}\n", "coordinate"),
