@@ -133,20 +133,28 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let contours_v: serde_json::Value = serde_json::from_str(&contours)?;
     let folded_contours = map_numbers(&contours_v, &|v| fold(v));
     let folded_edges = fold_edges(&cut_edges, VERTICES as u64, triangles.len() as u64);
+    let (contours_text, edges_text) = (folded_contours.to_string(), folded_edges.to_string());
+    let files = glyptic_core::shapemodel::ModelFiles {
+        shape: &shape_bytes,
+        blendshapes: &blend_bytes,
+        mapping: &folded_mapping,
+        contours: &contours_text,
+        edge_topology: &edges_text,
+    };
+    if let Err(e) = glyptic_core::shapemodel::SurreyModel::from_parts(&files) {
+        return Err(format!("the folded model seed is refused: {e}").into());
+    }
+    // The target's framing: each file preceded by its length (u32, little-endian).
     let mut model = Vec::new();
     for part in [
-        &shape_bytes[..],
-        &blend_bytes,
-        folded_mapping.as_bytes(),
-        folded_contours.to_string().as_bytes(),
-        folded_edges.to_string().as_bytes(),
+        files.shape,
+        files.blendshapes,
+        files.mapping.as_bytes(),
+        files.contours.as_bytes(),
+        files.edge_topology.as_bytes(),
     ] {
         model.extend_from_slice(&(part.len() as u32).to_le_bytes());
         model.extend_from_slice(part);
-    }
-    let files = split_model(&model).ok_or("model seed does not split")?;
-    if let Err(e) = glyptic_core::shapemodel::SurreyModel::from_parts(&files) {
-        return Err(format!("the folded model seed is refused: {e}").into());
     }
     put("sfm_model", "folded.bin", &model)?;
 
@@ -356,24 +364,4 @@ fn fold_mapping(text: &str, vertices: usize) -> String {
         out.push('\n');
     }
     out
-}
-
-fn split_model(mut data: &[u8]) -> Option<glyptic_core::shapemodel::ModelFiles<'_>> {
-    let mut parts = [&data[..0]; 5];
-    for part in &mut parts {
-        let (len, rest) = data.split_first_chunk::<4>()?;
-        let len = u32::from_le_bytes(*len) as usize;
-        if len > rest.len() {
-            return None;
-        }
-        (*part, data) = rest.split_at(len);
-    }
-    let text = |b| std::str::from_utf8(b).ok();
-    Some(glyptic_core::shapemodel::ModelFiles {
-        shape: parts[0],
-        blendshapes: parts[1],
-        mapping: text(parts[2])?,
-        contours: text(parts[3])?,
-        edge_topology: text(parts[4])?,
-    })
 }
