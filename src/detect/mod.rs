@@ -235,15 +235,14 @@ impl FaceDetector {
         ort_library: &Path,
         config: &SessionConfig,
     ) -> Result<Self, DetectError> {
-        let env = ort_environment(ort_library)?;
-        // The session is built while the file's checksum is verified.
-        let session = crate::files::read_model(model, |bytes| {
-            centerface::session(&env, bytes, model, config)
-        })
-        .map_err(|source| DetectError::Io {
+        // Verified before ONNX Runtime sees it: its C++ parser is not safe on damaged bytes
+        // (a damaged model once ended the process with a heap corruption at exit).
+        let bytes = crate::files::read_verified(model).map_err(|source| DetectError::Io {
             path: model.to_path_buf(),
             source,
-        })??;
+        })?;
+        let env = ort_environment(ort_library)?;
+        let session = centerface::session(&env, &bytes, model, config)?;
         Ok(Self {
             model: OnnxModel {
                 session,

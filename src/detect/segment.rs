@@ -60,17 +60,15 @@ impl PersonSegmenter {
             path: model.to_path_buf(),
             reason,
         };
-        let env = ort_environment(ort_library)?;
-        // The session is built while the file's checksum is verified.
-        let session = crate::files::read_model(model, |bytes| {
-            super::centerface::session_builder(&env, &SessionConfig::default())
-                .and_then(|mut b| b.commit_from_memory(bytes).map_err(|e| e.to_string()))
-        })
-        .map_err(|source| SegmentError::Io {
+        // Verified before ONNX Runtime sees it (see `FaceDetector::load_with`).
+        let bytes = crate::files::read_verified(model).map_err(|source| SegmentError::Io {
             path: model.to_path_buf(),
             source,
-        })?
-        .map_err(model_err)?;
+        })?;
+        let env = ort_environment(ort_library)?;
+        let session = super::centerface::session_builder(&env, &SessionConfig::default())
+            .and_then(|mut b| b.commit_from_memory(&bytes).map_err(|e| e.to_string()))
+            .map_err(model_err)?;
         let has = |names: Vec<&str>, want: &str| names.contains(&want);
         if !has(session.inputs().iter().map(|o| o.name()).collect(), INPUT)
             || !has(session.outputs().iter().map(|o| o.name()).collect(), OUTPUT)

@@ -135,7 +135,8 @@ pub fn verify_listed(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// while, on another thread, its checksum is verified ([`verify_listed`]): dlib's model is
 /// 100 MB, and hashing it (~60 ms) beside the parse costs no time on two cores. A damaged
 /// file is refused as damaged (the outer error), whatever `parse` made of it; a file that
-/// reads and verifies gives `parse`'s own result.
+/// reads and verifies gives `parse`'s own result. Only for parsers that are safe on any
+/// bytes (ours): a C++ parser such as ONNX Runtime's gets [`read_verified`]'s bytes.
 pub fn read_model<T, E>(
     path: &Path,
     parse: impl FnOnce(&[u8]) -> Result<T, E>,
