@@ -188,11 +188,18 @@ impl SssParams {
         CHANNEL_BALANCE.map(|b| s * b)
     }
 
+    /// A tap count the kernel can have: odd (a centre tap and as many on each side) and
+    /// 3 ..= [`MAX_TAPS`] (the renderer's kernel buffer).
+    pub fn check_taps(taps: usize) -> Result<usize, SssError> {
+        if taps.is_multiple_of(2) || !(3..=MAX_TAPS).contains(&taps) {
+            return Err(SssError::Taps(taps));
+        }
+        Ok(taps)
+    }
+
     /// Checks every field, naming the first bad one.
     pub fn validate(&self) -> Result<(), SssError> {
-        if self.taps.is_multiple_of(2) || !(3..=MAX_TAPS).contains(&self.taps) {
-            return Err(SssError::Taps(self.taps));
-        }
+        Self::check_taps(self.taps)?;
         let bad = |what, value, problem| {
             Err(SssError::Value {
                 what,

@@ -250,23 +250,19 @@ impl std::str::FromStr for Size {
     }
 }
 
-/// A number option's parser: a finite value within `lo..=hi`, or an error that says the range
-/// (NaN, infinities and out-of-range values never reach the work: `--style-time nan` used to
-/// render a black gem).
-/// A blur's tap count: odd (a centre tap and as many on each side) and 3..=65 (the renderer's
-/// kernel buffer), refused when the command line is read.
+/// A blur's tap count, checked by the renderer's own rule ([`glyptic::sss::SssParams::check_taps`])
+/// when the command line is read.
 pub fn odd_taps(s: &str) -> Result<usize, String> {
     let n: usize = s
         .trim()
         .parse()
         .map_err(|e| format!("{s:?} is not a whole number ({e})"))?;
-    if n % 2 == 1 && (3..=65).contains(&n) {
-        Ok(n)
-    } else {
-        Err(format!("{n}: must be odd and 3..=65"))
-    }
+    glyptic::sss::SssParams::check_taps(n).map_err(|e| e.to_string())
 }
 
+/// A number option's parser: a finite value within `lo..=hi`, or an error that says the range
+/// (NaN, infinities and out-of-range values never reach the work: `--style-time nan` used to
+/// render a black gem).
 pub fn finite_in<T>(
     lo: f64,
     hi: f64,

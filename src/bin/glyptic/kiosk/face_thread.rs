@@ -30,13 +30,11 @@ pub(super) struct Live {
     config: KioskConfig,
     stream: Option<FaceStream>,
     starting: Option<crossbeam_channel::Receiver<Result<FaceStream, String>>>,
-    /// When the face side died lately (see [`super::news::MAX_RESTARTS`]).
-    deaths: Vec<std::time::Instant>,
-    pub(super) restarts: u64,
+    pub(super) restarts: super::news::Restarts,
 }
 
-/// A frame source that panics at its Nth frame (`GLYPTIC_KIOSK_FAULT=capture-panic:N`, for
-/// tests): the capture thread dies, and with it the face side.
+/// A frame source that panics at its Nth frame ([`super::Fault::CapturePanic`], for tests):
+/// the capture thread dies, and with it the face side.
 struct Faulty {
     inner: Box<dyn FrameSource>,
     at: u64,
@@ -63,11 +61,6 @@ impl FrameSource for Faulty {
     }
 }
 
-fn capture_fault() -> Option<u64> {
-    let v = std::env::var("GLYPTIC_KIOSK_FAULT").ok()?;
-    v.strip_prefix("capture-panic:")?.trim().parse().ok()
-}
-
 fn open_source(config: &KioskConfig) -> Box<dyn FrameSource> {
     match &config.video {
         #[cfg(feature = "video")]
@@ -90,13 +83,13 @@ fn open_source(config: &KioskConfig) -> Box<dyn FrameSource> {
 }
 
 impl Live {
-    pub(super) fn start(config: &KioskConfig) -> Result<Self> {
+    /// Starts the face side; `capture_fault`: the first capture panics at this frame (tests).
+    pub(super) fn start(config: &KioskConfig, capture_fault: Option<u64>) -> Result<Self> {
         Ok(Live {
             config: config.clone(),
             stream: None,
-            starting: Some(Self::spawn_setup(config, capture_fault())?),
-            deaths: Vec::new(),
-            restarts: 0,
+            starting: Some(Self::spawn_setup(config, capture_fault)?),
+            restarts: Default::default(),
         })
     }
 
@@ -146,23 +139,14 @@ impl Live {
     /// The face side stopped (a thread died): start it again, unless it died too often.
     fn restart(&mut self) -> FaceNews {
         self.stream = None;
-        let now = std::time::Instant::now();
-        self.deaths
-            .retain(|t| now.duration_since(*t) < super::news::RESTART_WINDOW);
-        self.deaths.push(now);
-        if self.deaths.len() > super::news::MAX_RESTARTS {
+        if let Err(times) = self.restarts.died() {
             tracing::error!("face tracking stopped again: giving up");
-            return FaceNews::Fatal(format!(
-                "face tracking stopped {} times within {} s",
-                self.deaths.len(),
-                super::news::RESTART_WINDOW.as_secs()
-            ));
+            return FaceNews::Fatal(format!("face tracking stopped {times}"));
         }
         tracing::error!("face tracking stopped (a worker thread died); restarting it");
         match Self::spawn_setup(&self.config, None) {
             Ok(rx) => {
                 self.starting = Some(rx);
-                self.restarts += 1;
                 FaceNews::Status("face tracking stopped; restarting".into())
             }
             Err(e) => FaceNews::Fatal(format!("{e:#}")),

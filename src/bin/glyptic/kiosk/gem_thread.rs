@@ -26,32 +26,12 @@ pub(super) enum GemNote {
     Died(String),
 }
 
-/// A fault to inject for tests (`GLYPTIC_KIOSK_FAULT`): `gem-panic:N` makes every gem thread
-/// panic on its Nth cameo, `gem-panic-once:N` only the first gem thread.
+/// Gem threads panic on their Nth cameo: every one, or only the first (a test fault, see
+/// [`super::Fault`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct GemFault {
     pub(super) at: u64,
     pub(super) every_thread: bool,
-}
-
-impl GemFault {
-    /// Reads `GLYPTIC_KIOSK_FAULT`; anything else there is ignored (other faults, typos).
-    pub(super) fn from_env() -> Option<Self> {
-        let v = std::env::var("GLYPTIC_KIOSK_FAULT").ok()?;
-        let (kind, n) = v.split_once(':')?;
-        let at = n.trim().parse().ok()?;
-        match kind {
-            "gem-panic" => Some(GemFault {
-                at,
-                every_thread: true,
-            }),
-            "gem-panic-once" => Some(GemFault {
-                at,
-                every_thread: false,
-            }),
-            _ => None,
-        }
-    }
 }
 
 /// A cameo to build: a face (model mm) and its hair (the classical style for the default face

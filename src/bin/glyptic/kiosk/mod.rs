@@ -199,6 +199,33 @@ impl ApplicationHandler for App {
     }
 }
 
+/// A fault injected for tests (`GLYPTIC_KIOSK_FAULT`): `gem-panic:N` makes every gem thread
+/// panic on its Nth cameo, `gem-panic-once:N` only the first; `capture-panic:N` makes the first
+/// capture thread panic at its Nth frame. Anything else there is ignored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Fault {
+    Gem(gem_thread::GemFault),
+    #[cfg_attr(not(feature = "face"), allow(dead_code))]
+    CapturePanic {
+        at: u64,
+    },
+}
+
+impl Fault {
+    fn from_env() -> Option<Self> {
+        let v = std::env::var("GLYPTIC_KIOSK_FAULT").ok()?;
+        let (kind, n) = v.split_once(':')?;
+        let at = n.trim().parse().ok()?;
+        let gem = |every_thread| Fault::Gem(gem_thread::GemFault { at, every_thread });
+        match kind {
+            "gem-panic" => Some(gem(true)),
+            "gem-panic-once" => Some(gem(false)),
+            "capture-panic" => Some(Fault::CapturePanic { at }),
+            _ => None,
+        }
+    }
+}
+
 /// Whether the event loop goes on after a frame.
 pub(super) enum Continue {
     Yes,

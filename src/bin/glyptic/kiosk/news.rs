@@ -15,6 +15,40 @@ use super::window::Running;
 pub(super) const MAX_RESTARTS: usize = 3;
 pub(super) const RESTART_WINDOW: std::time::Duration = std::time::Duration::from_secs(60);
 
+/// What [`Running::take_gem_notes`] found: any note, and whether one was the thread's end.
+struct GemNotes {
+    noted: bool,
+    ended: bool,
+}
+
+/// A worker's deaths and restarts (the gem thread's, the face side's).
+#[derive(Default)]
+pub(super) struct Restarts {
+    deaths: Vec<Instant>,
+    /// Restarts so far (the trace's `gem_restarts`, `face_restarts`).
+    pub(super) count: u64,
+}
+
+impl Restarts {
+    /// Notes a death. `Ok`: restart it (counted); `Err`: the deaths within [`RESTART_WINDOW`],
+    /// more than [`MAX_RESTARTS`]: give up.
+    pub(super) fn died(&mut self) -> Result<(), String> {
+        let now = Instant::now();
+        self.deaths
+            .retain(|t| now.duration_since(*t) < RESTART_WINDOW);
+        self.deaths.push(now);
+        if self.deaths.len() > MAX_RESTARTS {
+            return Err(format!(
+                "{} times within {} s",
+                self.deaths.len(),
+                RESTART_WINDOW.as_secs()
+            ));
+        }
+        self.count += 1;
+        Ok(())
+    }
+}
+
 impl Running {
     /// Takes what the gem and face threads have; true if the window should be drawn.
     pub(super) fn poll(&mut self) -> bool {
@@ -29,31 +63,16 @@ impl Running {
 
     pub(super) fn take_news(&mut self) -> bool {
         let mut changed = false;
-        let notes: Vec<GemNote> = self.gems.notes.try_iter().collect();
-        for note in notes {
-            match note {
-                GemNote::Ready { default_face } => {
-                    self.default_face = Some(default_face);
-                    self.status = "ready".into();
-                }
-                // Without the model no cameo can ever be shown: the kiosk cannot go on.
-                GemNote::Failed(e) => {
-                    tracing::error!("the gem thread cannot start: {e}");
-                    self.status = e.clone();
-                    self.fatal = Some(anyhow::anyhow!("{e}"));
-                }
-                GemNote::Died(why) => self.restart_gems(&why),
-            }
-            changed = true;
-        }
+        changed |= self.take_gem_notes().noted;
+        // The thread's cameos, or its end: its notes (sent before it ends) say why.
         let built = match self.gems.out.try_recv() {
             Ok(built) => built,
-            // Gone without a note (the note channel was full): died all the same.
-            Err(_) if self.fatal.is_none() => {
-                self.restart_gems("it stopped");
+            Err(_) => {
+                if !self.take_gem_notes().ended && self.fatal.is_none() {
+                    self.restart_gems("it stopped");
+                }
                 None
             }
-            Err(_) => None,
         };
         if let Some(built) = built {
             match built {
@@ -117,12 +136,37 @@ impl Running {
             }
             changed = true;
         }
-        #[cfg(feature = "face")]
-        {
-            self.timeline.face_restarts = self.live.restarts;
-        }
         changed |= self.ease_back();
         changed
+    }
+
+    /// The gem thread's notes. A thread that died is restarted; one that could not load its
+    /// model ends the kiosk (no cameo could ever be shown).
+    fn take_gem_notes(&mut self) -> GemNotes {
+        let notes: Vec<GemNote> = self.gems.notes.try_iter().collect();
+        let mut taken = GemNotes {
+            noted: !notes.is_empty(),
+            ended: false,
+        };
+        for note in notes {
+            match note {
+                GemNote::Ready { default_face } => {
+                    self.default_face = Some(default_face);
+                    self.status = "ready".into();
+                }
+                GemNote::Failed(e) => {
+                    tracing::error!("the gem thread cannot start: {e}");
+                    self.status = e.clone();
+                    self.fatal = Some(anyhow::anyhow!("{e}"));
+                    taken.ended = true;
+                }
+                GemNote::Died(why) => {
+                    self.restart_gems(&why);
+                    taken.ended = true;
+                }
+            }
+        }
+        taken
     }
 
     /// Hands a face to the gem thread, keeping it for a restarted thread.
@@ -135,17 +179,9 @@ impl Running {
     /// gem on screen meanwhile; more than [`MAX_RESTARTS`] deaths a minute and the kiosk
     /// cannot go on.
     fn restart_gems(&mut self, why: &str) {
-        let now = Instant::now();
-        self.gem_deaths
-            .retain(|t| now.duration_since(*t) < RESTART_WINDOW);
-        self.gem_deaths.push(now);
-        if self.gem_deaths.len() > MAX_RESTARTS {
+        if let Err(times) = self.gem_restarts.died() {
             tracing::error!("the gem thread died again ({why}): giving up");
-            self.fatal = Some(anyhow::anyhow!(
-                "the gem thread died {} times within {} s (last: {why})",
-                self.gem_deaths.len(),
-                RESTART_WINDOW.as_secs()
-            ));
+            self.fatal = Some(anyhow::anyhow!("the gem thread died {times} (last: {why})"));
             return;
         }
         tracing::error!("the gem thread died ({why}); restarting it");
@@ -153,7 +189,6 @@ impl Running {
         match GemThread::spawn(self.portrait, self.last_job.clone(), fault) {
             Ok(gems) => {
                 self.gems = gems;
-                self.timeline.gem_restarts += 1;
                 self.status = format!("gem thread restarted ({why})");
             }
             Err(e) => self.fatal = Some(e.context("restarting the gem thread")),

@@ -33,9 +33,6 @@ pub(super) struct Timeline {
     /// The longest the event loop spent taking news from the other threads, ms (it never
     /// waits for them: this is the cost of a look).
     pub(super) poll_max_ms: f64,
-    /// Worker threads restarted after they died: the gem thread, the face side.
-    pub(super) gem_restarts: u64,
-    pub(super) face_restarts: u64,
 }
 
 /// Rates over the last second.
@@ -83,6 +80,14 @@ impl Running {
         s
     }
 
+    /// Times the face side was restarted after it died (none without the face pipeline).
+    fn face_restarts(&self) -> u64 {
+        #[cfg(feature = "face")]
+        return self.live.restarts.count;
+        #[cfg(not(feature = "face"))]
+        0
+    }
+
     pub(super) fn trace_line(&self, rendered_gem: bool) -> serde_json::Value {
         serde_json::json!({
             "frame": self.timeline.frames,
@@ -112,8 +117,8 @@ impl Running {
             "face_latency_ms": self.timeline.face_latency_ms,
             "face_frame": self.timeline.face_frame,
             "poll_max_ms": self.timeline.poll_max_ms,
-            "gem_restarts": self.timeline.gem_restarts,
-            "face_restarts": self.timeline.face_restarts,
+            "gem_restarts": self.gem_restarts.count,
+            "face_restarts": self.face_restarts(),
             "rss_kb": resident_kb(),
             "controls": self.control_rects.iter().map(|(k, r)| (k.to_string(), serde_json::json!(r))).collect::<serde_json::Map<_, _>>(),
         })

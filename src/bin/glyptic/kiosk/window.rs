@@ -18,6 +18,7 @@ use glyptic::kiosk::{Controls, KioskConfig, Orbit};
 use glyptic::render::{Mesh, RenderParams, Renderer};
 
 use super::gem_thread::{GemFault, GemJob, GemThread};
+use super::news::Restarts;
 use super::trace::{Rate, Timeline};
 use super::ui::{UiFrame, style};
 use super::{Continue, KioskArgs};
@@ -54,11 +55,11 @@ pub(super) struct Running {
     pub(super) ease_seconds: f32,
     pub(super) gems: GemThread,
     /// The gem thread's portrait, the last job sent to it (a restarted thread carries on
-    /// with it), the fault injected for tests, and when it died lately.
+    /// with it), the fault injected for tests, and its restarts.
     pub(super) portrait: View,
     pub(super) last_job: Option<GemJob>,
     pub(super) gem_fault: Option<GemFault>,
-    pub(super) gem_deaths: Vec<Instant>,
+    pub(super) gem_restarts: Restarts,
     /// Why the kiosk cannot go on (set by a worker that cannot be restarted): the window
     /// closes and the process exits 1.
     pub(super) fatal: Option<anyhow::Error>,
@@ -106,10 +107,20 @@ impl Running {
                 .create_window(attributes)
                 .context("creating the window")?,
         );
-        let gem_fault = GemFault::from_env();
+        let fault = super::Fault::from_env();
+        let gem_fault = match fault {
+            Some(super::Fault::Gem(f)) => Some(f),
+            _ => None,
+        };
         let gems = GemThread::spawn(config.portrait, None, gem_fault)?;
         #[cfg(feature = "face")]
-        let live = super::face_thread::Live::start(config)?;
+        let live = super::face_thread::Live::start(
+            config,
+            match fault {
+                Some(super::Fault::CapturePanic { at }) => Some(at),
+                _ => None,
+            },
+        )?;
 
         let display = event_loop.owned_display_handle();
         let instance = wgpu::Instance::new(
@@ -166,7 +177,7 @@ impl Running {
             portrait: config.portrait,
             last_job: None,
             gem_fault,
-            gem_deaths: Vec::new(),
+            gem_restarts: Restarts::default(),
             fatal: None,
             #[cfg(feature = "face")]
             live,
@@ -205,8 +216,6 @@ impl Running {
                 face_latency_ms: 0.0,
                 face_frame: 0,
                 poll_max_ms: 0.0,
-                gem_restarts: 0,
-                face_restarts: 0,
             },
         })
     }
