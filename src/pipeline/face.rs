@@ -79,10 +79,10 @@ impl LandmarkPipeline {
             || FaceDetector::load(&models.detector, &models.onnxruntime),
             |_| format!("{}", models.detector.display()),
         )?;
-        let predictor = timed(
+        let (predictor, _) = timed(
             "load landmarks",
-            || ShapePredictor::load(&models.landmarks),
-            |p| format!("{} parts", p.num_parts()),
+            || ShapePredictor::load_noting(&models.landmarks),
+            |(p, from)| format!("{} parts, {from}", p.num_parts()),
         )?;
         Ok(LandmarkPipeline {
             detector,

@@ -30,7 +30,10 @@ pub mod pts;
 
 use std::path::PathBuf;
 
-pub use predictor::{MAX_BOX_COORD, ModelInfo, ShapePredictor, round_like_dlib};
+pub use predictor::{
+    COMPACT_SUFFIX, CompactWrite, MAX_BOX_COORD, ModelInfo, ModelSource, ShapePredictor,
+    round_like_dlib,
+};
 
 /// Everything that can go wrong reading models and landmark files or predicting.
 #[derive(Debug, thiserror::Error)]

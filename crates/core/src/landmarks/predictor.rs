@@ -17,6 +17,9 @@
 
 use std::path::Path;
 
+mod compact;
+pub use compact::COMPACT_SUFFIX;
+
 use super::dlib_format::{MIN_FLOAT_BYTES, MIN_INT_BYTES, Reader};
 use super::{FaceBox, GreyPixels, LandmarkError};
 
@@ -33,6 +36,57 @@ struct Split {
     idx1: u32,
     idx2: u32,
     thresh: f32,
+}
+
+/// Where [`ShapePredictor::load_noting`] found the model.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ModelSource {
+    /// Read from this compact copy.
+    Compact(std::path::PathBuf),
+    /// dlib's file parsed; `compact` says what became of the copy (`None`: the model is not
+    /// in a checksum list, so no copy is made).
+    Parsed { compact: Option<CompactWrite> },
+}
+
+/// The compact copy written after a parse.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CompactWrite {
+    /// Its path, or why it could not be written (a read-only folder: every start parses).
+    pub written: Result<std::path::PathBuf, String>,
+    /// Why an existing copy was not used (stale, damaged), if there was one.
+    pub remade: Option<String>,
+}
+
+impl std::fmt::Display for ModelSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Compact(_) => write!(f, "compact copy"),
+            Self::Parsed { compact: None } => write!(f, "dlib file parsed"),
+            Self::Parsed {
+                compact: Some(CompactWrite { written, remade }),
+            } => {
+                write!(f, "dlib file parsed")?;
+                if let Some(why) = remade {
+                    write!(f, " (compact copy {why})")?;
+                }
+                match written {
+                    Ok(_) => write!(f, "; compact copy written for the next start"),
+                    Err(e) => write!(f, "; compact copy not written: {e}"),
+                }
+            }
+        }
+    }
+}
+
+/// A model's arrays as read, before [`ShapePredictor::assemble`] checks them.
+struct Parts {
+    mean: Vec<[f32; 2]>,
+    levels: Vec<Level>,
+    depth: u32,
+    splits: Vec<Split>,
+    leaves: Vec<f32>,
+    anchors: Vec<u32>,
+    deltas: Vec<[f32; 2]>,
 }
 
 /// Where one cascade level's trees and feature pixels sit in the flat arrays.
@@ -139,7 +193,7 @@ impl ShapePredictor {
                     .map_err(|e| e.within(format!("forests[{level}][{tree}]")))?;
             }
         }
-        let (depth, splits_per_tree, leaves_per_tree) = depth.unwrap_or((0, 0, 1));
+        let depth = depth.unwrap_or((0, 0, 1));
 
         // anchor_idx: vector<vector<unsigned long>>.
         let n_anchor_levels = r.read_len("anchor_idx", MIN_INT_BYTES)?;
@@ -204,7 +258,48 @@ impl ShapePredictor {
             ));
         }
 
-        // Every split must index the feature pixels of its own level.
+        Self::assemble(Parts {
+            mean,
+            levels,
+            depth: depth.0,
+            splits,
+            leaves,
+            anchors,
+            deltas,
+        })
+    }
+
+    /// The checks every reader shares, once the arrays have their sizes: every split indexes
+    /// the feature pixels of its own level, every anchor a part; then the derived fields.
+    fn assemble(p: Parts) -> Result<Self, LandmarkError> {
+        let Parts {
+            mean,
+            levels,
+            depth,
+            splits,
+            leaves,
+            anchors,
+            deltas,
+        } = p;
+        let num_parts = mean.len();
+        let (splits_per_tree, leaves_per_tree) = ((1usize << depth) - 1, 1usize << depth);
+        let trees = levels.last().map_or(0, |l| l.first_tree + l.num_trees);
+        let features = levels
+            .last()
+            .map_or(0, |l| l.first_feature + l.num_features);
+        if splits.len() != trees * splits_per_tree
+            || leaves.len() != trees * leaves_per_tree * 2 * num_parts
+            || anchors.len() != features
+            || deltas.len() != features
+        {
+            return Err(model_err("forests", "array sizes disagree with the levels"));
+        }
+        if let Some(bad) = anchors.iter().find(|&&a| a as usize >= num_parts) {
+            return Err(model_err(
+                "anchor_idx",
+                format!("anchor {bad} >= number of parts {num_parts}"),
+            ));
+        }
         for (level, lv) in levels.iter().enumerate() {
             let range =
                 lv.first_tree * splits_per_tree..(lv.first_tree + lv.num_trees) * splits_per_tree;
@@ -242,9 +337,55 @@ impl ShapePredictor {
         })
     }
 
-    /// Reads and parses a model file, verified against the checksum list beside it if there
-    /// is one ([`crate::files::read_model`]); errors name the file.
+    /// Reads a model file, verified against the checksum list beside it if there is one
+    /// ([`crate::files::read_model`]); errors name the file. A listed model is read from its
+    /// compact copy when that is present and sound, and the copy is made when it is not (see
+    /// [`ShapePredictor::load_noting`]).
     pub fn load(path: &Path) -> Result<Self, LandmarkError> {
+        Self::load_noting(path).map(|(model, _)| model)
+    }
+
+    /// As [`ShapePredictor::load`], also saying where the model came from. A model that the
+    /// checksum list names is read from `<file>.compact` beside it when that copy was made
+    /// from a file with the listed digest and is undamaged; otherwise dlib's file is parsed
+    /// (and verified) and the copy written for the next start. A model of the user's own (not
+    /// listed) is always parsed: there is no digest to tie a copy to it.
+    pub fn load_noting(path: &Path) -> Result<(Self, ModelSource), LandmarkError> {
+        let io = |source| LandmarkError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let Some(sha) = crate::files::listed_sha256(path).map_err(io)? else {
+            return Ok((
+                Self::parse_file(path)?,
+                ModelSource::Parsed { compact: None },
+            ));
+        };
+        let mut name = path.file_name().unwrap_or_default().to_os_string();
+        name.push(compact::COMPACT_SUFFIX);
+        let copy = path.with_file_name(name);
+        let remade = match crate::files::read_limited(&copy, crate::files::MAX_MODEL_BYTES) {
+            Ok(bytes) => match Self::from_compact(&bytes, &sha) {
+                Ok(model) => return Ok((model, ModelSource::Compact(copy))),
+                Err(e) => Some(e.to_string()),
+            },
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(e) => Some(e.to_string()),
+        };
+        let model = Self::parse_file(path)?;
+        let written = crate::files::write_atomic(&copy, &model.to_compact(&sha))
+            .map(|()| copy.clone())
+            .map_err(|e| format!("{}: {e}", copy.display()));
+        Ok((
+            model,
+            ModelSource::Parsed {
+                compact: Some(CompactWrite { written, remade }),
+            },
+        ))
+    }
+
+    /// dlib's file parsed ([`ShapePredictor::from_bytes`]) and verified.
+    fn parse_file(path: &Path) -> Result<Self, LandmarkError> {
         crate::files::read_model(path, Self::from_bytes)
             .map_err(|source| LandmarkError::Io {
                 path: path.to_path_buf(),

