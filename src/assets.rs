@@ -16,8 +16,13 @@ pub const SFM_ENV: &str = "GLYPTIC_SFM_DIR";
 /// Environment variable that names the ONNX Runtime shared library (as `ort` uses it).
 pub const ORT_ENV: &str = "ORT_DYLIB_PATH";
 
+/// Environment variable that names another face detector model (CenterFace or YuNet, as
+/// set-up prepares them), e.g. `models/yunet.onnx`.
+pub const DETECTOR_ENV: &str = "GLYPTIC_DETECTOR";
 /// File name of the face detector model in `models/`: CenterFace as set-up prepares it (its
-/// input made symbolic; `centerface.onnx` is the download it starts from).
+/// input made symbolic; `centerface.onnx` is the download it starts from). YuNet
+/// (`yunet.onnx`, `GLYPTIC_DETECTOR`) is 5x faster but not yet as good on hard faces
+/// (BENCHMARKS.md, "Face detectors").
 const DETECTOR_FILE: &str = "centerface-dynamic.onnx";
 /// A file only a set-up project root holds.
 const ROOT_MARK: &str = "centerface.onnx";
@@ -96,7 +101,10 @@ pub fn models_dir() -> PathBuf {
 
 /// The CenterFace detector model set-up puts in [`models_dir`].
 pub fn detector_model() -> PathBuf {
-    models_dir().join(DETECTOR_FILE)
+    match std::env::var_os(DETECTOR_ENV) {
+        Some(path) => PathBuf::from(path),
+        None => models_dir().join(DETECTOR_FILE),
+    }
 }
 
 /// dlib's 68-point landmark model set-up links into [`models_dir`].

