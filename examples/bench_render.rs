@@ -117,6 +117,58 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
+    // Antialiasing and size: 4x MSAA against one sample a pixel, and the kiosk's frames (the
+    // still gem at 800x1000 with MSAA; while it moves, half the size per side without MSAA,
+    // egui scaling the layer up). Frames per second from the frame's wall time.
+    println!(
+        "\n# Antialiasing and frame size (marble, SSS)\n\n| frame | size | MSAA | SSS taps | scene ms | SSS ms | composite ms | frame ms | frames/s |\n|---|---|---|---|---|---|---|---|---|"
+    );
+    let moving = glyptic::kiosk::MOVING;
+    for (what, (w, h), antialias, taps) in [
+        ("photo / bench", (1280, 800), true, 21),
+        ("photo / bench", (1280, 800), false, 21),
+        ("photo default", (640, 800), true, 21),
+        ("photo default", (640, 800), false, 21),
+        ("kiosk, still", (800, 1000), true, 21),
+        (
+            "kiosk, moving",
+            (
+                (800.0 * moving.scale).round() as u32,
+                (1000.0 * moving.scale).round() as u32,
+            ),
+            false,
+            moving.sss_taps,
+        ),
+    ] {
+        let p = RenderParams {
+            width: w,
+            height: h,
+            antialias,
+            sss: Some(SssParams {
+                taps,
+                ..SssParams::default()
+            }),
+            ..RenderParams::default()
+        };
+        renderer.render(&mesh, &p)?;
+        let (mut scene, mut blur, mut comp, mut wall) = (vec![], vec![], vec![], vec![]);
+        for _ in 0..frames {
+            let (ms, times) = timed_frame(&mut renderer, &mesh, &p)?;
+            wall.push(ms);
+            scene.push(times.scene_ms);
+            blur.push(times.sss_ms.unwrap_or(0.0));
+            comp.push(times.composite_ms);
+        }
+        let wall = median(wall);
+        println!(
+            "| {what} | {w}x{h} | {} | {taps} | {:.1} | {:.1} | {:.1} | {wall:.1} | {:.1} |",
+            if antialias { "4x" } else { "off" },
+            median(scene),
+            median(blur),
+            median(comp),
+            1e3 / wall
+        );
+    }
     // Gallery styles: each alone after the 1280x800 marble frame with SSS. A GPU style's cost
     // is its pass's timestamps, a CPU one's its wall time after the readback (median of the
     // frames), beside the same frame's scene pass; the frame's wall time less the plain

@@ -273,6 +273,43 @@ impl Controls {
     }
 }
 
+/// How the gem is drawn while the visitor turns or zooms it: smaller, without MSAA and with a
+/// shorter scattering kernel, so that on a CPU rasteriser it follows the hand (the still
+/// frame at full quality follows once the hand rests for `hold_s`). On this project's 2-core
+/// machine an 800x1000 gem takes ~420 ms at full quality and ~65 ms moving (BENCHMARKS.md,
+/// "Antialiasing and frame size").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Motion {
+    /// The gem's resolution while moving, of the still one's (per side); egui scales it up.
+    pub scale: f32,
+    /// SSS taps per direction while moving (odd).
+    pub sss_taps: usize,
+    /// Seconds without a change before the still frame is drawn.
+    pub hold_s: f32,
+}
+
+/// The kiosk's [`Motion`].
+pub const MOVING: Motion = Motion {
+    scale: 0.5,
+    sss_taps: 11,
+    hold_s: 0.25,
+};
+
+impl Motion {
+    /// A moving frame's parameters from the still frame's (its size already scaled by the
+    /// caller, who sizes the texture it goes to).
+    pub fn apply(&self, still: RenderParams) -> RenderParams {
+        RenderParams {
+            antialias: false,
+            sss: still.sss.map(|s| SssParams {
+                taps: s.taps.min(self.sss_taps),
+                ..s
+            }),
+            ..still
+        }
+    }
+}
+
 /// The orbit camera as the visitor moves it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Orbit {

@@ -369,6 +369,26 @@ fn injected_pointer_events_drive_the_controls_without_moving_the_camera() {
     live.wait_for(10, "the wheel to zoom in", |l| {
         l["zoom"].as_f64().unwrap() > 1.05
     });
+    // While it turned the gem was drawn as moving frames (half the size per side), and once
+    // the hand rested, at full quality again.
+    live.wait_for(10, "the still frame after the turn", |l| {
+        l["gem_moving"] == false && l["gem_rendered"] == true && l["zoom"].as_f64() > Some(1.05)
+    });
+    {
+        let lines = live.lines.lock().unwrap();
+        let size = |l: &serde_json::Value| l["gem_size"][0].as_f64().unwrap_or(0.0);
+        let moving: Vec<f64> = lines
+            .iter()
+            .filter(|l| l["gem_moving"] == true && l["gem_rendered"] == true)
+            .map(size)
+            .collect();
+        let still = size(lines.last().expect("frames"));
+        assert!(!moving.is_empty(), "no moving frame while the gem turned");
+        assert!(
+            moving.iter().all(|&w| (w - 0.5 * still).abs() <= 1.0),
+            "moving frames {moving:?} wide, the still one {still}"
+        );
+    }
     let mut child = live.child;
     let _ = child.kill();
     let _ = child.wait();

@@ -58,6 +58,15 @@ struct Frame<'a> {
 }
 
 impl Renderer {
+    /// MSAA samples of this frame's scene pass: the device's with antialiasing, else 1.
+    fn frame_samples(&self, params: &RenderParams) -> u32 {
+        if params.antialias {
+            self.pipelines.samples
+        } else {
+            1
+        }
+    }
+
     /// Uploads the mesh and the frame's uniforms and encodes the passes, the composite (or
     /// the last style) into `output`. Timestamps only for an image (read back after).
     pub(super) fn encode_frame(
@@ -136,15 +145,16 @@ impl Renderer {
     ) -> Result<usize, RenderError> {
         let (w, h) = (params.width, params.height);
         self.pipelines.ensure_composite(&self.device, format);
+        let samples = self.frame_samples(params);
         if self
             .targets
             .as_ref()
-            .is_none_or(|t| t.width != w || t.height != h)
+            .is_none_or(|t| t.width != w || t.height != h || t.samples != samples)
         {
             // Drop the old targets first so both sets are never alive at once.
             self.targets = None;
             self.style_targets = None;
-            self.targets = Some(Targets::new(&self.device, &self.pipelines, w, h));
+            self.targets = Some(Targets::new(&self.device, &self.pipelines, w, h, samples));
         }
         let vb = std::mem::size_of_val(mesh.vertices.as_slice()) as u64;
         let ib = std::mem::size_of_val(mesh.indices.as_slice()) as u64;
@@ -243,6 +253,7 @@ impl Renderer {
         let plain = gpu::SceneVariant {
             engraving: false,
             lamp: params.lamp.is_some(),
+            samples: self.frame_samples(params),
         };
         let engraved = gpu::SceneVariant {
             engraving: true,

@@ -136,6 +136,10 @@ pub struct RenderParams {
     /// Agate only: the hair cut from a third, brown layer on top of the white (`false`: the
     /// hair stays white like the face).
     pub hair_layer: bool,
+    /// 4x MSAA in the scene pass where the device has it (`false`: one sample a pixel, for
+    /// frames that must be quick rather than smooth-edged: on a CPU rasteriser MSAA is about
+    /// two thirds of the scene pass; the kiosk drops it while the gem moves).
+    pub antialias: bool,
 }
 
 /// A point lamp fixed to the gem (it stays put while the camera orbits, so its shadows turn
@@ -180,6 +184,7 @@ impl Default for RenderParams {
             engraving: None,
             lamp: None,
             hair_layer: true,
+            antialias: true,
         }
     }
 }

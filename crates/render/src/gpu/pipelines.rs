@@ -6,6 +6,7 @@ use super::*;
 
 /// Pipelines, layouts and uniform buffers: created once with the device.
 pub(crate) struct Pipelines {
+    /// MSAA samples of an antialiased frame (4, or 1 where the device cannot resolve them).
     pub samples: u32,
     /// Scene pipelines by variant (the plain one built at start, the others on first use).
     scene: Vec<(SceneVariant, wgpu::RenderPipeline)>,
@@ -136,17 +137,18 @@ pub(super) fn color_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTar
 /// Which surface effects a scene pipeline has compiled in (the shader's `ENGRAVING` and
 /// `LAMP` override constants). On a CPU rasteriser even untaken branches cost: the plain scene
 /// pass ran about 1.6 times as long with both compiled in and switched off by uniforms.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Also which MSAA sample count it draws with (a frame may ask for none).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct SceneVariant {
     pub engraving: bool,
     pub lamp: bool,
+    pub samples: u32,
 }
 
 pub(super) fn scene_pipeline(
     device: &wgpu::Device,
     module: &wgpu::ShaderModule,
     layout: &wgpu::PipelineLayout,
-    samples: u32,
     variant: SceneVariant,
 ) -> wgpu::RenderPipeline {
     let attributes = wgpu::vertex_attr_array![
@@ -197,7 +199,7 @@ pub(super) fn scene_pipeline(
         },
         depth_stencil: Some(depth_less(DEPTH_FORMAT)),
         multisample: wgpu::MultisampleState {
-            count: samples,
+            count: variant.samples,
             ..Default::default()
         },
         fragment: Some(wgpu::FragmentState {
@@ -295,15 +297,14 @@ impl Pipelines {
                 bind_group_layouts: &[Some(&scene_layout), Some(&surface_layout)],
                 immediate_size: 0,
             });
+        let plain = SceneVariant {
+            engraving: false,
+            lamp: false,
+            samples,
+        };
         let scene = vec![(
-            SceneVariant::default(),
-            scene_pipeline(
-                device,
-                &scene_module,
-                &scene_pipeline_layout,
-                samples,
-                SceneVariant::default(),
-            ),
+            plain,
+            scene_pipeline(device, &scene_module, &scene_pipeline_layout, plain),
         )];
 
         let shadow_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -514,7 +515,6 @@ impl Pipelines {
                 device,
                 &self.scene_module,
                 &self.scene_pipeline_layout,
-                self.samples,
                 variant,
             );
             self.scene.push((variant, pipeline));

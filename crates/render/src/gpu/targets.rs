@@ -60,6 +60,8 @@ impl ColorTarget {
 pub(crate) struct Targets {
     pub width: u32,
     pub height: u32,
+    /// MSAA samples of the scene targets.
+    pub samples: u32,
     pub diffuse: ColorTarget,
     pub specular: ColorTarget,
     pub depth_mask: ColorTarget,
@@ -212,13 +214,18 @@ pub(crate) fn padded_row_bytes(width: u32) -> u64 {
 
 impl Targets {
     /// Sizes must have been checked against the device limits by the caller.
-    pub fn new(device: &wgpu::Device, pipelines: &Pipelines, width: u32, height: u32) -> Self {
+    pub fn new(
+        device: &wgpu::Device,
+        pipelines: &Pipelines,
+        width: u32,
+        height: u32,
+        samples: u32,
+    ) -> Self {
         let size = wgpu::Extent3d {
             width,
             height,
             depth_or_array_layers: 1,
         };
-        let samples = pipelines.samples;
         let diffuse = ColorTarget::new(device, "glyptic diffuse", DIFFUSE_FORMAT, size, samples);
         let specular = ColorTarget::new(device, "glyptic specular", SPECULAR_FORMAT, size, samples);
         let depth_mask = ColorTarget::new(
@@ -314,6 +321,7 @@ impl Targets {
         Self {
             width,
             height,
+            samples,
             diffuse,
             specular,
             depth_mask,

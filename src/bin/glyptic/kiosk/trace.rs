@@ -95,6 +95,8 @@ impl Running {
             "gem_rendered": rendered_gem,
             "gems": self.timeline.gem_count,
             "render_ms": self.timeline.render_ms,
+            "gem_moving": self.drawn_moving,
+            "gem_size": self.layer.as_ref().map(|l| l.size),
             "gem_ms": self.timeline.gem_ms,
             "material": match self.controls.material { Material::Marble => "marble", Material::Agate => "agate" },
             "sss": self.controls.sss,

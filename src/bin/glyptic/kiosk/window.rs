@@ -14,7 +14,7 @@ use winit::event_loop::ActiveEventLoop;
 use winit::window::{Fullscreen, Window};
 
 use glyptic::gem::{HairStyle, View};
-use glyptic::kiosk::{Controls, KioskConfig, Orbit};
+use glyptic::kiosk::{Controls, KioskConfig, MOVING, Orbit};
 use glyptic::render::{Mesh, RenderParams, Renderer};
 
 use super::gem_thread::{GemFault, GemJob, GemThread};
@@ -31,7 +31,7 @@ pub(super) struct GemLayer {
     texture: wgpu::Texture,
     view: wgpu::TextureView,
     id: egui::TextureId,
-    size: [u32; 2],
+    pub(super) size: [u32; 2],
 }
 
 pub(super) struct Running {
@@ -47,6 +47,11 @@ pub(super) struct Running {
     pub(super) layer: Option<GemLayer>,
     /// The gem needs rendering again.
     pub(super) dirty: bool,
+    /// When the visitor last turned or zoomed the gem; within [`MOVING`]`.hold_s` of it the
+    /// gem is drawn as a moving frame.
+    pub(super) moved_at: Option<Instant>,
+    /// The gem on screen is a moving frame (the still one is still to come).
+    pub(super) drawn_moving: bool,
     pub(super) base: RenderParams,
     pub(super) controls: Controls,
     pub(super) orbit: Orbit,
@@ -167,6 +172,8 @@ impl Running {
             egui_renderer,
             layer: None,
             dirty: true,
+            moved_at: None,
+            drawn_moving: false,
             base,
             controls: Controls::from_config(config),
             orbit: Orbit::default(),
@@ -344,7 +351,12 @@ impl Running {
         if out_of_frames || out_of_time {
             return Ok(Continue::Quit);
         }
+        if self.drawn_moving && !self.moving() {
+            // The hand rests: the still frame, at full quality.
+            self.dirty = true;
+        }
         if self.dirty
+            || self.drawn_moving
             || output
                 .viewport_output
                 .values()
@@ -390,6 +402,9 @@ impl Running {
         if (self.controls.clone(), self.orbit) != before {
             self.dirty = true;
         }
+        if self.orbit != before.1 {
+            self.moved_at = Some(Instant::now());
+        }
         if before.0.frozen && !self.controls.frozen {
             // Unfrozen: show the newest face again.
             if let Some((face, _)) = &self.last_face {
@@ -411,12 +426,14 @@ impl Running {
         if self.dirty
             && let (Some(gem), Some(layer)) = (&self.gem, &self.layer)
         {
-            let params = RenderParams {
+            let still = RenderParams {
                 width: layer.size[0],
                 height: layer.size[1],
                 style_time_s: self.timeline.started.elapsed().as_secs_f32(),
                 ..self.controls.apply(&self.base, &self.orbit)
             };
+            let moving = self.moving();
+            let params = if moving { MOVING.apply(still) } else { still };
             let drawn = if params.styles.iter().any(|s| s.is_serial()) {
                 // Dithering runs on the CPU: read the gem back, dither it, and upload it to the
                 // layer (only when the gem changes: it is still).
@@ -444,6 +461,7 @@ impl Running {
             match drawn {
                 Ok(()) => {
                     self.dirty = false;
+                    self.drawn_moving = moving;
                     rendered_gem = true;
                 }
                 Err(e) => {
@@ -473,6 +491,12 @@ impl Running {
         }
     }
 
+    /// Whether the gem is moving: turned or zoomed within the last [`MOVING`]`.hold_s`.
+    fn moving(&self) -> bool {
+        self.moved_at
+            .is_some_and(|t| t.elapsed().as_secs_f32() < MOVING.hold_s)
+    }
+
     /// Sizes the gem's texture to the area it is shown in (`ppp` pixels a point).
     fn fit_layer(&mut self, gem_rect: Option<egui::Rect>, ppp: f32) {
         // The gem's texture follows the area it is shown in. The very first gem is rendered
@@ -483,7 +507,10 @@ impl Running {
         };
         {
             let preview = self.gem.is_some() && self.timeline.first_gem_frame_s.is_none();
-            let scale = ppp * self.render_scale * if preview { PREVIEW_SCALE } else { 1.0 };
+            let scale = ppp
+                * self.render_scale
+                * if preview { PREVIEW_SCALE } else { 1.0 }
+                * if self.moving() { MOVING.scale } else { 1.0 };
             let size = [
                 ((rect.width() * scale).round() as u32).clamp(16, 4096),
                 ((rect.height() * scale).round() as u32).clamp(16, 4096),
