@@ -291,11 +291,21 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     write_csv(&csv, &rows)?;
     let ok = rows.iter().filter(|r| r.status == "ok").count();
     let secs = start.elapsed().as_secs_f64();
+    // The one renderer's share of the run after start-up: near 100 % it is what limits the
+    // rate, not the face workers.
+    let render_s: f64 = rows
+        .iter()
+        .flat_map(|r| r.stages.iter())
+        .filter(|(name, _)| *name == "render")
+        .map(|(_, ms)| ms / 1e3)
+        .sum();
+    let working_s = (secs - loaded_ms / 1e3).max(1e-9);
     say!(
-        "{ok} of {} images made into gems in {secs:.1} s ({:.2} s per image after {:.1} s start-up, {jobs} face workers); per-image status and times in {}",
+        "{ok} of {} images made into gems in {secs:.1} s ({:.2} images/s after {:.1} s start-up, {jobs} face workers; the renderer busy {:.0} % of that time); per-image status and times in {}",
         rows.len(),
-        (secs - loaded_ms / 1e3) / rows.len() as f64,
+        rows.len() as f64 / working_s,
         loaded_ms / 1e3,
+        100.0 * render_s / working_s,
         csv.display()
     );
     if ok < rows.len() {
