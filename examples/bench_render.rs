@@ -36,6 +36,26 @@ fn timed_frame(
     Ok((wall, times))
 }
 
+/// One warm-up frame, then the medians over `frames` of the scene, SSS and composite passes'
+/// GPU times and the frame's wall time, ms.
+fn pass_medians(
+    renderer: &mut Renderer,
+    mesh: &glyptic::render::Mesh,
+    p: &RenderParams,
+    frames: usize,
+) -> Result<[f64; 4], Box<dyn std::error::Error>> {
+    renderer.render(mesh, p)?;
+    let (mut scene, mut blur, mut comp, mut wall) = (vec![], vec![], vec![], vec![]);
+    for _ in 0..frames {
+        let (ms, times) = timed_frame(renderer, mesh, p)?;
+        wall.push(ms);
+        scene.push(times.scene_ms);
+        blur.push(times.sss_ms.unwrap_or(0.0));
+        comp.push(times.composite_ms);
+    }
+    Ok([median(scene), median(blur), median(comp), median(wall)])
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let frames: usize = std::env::args().nth(1).map_or(Ok(9), |s| s.parse())?;
     let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir())?;
@@ -89,16 +109,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     sss,
                     ..RenderParams::default()
                 };
-                renderer.render(&mesh, &p)?;
-                let (mut scene, mut blur, mut comp, mut wall) = (vec![], vec![], vec![], vec![]);
-                for _ in 0..frames {
-                    let (ms, times) = timed_frame(&mut renderer, &mesh, &p)?;
-                    wall.push(ms);
-                    scene.push(times.scene_ms);
-                    blur.push(times.sss_ms.unwrap_or(0.0));
-                    comp.push(times.composite_ms);
-                }
-                let (scene, blur) = (median(scene), median(blur));
+                let [scene, blur, comp, wall] = pass_medians(&mut renderer, &mesh, &p, frames)?;
                 let share = match sss {
                     Some(_) => format!("{:.0} %", 100.0 * blur / scene),
                     None => "-".into(),
@@ -111,8 +122,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     } else {
                         "-".into()
                     },
-                    median(comp),
-                    median(wall),
+                    comp,
+                    wall,
                 );
             }
         }
@@ -150,22 +161,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }),
             ..RenderParams::default()
         };
-        renderer.render(&mesh, &p)?;
-        let (mut scene, mut blur, mut comp, mut wall) = (vec![], vec![], vec![], vec![]);
-        for _ in 0..frames {
-            let (ms, times) = timed_frame(&mut renderer, &mesh, &p)?;
-            wall.push(ms);
-            scene.push(times.scene_ms);
-            blur.push(times.sss_ms.unwrap_or(0.0));
-            comp.push(times.composite_ms);
-        }
-        let wall = median(wall);
+        let [scene, blur, comp, wall] = pass_medians(&mut renderer, &mesh, &p, frames)?;
         println!(
-            "| {what} | {w}x{h} | {} | {taps} | {:.1} | {:.1} | {:.1} | {wall:.1} | {:.1} |",
+            "| {what} | {w}x{h} | {} | {taps} | {scene:.1} | {blur:.1} | {comp:.1} | {wall:.1} | {:.1} |",
             if antialias { "4x" } else { "off" },
-            median(scene),
-            median(blur),
-            median(comp),
             1e3 / wall
         );
     }

