@@ -273,11 +273,11 @@ impl Controls {
     }
 }
 
-/// How the gem is drawn while the visitor turns or zooms it: smaller, without MSAA and with a
-/// shorter scattering kernel, so that on a CPU rasteriser it follows the hand (the still
-/// frame at full quality follows once the hand rests for `hold_s`). On this project's 2-core
-/// machine an 800x1000 gem takes ~420 ms at full quality and ~65 ms moving (BENCHMARKS.md,
-/// "Antialiasing and frame size").
+/// How the gem is drawn while the visitor turns or zooms it: smaller, from a coarser mesh,
+/// without MSAA and with a shorter scattering kernel, so that on a CPU rasteriser it follows
+/// the hand (the still frame at full quality follows once the hand rests for `hold_s`). On
+/// this project's 2-core machine an 800x1000 window's gem takes ~330 ms at full quality and
+/// ~65 ms moving (BENCHMARKS.md, "The kiosk while the visitor turns the gem").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Motion {
     /// The gem's resolution while moving, of the still one's (per side); egui scales it up.
@@ -286,6 +286,9 @@ pub struct Motion {
     pub sss_taps: usize,
     /// Seconds without a change before the still frame is drawn.
     pub hold_s: f32,
+    /// The mesh while moving: clustered on cubes this size (mm; [`crate::render::Mesh::clustered`]),
+    /// since on a CPU rasteriser a small frame's time goes on the triangles.
+    pub cell_mm: f32,
 }
 
 /// The kiosk's [`Motion`].
@@ -293,6 +296,7 @@ pub const MOVING: Motion = Motion {
     scale: 0.5,
     sss_taps: 11,
     hold_s: 0.25,
+    cell_mm: 0.5,
 };
 
 impl Motion {

@@ -52,6 +52,8 @@ pub(super) struct Running {
     pub(super) moved_at: Option<Instant>,
     /// The gem on screen is a moving frame (the still one is still to come).
     pub(super) drawn_moving: bool,
+    /// The coarse mesh moving frames draw, and the gem it was made from.
+    pub(super) moving_gem: Option<(Arc<Mesh>, Mesh)>,
     pub(super) base: RenderParams,
     pub(super) controls: Controls,
     pub(super) orbit: Orbit,
@@ -174,6 +176,7 @@ impl Running {
             dirty: true,
             moved_at: None,
             drawn_moving: false,
+            moving_gem: None,
             base,
             controls: Controls::from_config(config),
             orbit: Orbit::default(),
@@ -423,16 +426,30 @@ impl Running {
     /// Renders the gem into its layer if it changed; true if it did.
     fn draw_gem(&mut self, encoder: &mut wgpu::CommandEncoder, queue: &wgpu::Queue) -> bool {
         let mut rendered_gem = false;
+        let moving = self.moving();
+        if self.dirty
+            && moving
+            && let Some(gem) = &self.gem
+            && self
+                .moving_gem
+                .as_ref()
+                .is_none_or(|(from, _)| !Arc::ptr_eq(from, gem))
+        {
+            self.moving_gem = Some((Arc::clone(gem), gem.clustered(MOVING.cell_mm)));
+        }
         if self.dirty
             && let (Some(gem), Some(layer)) = (&self.gem, &self.layer)
         {
+            let gem = match &self.moving_gem {
+                Some((_, coarse)) if moving => coarse,
+                _ => gem.as_ref(),
+            };
             let still = RenderParams {
                 width: layer.size[0],
                 height: layer.size[1],
                 style_time_s: self.timeline.started.elapsed().as_secs_f32(),
                 ..self.controls.apply(&self.base, &self.orbit)
             };
-            let moving = self.moving();
             let params = if moving { MOVING.apply(still) } else { still };
             let drawn = if params.styles.iter().any(|s| s.is_serial()) {
                 // Dithering runs on the CPU: read the gem back, dither it, and upload it to the
