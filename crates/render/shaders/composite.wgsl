@@ -5,8 +5,9 @@
 // backdrop gradient does not band in 8 bits). The output target is Rgba8Unorm and this shader
 // encodes; a subsurface-scattering pass slots in by binding its blurred diffuse at binding 1.
 //
-// Everything is read with textureLoad (no sampler), one texel per output pixel: the inputs have
-// the output's size.
+// Everything is read with textureLoad (no sampler), one texel per output pixel. The inputs cover
+// only the crop (the part of the frame the gem is in, placed by `crop`); outside it there is
+// nothing but backdrop.
 
 struct Composite {
     // rgb: backdrop colour (linear) at the centre; a: unused.
@@ -14,6 +15,10 @@ struct Composite {
     // x: exposure, y: vignette strength, z: vertical gradient strength, w: dither amplitude
     // (in 8-bit steps).
     params: vec4<f32>,
+    // xy: the inputs' top left in the frame, zw: their size (pixels).
+    crop: vec4<f32>,
+    // xy: the frame's size (pixels).
+    size: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> comp: Composite;
@@ -43,10 +48,15 @@ fn dither(p: vec2<f32>) -> f32 {
 
 @fragment
 fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
-    let texel = vec2<i32>(pos.xy);
-    let size = vec2<f32>(textureDimensions(diffuse_tex));
-    let diffuse = textureLoad(diffuse_tex, texel, 0);
-    let specular = textureLoad(specular_tex, texel, 0);
+    let size = comp.size.xy;
+    let local = pos.xy - comp.crop.xy;
+    var diffuse = vec4<f32>(0.0);
+    var specular = vec4<f32>(0.0);
+    if all(local >= vec2<f32>(0.0)) && all(local < comp.crop.zw) {
+        let texel = vec2<i32>(local);
+        diffuse = textureLoad(diffuse_tex, texel, 0);
+        specular = textureLoad(specular_tex, texel, 0);
+    }
     let coverage = clamp(diffuse.a, 0.0, 1.0);
 
     // Backdrop: lighter towards the top, darker towards the corners, as under a gallery spot.

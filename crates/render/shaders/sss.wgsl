@@ -4,7 +4,7 @@
 // then vertical), after Jimenez et al. 2015. It blurs the scene pass's diffuse light only; the
 // composite adds the specular afterwards, so highlights stay sharp.
 //
-// Inputs (all the output's size, premultiplied by coverage = diffuse.a):
+// Inputs (all the crop's size, premultiplied by coverage = diffuse.a):
 //   colour_tex  diffuse radiance (linear), a = coverage
 //   depth_tex   r = view depth normalised over [near, near + range], g = scattering mask
 // Per pixel: the step between taps is the blur radius (mm) turned into pixels at that pixel's

@@ -95,6 +95,111 @@ pub(crate) fn orbit(
     }
 }
 
+/// The part of the frame the scene and SSS passes draw (pixels, from the top left): the
+/// mesh's projection with a margin. Everything outside it is backdrop, which the composite
+/// paints without reading the scene's targets, so those targets need only this size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Crop {
+    pub x: u32,
+    pub y: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Empty pixels kept round the mesh's projection: MSAA samples lie inside their pixel, and the
+/// SSS's taps beyond the crop are clamped to its edge, which must be empty there as it is in
+/// the full frame.
+const CROP_MARGIN_PX: f32 = 3.0;
+
+/// Crop sizes are rounded up to this (pixels), so a turning gem reuses its targets.
+pub(crate) const CROP_STEP_PX: u32 = 64;
+
+/// The pixel box `[x0, y0, x1, y1]` (clamped to the frame, margin included) that holds every
+/// vertex of the mesh as `view_proj` projects it on a `width` x `height` frame; the whole
+/// frame if a vertex is not in front of the eye (the orbit keeps them all in front).
+pub(crate) fn mesh_box(
+    view_proj: &Mat4,
+    positions: impl Iterator<Item = [f32; 3]>,
+    width: u32,
+    height: u32,
+) -> [u32; 4] {
+    let (w, h) = (width as f32, height as f32);
+    let full = [0, 0, width, height];
+    let mut lo = [f32::INFINITY; 2];
+    let mut hi = [f32::NEG_INFINITY; 2];
+    for p in positions {
+        let c = *view_proj * Vec4::new(p[0], p[1], p[2], 1.0);
+        // Behind the eye, or not a number: project nothing, draw everything.
+        if c.w.is_nan() || c.w <= 1e-6 {
+            return full;
+        }
+        let px = [(c.x / c.w + 1.0) * 0.5 * w, (1.0 - c.y / c.w) * 0.5 * h];
+        for a in 0..2 {
+            lo[a] = lo[a].min(px[a]);
+            hi[a] = hi[a].max(px[a]);
+        }
+    }
+    if !(lo[0] <= hi[0] && lo[1] <= hi[1]) {
+        return full;
+    }
+    let clamp = |v: f32, max: u32| v.clamp(0.0, max as f32) as u32;
+    [
+        clamp((lo[0] - CROP_MARGIN_PX).floor(), width),
+        clamp((lo[1] - CROP_MARGIN_PX).floor(), height),
+        clamp((hi[0] + CROP_MARGIN_PX).ceil(), width),
+        clamp((hi[1] + CROP_MARGIN_PX).ceil(), height),
+    ]
+}
+
+impl Crop {
+    /// The crop of `size` (at most the frame's) centred on `bounds` (`mesh_box`'s output) and
+    /// moved inside the frame.
+    pub fn around(bounds: [u32; 4], size: [u32; 2], width: u32, height: u32) -> Crop {
+        let place = |lo: u32, hi: u32, len: u32, frame: u32| {
+            let len = len.min(frame);
+            let slack = len.saturating_sub(hi.saturating_sub(lo));
+            lo.saturating_sub(slack / 2).min(frame - len)
+        };
+        let (cw, ch) = (size[0].min(width), size[1].min(height));
+        Crop {
+            x: place(bounds[0], bounds[2], cw, width),
+            y: place(bounds[1], bounds[3], ch, height),
+            width: cw,
+            height: ch,
+        }
+    }
+
+    /// The targets' size for a mesh box: its size rounded up to [`CROP_STEP_PX`], at most the
+    /// frame's.
+    pub fn size_for(bounds: [u32; 4], width: u32, height: u32) -> [u32; 2] {
+        let round = |len: u32, frame: u32| {
+            len.max(1)
+                .div_ceil(CROP_STEP_PX)
+                .saturating_mul(CROP_STEP_PX)
+                .min(frame)
+        };
+        [
+            round(bounds[2].saturating_sub(bounds[0]), width),
+            round(bounds[3].saturating_sub(bounds[1]), height),
+        ]
+    }
+
+    /// Maps the full frame's clip space to the crop's: applied after the view-projection, the
+    /// scene lands in the crop's targets exactly where its pixels lie in the frame (whole-pixel
+    /// offsets, so MSAA's samples fall on the geometry as they would uncropped).
+    pub fn clip_matrix(&self, width: u32, height: u32) -> Mat4 {
+        let (w, h) = (width as f32, height as f32);
+        let (cw, ch) = (self.width.max(1) as f32, self.height.max(1) as f32);
+        let (x0, y0) = (self.x as f32, self.y as f32);
+        Mat4::from_cols(
+            Vec4::new(w / cw, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, h / ch, 0.0, 0.0),
+            Vec4::new(0.0, 0.0, 1.0, 0.0),
+            Vec4::new((w - cw - 2.0 * x0) / cw, (ch - h + 2.0 * y0) / ch, 0.0, 1.0),
+        )
+    }
+}
+
 /// View-projection of face `face` (0..6: +X, -X, +Y, -Y, +Z, -Z) of a shadow cube at `lamp`,
 /// 90 degrees square, depth [0, 1] over `near`..`far` (mm). Laid out so that a direction `d`
 /// from the lamp lands where a cube texture lookup with `d` reads (the cube-map face and
@@ -228,6 +333,51 @@ mod tests {
 
     fn far_eye(b: &Bounds) -> Vec3 {
         orbit(b, 0.0, 0.0, 1.0, 160, 200).eye
+    }
+
+    #[test]
+    fn the_crop_holds_the_mesh_where_the_frame_has_it() {
+        let b = bounds();
+        let corners: Vec<[f32; 3]> = (0..8)
+            .map(|c| [0, 1, 2].map(|a| if c >> a & 1 == 1 { b.max[a] } else { b.min[a] }))
+            .collect();
+        for (w, h, yaw, zoom) in [
+            (640, 800, 0.0, 1.0),
+            (1280, 800, 35.0, 1.0),
+            (300, 200, -70.0, 3.0),
+        ] {
+            let c = orbit(&b, yaw, 10.0, zoom, w, h);
+            let bx = mesh_box(&c.view_proj, corners.iter().copied(), w, h);
+            assert!(
+                bx[0] < bx[2] && bx[1] < bx[3] && bx[2] <= w && bx[3] <= h,
+                "{bx:?}"
+            );
+            let size = Crop::size_for(bx, w, h);
+            let crop = Crop::around(bx, size, w, h);
+            assert!(crop.x <= bx[0] && crop.y <= bx[1], "{crop:?} {bx:?}");
+            assert!(crop.x + crop.width >= bx[2] && crop.y + crop.height >= bx[3]);
+            assert!(crop.x + crop.width <= w && crop.y + crop.height <= h);
+            let m = crop.clip_matrix(w, h) * c.view_proj;
+            for p in &corners {
+                // Frame pixel and crop pixel of the same point differ by the crop's origin.
+                let full = c.view_proj * Vec4::new(p[0], p[1], p[2], 1.0);
+                let cropped = m * Vec4::new(p[0], p[1], p[2], 1.0);
+                let fx = (full.x / full.w + 1.0) * 0.5 * w as f32;
+                let fy = (1.0 - full.y / full.w) * 0.5 * h as f32;
+                let cx = (cropped.x / cropped.w + 1.0) * 0.5 * crop.width as f32;
+                let cy = (1.0 - cropped.y / cropped.w) * 0.5 * crop.height as f32;
+                assert!((fx - cx - crop.x as f32).abs() < 1e-2, "{fx} {cx} {crop:?}");
+                assert!((fy - cy - crop.y as f32).abs() < 1e-2, "{fy} {cy} {crop:?}");
+                assert_eq!(full.z / full.w, cropped.z / cropped.w);
+            }
+        }
+        // A point behind the eye: the whole frame.
+        let c = orbit(&b, 0.0, 0.0, 1.0, 64, 48);
+        let behind = c.eye + 2.0 * (c.eye - Vec3::from(b.center));
+        assert_eq!(
+            mesh_box(&c.view_proj, [behind.to_array()].into_iter(), 64, 48),
+            [0, 0, 64, 48]
+        );
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! crate's docs list them: [`shadow_pass`], [`scene_pass`], [`sss_passes`], [`composite_pass`],
 //! [`style_passes`]. Units: millimetres on the stone, pixels on the targets.
 
-use super::camera::{self, Camera, FOV_Y_DEG};
+use super::camera::{self, Camera, Crop, FOV_Y_DEG};
 use super::gpu::{self, CompositeUniform, FrameUniform, MeshBuffers, Pipelines, Targets};
 use super::{
     AMBIENT, COMPOSITE_PARAMS, EngravedMesh, LAMP_NEAR_MM, LIGHT_INTENSITY, Lamp, Material, Mesh,
@@ -81,8 +81,6 @@ impl Renderer {
             Output::Image => gpu::OUTPUT_FORMAT,
             Output::View(_, format) => format,
         };
-        let gpu_styles = self.prepare(mesh, params, output, format)?;
-        let detail = self.upload_mesh(mesh, bounds, params)?;
         let cam = camera::orbit(
             bounds,
             params.yaw_deg,
@@ -91,7 +89,20 @@ impl Renderer {
             params.width,
             params.height,
         );
-        let sss = self.write_uniforms(params, &cam, &detail)?;
+        // Where the mesh lies in the frame: the scene and SSS passes draw only there.
+        let mesh_box = camera::mesh_box(
+            &cam.view_proj,
+            mesh.vertices.iter().map(|v| v.position),
+            params.width,
+            params.height,
+        );
+        let (gpu_styles, edge_aa) = self.prepare(mesh, params, output, format, mesh_box)?;
+        let crop = match &self.targets {
+            Some(t) => Crop::around(mesh_box, t.scene, params.width, params.height),
+            None => return Err(RenderError::Gpu("frame resources missing".into())),
+        };
+        let detail = self.upload_mesh(mesh, bounds, params)?;
+        let sss = self.write_uniforms(params, &cam, &crop, &detail)?;
 
         let (Some(targets), Some(buffers)) = (&self.targets, &self.mesh_buffers) else {
             return Err(RenderError::Gpu("frame resources missing".into()));
@@ -123,38 +134,71 @@ impl Renderer {
             Output::View(view, _) => view,
         };
         let styles = &params.styles[..gpu_styles];
-        let style_targets = self.style_targets.as_ref().filter(|_| !styles.is_empty());
-        // With styles the composite writes the chain's first image.
+        let style_targets = self
+            .style_targets
+            .as_ref()
+            .filter(|_| !styles.is_empty() || edge_aa);
+        // With passes after it the composite writes the chain's first image.
         let composite_view = style_targets.map_or(final_view, |st| &st.views[0]);
         composite_pass(encoder, &frame, format, composite_view, sss, &mut stamps)?;
         if let Some(st) = style_targets {
-            style_passes(encoder, &frame, st, styles, final_view, format, &mut stamps)?;
+            let chain = Chain {
+                styles,
+                edge_aa,
+                final_view,
+                format,
+            };
+            style_passes(encoder, &frame, st, &chain, &mut stamps)?;
         }
         self.timed_passes = stamps.passes;
         Ok(())
     }
 
-    /// Targets, mesh buffers and the style chain's pipelines and uniforms sized for this
-    /// frame; returns how many styles run on the GPU.
+    /// Targets, mesh buffers and the chain's pipelines and uniforms sized for this frame;
+    /// returns how many styles run on the GPU and whether the edge antialiasing runs (after
+    /// them: on every frame drawn with one sample a pixel).
     fn prepare(
         &mut self,
         mesh: &Mesh,
         params: &RenderParams,
         output: Output<'_>,
         format: wgpu::TextureFormat,
-    ) -> Result<usize, RenderError> {
+        mesh_box: [u32; 4],
+    ) -> Result<(usize, bool), RenderError> {
         let (w, h) = (params.width, params.height);
         self.pipelines.ensure_composite(&self.device, format);
         let samples = self.frame_samples(params);
+        let scene = Crop::size_for(mesh_box, w, h);
+        // The scene images are kept while the mesh's box fits them and they are no more than
+        // a step larger than it needs (a turning gem's box changes size every frame).
+        let fits = |t: &Targets| {
+            (0..2).all(|a| {
+                let needed = mesh_box[a + 2] - mesh_box[a];
+                t.scene[a] >= needed && t.scene[a] <= scene[a] + camera::CROP_STEP_PX
+            })
+        };
         if self
             .targets
             .as_ref()
-            .is_none_or(|t| t.width != w || t.height != h || t.samples != samples)
+            .is_none_or(|t| t.width != w || t.height != h || t.samples != samples || !fits(t))
         {
+            let resized = self
+                .targets
+                .as_ref()
+                .is_none_or(|t| t.width != w || t.height != h);
             // Drop the old targets first so both sets are never alive at once.
             self.targets = None;
-            self.style_targets = None;
-            self.targets = Some(Targets::new(&self.device, &self.pipelines, w, h, samples));
+            if resized {
+                self.style_targets = None;
+            }
+            self.targets = Some(Targets::new(
+                &self.device,
+                &self.pipelines,
+                w,
+                h,
+                scene,
+                samples,
+            ));
         }
         let vb = std::mem::size_of_val(mesh.vertices.as_slice()) as u64;
         let ib = std::mem::size_of_val(mesh.indices.as_slice()) as u64;
@@ -183,11 +227,15 @@ impl Renderer {
                 gpu::MAX_GPU_STYLES
             )));
         }
-        if !gpu_styles.is_empty() && self.style_targets.is_none() {
+        let edge_aa = samples == 1;
+        if (!gpu_styles.is_empty() || edge_aa) && self.style_targets.is_none() {
             self.style_targets = Some(gpu::StyleTargets::new(&self.device, &self.pipelines, w, h));
         }
+        if edge_aa {
+            self.pipelines.ensure_edge_aa(&self.device, format);
+        }
         for (i, &style) in gpu_styles.iter().enumerate() {
-            let last = i + 1 == gpu_styles.len();
+            let last = i + 1 == gpu_styles.len() && !edge_aa;
             let target_format = if last { format } else { gpu::STYLE_FORMAT };
             self.pipelines
                 .ensure_style(&self.device, style, target_format);
@@ -199,7 +247,7 @@ impl Renderer {
                 );
             }
         }
-        Ok(gpu_styles.len())
+        Ok((gpu_styles.len(), edge_aa))
     }
 
     /// Surface detail, made only when a frame asks for it (the engraving's maps, again only
@@ -322,13 +370,15 @@ impl Renderer {
         &mut self,
         params: &RenderParams,
         cam: &Camera,
+        crop: &Crop,
         detail: &Detail,
     ) -> Result<bool, RenderError> {
         let v4 = |v: glam::Vec3, w: f32| v.extend(w).to_array();
         let planar = &detail.planar;
+        let (w, h) = (params.width, params.height);
         let frame = FrameUniform {
-            // Column-major, as WGSL expects.
-            view_proj: cam.view_proj.to_cols_array_2d(),
+            // Column-major, as WGSL expects; onto the crop's images.
+            view_proj: (crop.clip_matrix(w, h) * cam.view_proj).to_cols_array_2d(),
             eye: v4(cam.eye, 1.0),
             light_dir: v4(
                 cam.light,
@@ -379,6 +429,8 @@ impl Renderer {
                 [r, g, b, 1.0]
             },
             params: COMPOSITE_PARAMS,
+            crop: [crop.x, crop.y, crop.width, crop.height].map(|v| v as f32),
+            size: [w as f32, h as f32, 0.0, 0.0],
         };
         self.queue.write_buffer(
             &self.pipelines.composite_uniform,
@@ -555,19 +607,31 @@ fn composite_pass(
     Ok(())
 }
 
-/// Pass 4: the GPU styles in order, ping-ponging between the chain's images, the last into
-/// `final_view`.
+/// The passes after the composite and where the last one writes.
+struct Chain<'a> {
+    styles: &'a [crate::styles::Style],
+    edge_aa: bool,
+    final_view: &'a wgpu::TextureView,
+    format: wgpu::TextureFormat,
+}
+
+/// Pass 4: the GPU styles in order, then the edge antialiasing, ping-ponging between the
+/// chain's images, the last into `final_view`.
 fn style_passes(
     encoder: &mut wgpu::CommandEncoder,
     frame: &Frame<'_>,
     st: &gpu::StyleTargets,
-    styles: &[crate::styles::Style],
-    final_view: &wgpu::TextureView,
-    format: wgpu::TextureFormat,
+    chain: &Chain<'_>,
     stamps: &mut Stamps<'_>,
 ) -> Result<(), RenderError> {
+    let Chain {
+        styles,
+        edge_aa,
+        final_view,
+        format,
+    } = *chain;
     for (i, &style) in styles.iter().enumerate() {
-        let last = i + 1 == styles.len();
+        let last = i + 1 == styles.len() && !edge_aa;
         let (view, target_format) = if last {
             (final_view, format)
         } else {
@@ -584,6 +648,21 @@ fn style_passes(
         });
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &st.bind_groups[i], &[]);
+        pass.draw(0..3, 0..1);
+    }
+    if edge_aa {
+        let pipeline = frame
+            .pipelines
+            .edge_aa(format)
+            .ok_or_else(|| RenderError::Gpu(format!("no edge antialiasing for {format:?}")))?;
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("glyptic edge aa pass"),
+            color_attachments: &[gpu::overwrite(final_view)],
+            timestamp_writes: stamps.writes(TimedPass::EdgeAa),
+            ..Default::default()
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &st.edge_aa_bind_groups[styles.len() % 2], &[]);
         pass.draw(0..3, 0..1);
     }
     Ok(())

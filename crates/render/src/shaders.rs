@@ -35,6 +35,13 @@ pub const SSS: &str = concat!(
     include_str!("../shaders/sss.wgsl")
 );
 
+/// Edge antialiasing (FXAA) for frames drawn with one sample a pixel (`vs_main`, `fs_main`).
+pub const EDGE_AA: &str = concat!(
+    include_str!("../shaders/fullscreen.wgsl"),
+    "\n",
+    include_str!("../shaders/edge_aa.wgsl")
+);
+
 /// What the gallery style passes share: their uniform, input and bilinear read.
 pub const STYLE_COMMON: &str = include_str!("../shaders/style_common.wgsl");
 
@@ -58,7 +65,7 @@ pub const CHROMATIC: &str = style_module!("chromatic.wgsl");
 pub const PAINTERLY: &str = style_module!("painterly.wgsl");
 
 /// Every module the renderer compiles, by name, exactly as it hands them to wgpu.
-pub fn modules() -> [(&'static str, &'static str); 11] {
+pub fn modules() -> [(&'static str, &'static str); 12] {
     [
         ("shadow", SHADOW),
         ("noise", NOISE),
@@ -66,6 +73,7 @@ pub fn modules() -> [(&'static str, &'static str); 11] {
         ("scene", SCENE),
         ("composite", COMPOSITE),
         ("sss", SSS),
+        ("edge_aa", EDGE_AA),
         ("style_common", STYLE_COMMON),
         ("toon", TOON),
         ("fisheye", FISHEYE),

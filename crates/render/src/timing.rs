@@ -16,6 +16,8 @@ pub struct PassTimes {
     /// Each style of the chain, in order: its pass's GPU time, or for those done on the CPU
     /// after the readback (from the first serial one on) their wall time.
     pub styles_ms: Vec<(crate::styles::Style, f64)>,
+    /// The edge antialiasing pass (frames drawn with one sample a pixel).
+    pub edge_aa_ms: Option<f64>,
 }
 
 /// A pass with timestamp queries, in the order the frame ran them (its query slots).
@@ -26,6 +28,7 @@ pub(crate) enum TimedPass {
     Sss,
     Composite,
     Style(crate::styles::Style),
+    EdgeAa,
 }
 
 /// Timestamp queries around each pass: scene, the SSS passes, composite, the GPU styles.
@@ -39,7 +42,7 @@ pub(crate) struct PassTimer {
 
 /// The most passes a frame times: six shadow faces, scene, two SSS, composite and the GPU
 /// styles.
-const TIMED_PASSES: u32 = 10 + gpu::MAX_GPU_STYLES as u32;
+const TIMED_PASSES: u32 = 11 + gpu::MAX_GPU_STYLES as u32;
 
 impl PassTimer {
     pub(crate) fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
@@ -116,6 +119,7 @@ impl Renderer {
                 TimedPass::Sss => *times.sss_ms.get_or_insert(0.0) += ms,
                 TimedPass::Composite => times.composite_ms += ms,
                 TimedPass::Style(style) => times.styles_ms.push((style, ms)),
+                TimedPass::EdgeAa => *times.edge_aa_ms.get_or_insert(0.0) += ms,
             }
         }
         Some(times)

@@ -2,7 +2,8 @@
 //! (rebuilt only when the image size changes) and mesh buffers (grown only when a mesh does not
 //! fit). Nothing here is created per frame.
 //!
-//! Targets of the scene pass, all the output's size (multisampled when the device allows 4x MSAA
+//! Targets of the scene pass, all the crop's size (the part of the frame the mesh covers, with
+//! a margin: `camera::Crop`; multisampled when the device allows 4x MSAA
 //! with resolve for these formats, then resolved into single-sample textures):
 //! * `diffuse` (Rgba16Float): diffuse radiance, linear; alpha = coverage.
 //! * `specular` (Rgba16Float): specular radiance, linear; alpha = coverage.
@@ -89,6 +90,10 @@ pub(crate) struct ShadowFaceUniform {
 pub(crate) struct CompositeUniform {
     pub background: [f32; 4],
     pub params: [f32; 4],
+    /// The scene images' place in the frame: x, y of their top left, their width, height (px).
+    pub crop: [f32; 4],
+    /// The frame's width, height (px); zw unused.
+    pub size: [f32; 4],
 }
 
 /// Uniforms of one SSS direction; mirrors `Sss` in `sss.wgsl`: params, dir, then

@@ -34,6 +34,10 @@ pub(crate) struct Pipelines {
     /// Horizontal and vertical pass uniforms.
     pub sss_uniforms: [wgpu::Buffer; 2],
     pub linear_clamp: wgpu::Sampler,
+    /// Edge antialiasing for one-sample frames: pipelines by output format, built on first use.
+    pub edge_aa_layout: wgpu::BindGroupLayout,
+    edge_aa_module: wgpu::ShaderModule,
+    edge_aa: Vec<(wgpu::TextureFormat, wgpu::RenderPipeline)>,
     /// Gallery style passes: layout, modules, pipelines by (style, output format) built on
     /// first use, and one uniform buffer per place in a chain.
     pub style_layout: wgpu::BindGroupLayout,
@@ -444,6 +448,23 @@ impl Pipelines {
             ..Default::default()
         });
 
+        let edge_aa_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("glyptic edge aa layout"),
+            entries: &[
+                texture_entry(0, true),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                    count: None,
+                },
+            ],
+        });
+        let edge_aa_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("glyptic edge aa"),
+            source: wgpu::ShaderSource::Wgsl(shaders::EDGE_AA.into()),
+        });
+
         let style_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("glyptic style layout"),
             entries: &[
@@ -498,6 +519,9 @@ impl Pipelines {
             sss_layout,
             sss_uniforms,
             linear_clamp,
+            edge_aa_layout,
+            edge_aa_module,
+            edge_aa: Vec::new(),
             style_layout,
             style_modules,
             style_pipelines: Vec::new(),
@@ -572,6 +596,28 @@ impl Pipelines {
         self.style_pipelines
             .iter()
             .find(|(k, _)| *k == (style, format))
+            .map(|(_, p)| p)
+    }
+
+    /// Builds the edge antialiasing pass writing `format` if there is none yet.
+    pub fn ensure_edge_aa(&mut self, device: &wgpu::Device, format: wgpu::TextureFormat) {
+        if !self.edge_aa.iter().any(|(f, _)| *f == format) {
+            let pipeline = fullscreen_pipeline(
+                device,
+                "glyptic edge aa pipeline",
+                &self.edge_aa_module,
+                &self.edge_aa_layout,
+                format,
+            );
+            self.edge_aa.push((format, pipeline));
+        }
+    }
+
+    /// The edge antialiasing pass writing `format` (see [`Pipelines::ensure_edge_aa`]).
+    pub fn edge_aa(&self, format: wgpu::TextureFormat) -> Option<&wgpu::RenderPipeline> {
+        self.edge_aa
+            .iter()
+            .find(|(f, _)| *f == format)
             .map(|(_, p)| p)
     }
 

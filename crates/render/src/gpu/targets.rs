@@ -56,10 +56,14 @@ impl ColorTarget {
     }
 }
 
-/// Everything sized by the output image.
+/// Everything sized by the output image: the output and its readback at the frame's size, the
+/// scene and SSS images at the crop's ([`crate::camera::Crop`]: the part of the frame the gem
+/// covers), which the composite places in the frame.
 pub(crate) struct Targets {
     pub width: u32,
     pub height: u32,
+    /// Size of the scene and SSS images (at most the frame's).
+    pub scene: [u32; 2],
     /// MSAA samples of the scene targets.
     pub samples: u32,
     pub diffuse: ColorTarget,
@@ -165,11 +169,14 @@ pub(crate) fn style_uniform(style: Style, time_s: f32) -> Option<[f32; 8]> {
     }
 }
 
-/// The two images a style chain passes between (the composite writes the first; pass `i`
-/// reads `views[i % 2]`), and each place's bind group (its uniform, its input).
+/// The two images a chain of passes after the composite (the gallery styles, then the edge
+/// antialiasing) passes between (the composite writes the first; pass `i` reads
+/// `views[i % 2]`), and each place's bind group (its uniform, its input).
 pub(crate) struct StyleTargets {
     pub views: [wgpu::TextureView; 2],
     pub bind_groups: Vec<wgpu::BindGroup>,
+    /// The edge antialiasing pass reading `views[0]` or `views[1]` (it runs last).
+    pub edge_aa_bind_groups: [wgpu::BindGroup; 2],
 }
 
 impl StyleTargets {
@@ -201,7 +208,27 @@ impl StyleTargets {
                 })
             })
             .collect();
-        StyleTargets { views, bind_groups }
+        let edge_aa_bind_groups = [0, 1].map(|i| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("glyptic edge aa bind group"),
+                layout: &pipelines.edge_aa_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::TextureView(&views[i]),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: wgpu::BindingResource::Sampler(&pipelines.linear_clamp),
+                    },
+                ],
+            })
+        });
+        StyleTargets {
+            views,
+            bind_groups,
+            edge_aa_bind_groups,
+        }
     }
 }
 
@@ -219,9 +246,15 @@ impl Targets {
         pipelines: &Pipelines,
         width: u32,
         height: u32,
+        scene: [u32; 2],
         samples: u32,
     ) -> Self {
         let size = wgpu::Extent3d {
+            width: scene[0],
+            height: scene[1],
+            depth_or_array_layers: 1,
+        };
+        let output_size = wgpu::Extent3d {
             width,
             height,
             depth_or_array_layers: 1,
@@ -249,7 +282,7 @@ impl Targets {
             .create_view(&Default::default());
         let output = device.create_texture(&wgpu::TextureDescriptor {
             label: Some("glyptic output"),
-            size,
+            size: output_size,
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
@@ -321,6 +354,7 @@ impl Targets {
         Self {
             width,
             height,
+            scene,
             samples,
             diffuse,
             specular,

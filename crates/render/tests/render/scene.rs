@@ -184,6 +184,25 @@ fn plate_scene(x: f32, y: f32) -> Mesh {
     b.mesh
 }
 
+/// A mesh that rasterises nothing (one zero-area triangle): the bare backdrop.
+fn speck() -> Mesh {
+    Mesh {
+        vertices: vec![
+            Vertex {
+                position: [0.0; 3],
+                normal: [0.0, 0.0, 1.0],
+                relief: 0.0,
+                region: 0,
+                hair: 0.0,
+                occlusion: 1.0,
+                key_light: 1.0,
+            };
+            3
+        ],
+        indices: vec![0, 1, 2],
+    }
+}
+
 fn luma(p: &image::Rgba<u8>) -> f32 {
     0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2])
 }
@@ -289,25 +308,9 @@ fn renderer_end_to_end() {
     );
     let (w, h) = (160, 200);
 
-    // A mesh that rasterises nothing (one zero-area triangle) gives the bare backdrop.
-    let speck = Mesh {
-        vertices: vec![
-            Vertex {
-                position: [0.0; 3],
-                normal: [0.0, 0.0, 1.0],
-                relief: 0.0,
-                region: 0,
-                hair: 0.0,
-                occlusion: 1.0,
-                key_light: 1.0,
-            };
-            3
-        ],
-        indices: vec![0, 1, 2],
-    };
     let t = Instant::now();
     let backdrop = renderer
-        .render(&speck, &params(w, h, Material::Marble))
+        .render(&speck(), &params(w, h, Material::Marble))
         .expect("backdrop");
     println!("first frame (pipeline warm-up) {w}x{h}: {:?}", t.elapsed());
     save(&backdrop, "backdrop.png");
@@ -861,4 +864,59 @@ fn renderer_end_to_end() {
         "look checks failed:\n{}",
         failed.join("\n")
     );
+}
+
+/// Share of the rows crossing the object whose first object pixel from the left is a blend:
+/// nearer the backdrop than the object two pixels further in is (a hard edge jumps at once).
+fn blended_edge_rows(image: &image::RgbaImage, backdrop: &image::RgbaImage) -> f64 {
+    let mask = object_mask(image, backdrop);
+    let w = image.width() as usize;
+    let (mut rows, mut blended) = (0, 0);
+    for y in 0..image.height() {
+        let Some(x) = (0..w.saturating_sub(2)).find(|&x| mask[y as usize * w + x]) else {
+            continue;
+        };
+        let (x, inner) = (x as u32, x as u32 + 2);
+        let bg = luma(backdrop.get_pixel(x, y));
+        let full = luma(image.get_pixel(inner, y)) - bg;
+        if full.abs() < 30.0 {
+            continue;
+        }
+        rows += 1;
+        if (luma(image.get_pixel(x, y)) - bg) / full < 0.85 {
+            blended += 1;
+        }
+    }
+    blended as f64 / rows.max(1) as f64
+}
+
+#[test]
+fn one_sample_frames_get_their_edges_smoothed() {
+    let mut renderer = crate::renderer();
+    let mesh = cameo(96, 160);
+    let p = params(160, 200, Material::Marble);
+    let msaa = renderer.render(&mesh, &p).expect("4x frame");
+    let one = RenderParams {
+        antialias: false,
+        ..p.clone()
+    };
+    let smoothed = renderer.render(&mesh, &one).expect("one-sample frame");
+    let times = renderer.last_pass_times().cloned();
+    let empty = renderer.render(&speck(), &p).expect("backdrop frame");
+    save(&smoothed, "edge-aa.png");
+    let (m, s) = (
+        blended_edge_rows(&msaa, &empty),
+        blended_edge_rows(&smoothed, &empty),
+    );
+    println!("blended edge rows: 4x MSAA {m:.2}, one sample with edge AA {s:.2}; {times:?}");
+    assert!(
+        s >= 0.5,
+        "one-sample frame's outline is not smoothed: {s:.2} (MSAA {m:.2})"
+    );
+    if let Some(t) = times {
+        assert!(
+            t.edge_aa_ms.is_some(),
+            "no edge antialiasing pass timed: {t:?}"
+        );
+    }
 }
