@@ -36,24 +36,32 @@ fn timed_frame(
     Ok((wall, times))
 }
 
-/// One warm-up frame, then the medians over `frames` of the scene, SSS and composite passes'
-/// GPU times and the frame's wall time, ms.
+/// One warm-up frame, then the medians over `frames` of the scene, SSS, composite and edge
+/// antialiasing passes' GPU times and the frame's wall time, ms.
 fn pass_medians(
     renderer: &mut Renderer,
     mesh: &glyptic::render::Mesh,
     p: &RenderParams,
     frames: usize,
-) -> Result<[f64; 4], Box<dyn std::error::Error>> {
+) -> Result<[f64; 5], Box<dyn std::error::Error>> {
     renderer.render(mesh, p)?;
-    let (mut scene, mut blur, mut comp, mut wall) = (vec![], vec![], vec![], vec![]);
+    let (mut scene, mut blur, mut comp, mut edge, mut wall) =
+        (vec![], vec![], vec![], vec![], vec![]);
     for _ in 0..frames {
         let (ms, times) = timed_frame(renderer, mesh, p)?;
         wall.push(ms);
         scene.push(times.scene_ms);
         blur.push(times.sss_ms.unwrap_or(0.0));
         comp.push(times.composite_ms);
+        edge.push(times.edge_aa_ms.unwrap_or(0.0));
     }
-    Ok([median(scene), median(blur), median(comp), median(wall)])
+    Ok([
+        median(scene),
+        median(blur),
+        median(comp),
+        median(edge),
+        median(wall),
+    ])
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -109,7 +117,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     sss,
                     ..RenderParams::default()
                 };
-                let [scene, blur, comp, wall] = pass_medians(&mut renderer, &mesh, &p, frames)?;
+                let [scene, blur, comp, _, wall] = pass_medians(&mut renderer, &mesh, &p, frames)?;
                 let share = match sss {
                     Some(_) => format!("{:.0} %", 100.0 * blur / scene),
                     None => "-".into(),
@@ -132,13 +140,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // still gem at 800x1000 with MSAA; while it moves, half the size per side without MSAA,
     // egui scaling the layer up). Frames per second from the frame's wall time.
     println!(
-        "\n# Antialiasing and frame size (marble, SSS)\n\n| frame | size | MSAA | SSS taps | scene ms | SSS ms | composite ms | frame ms | frames/s |\n|---|---|---|---|---|---|---|---|---|"
+        "\n# Antialiasing and frame size (marble, SSS)\n\n| frame | size | MSAA | SSS taps | scene ms | SSS ms | composite ms | edge AA ms | frame ms | frames/s |\n|---|---|---|---|---|---|---|---|---|---|"
     );
     let moving = glyptic::kiosk::MOVING;
-    let coarse = mesh.clustered(moving.cell_mm);
+    let t = Instant::now();
+    let coarse = mesh.simplified(moving.max_triangles);
+    let simplify_ms = t.elapsed().as_secs_f64() * 1e3;
     println!(
-        "\n(The kiosk's moving frames draw the mesh clustered on {} mm cubes: {} vertices, {} triangles, of {} and {}.)\n",
-        moving.cell_mm,
+        "\n(The kiosk's moving frames draw the mesh simplified to {} triangles or fewer in {simplify_ms:.1} ms: {} vertices, {} triangles, of {} and {}. Frames with one sample a pixel get the edge antialiasing pass.)\n",
+        moving.max_triangles,
         coarse.vertices.len(),
         coarse.indices.len() / 3,
         mesh.vertices.len(),
@@ -175,9 +185,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         } else {
             &mesh
         };
-        let [scene, blur, comp, wall] = pass_medians(&mut renderer, drawn, &p, frames)?;
+        let [scene, blur, comp, edge, wall] = pass_medians(&mut renderer, drawn, &p, frames)?;
         println!(
-            "| {what} | {w}x{h} | {} | {taps} | {scene:.1} | {blur:.1} | {comp:.1} | {wall:.1} | {:.1} |",
+            "| {what} | {w}x{h} | {} | {taps} | {scene:.1} | {blur:.1} | {comp:.1} | {edge:.1} | {wall:.1} | {:.1} |",
             if antialias { "4x" } else { "off" },
             1e3 / wall
         );

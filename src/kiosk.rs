@@ -286,9 +286,10 @@ pub struct Motion {
     pub sss_taps: usize,
     /// Seconds without a change before the still frame is drawn.
     pub hold_s: f32,
-    /// The mesh while moving: clustered on cubes this size (mm; [`crate::render::Mesh::clustered`]),
-    /// since on a CPU rasteriser a small frame's time goes on the triangles.
-    pub cell_mm: f32,
+    /// The mesh while moving: simplified to about this many triangles
+    /// ([`crate::render::Mesh::simplified`]), since on a CPU rasteriser a small frame's time
+    /// goes on the triangles.
+    pub max_triangles: usize,
 }
 
 /// The kiosk's [`Motion`].
@@ -296,7 +297,7 @@ pub const MOVING: Motion = Motion {
     scale: 0.5,
     sss_taps: 11,
     hold_s: 0.25,
-    cell_mm: 0.5,
+    max_triangles: 15_000,
 };
 
 impl Motion {

@@ -69,86 +69,109 @@ impl Mesh {
             })
     }
 
-    /// A coarser copy for frames that must be quick (the kiosk's gem while it turns): vertex
-    /// clustering (Rossignac and Borrel) on a grid of `cell_mm` cubes. Vertices in one cube,
-    /// of one region and facing the same way (the dominant axis of their normal, so the bezel's
-    /// and the walls' creases stay sharp) become their mean; triangles left with fewer than
-    /// three distinct corners go. No holes are opened: every remaining triangle keeps its
-    /// neighbours' shared corners. A cell that is not finite and positive returns the mesh.
-    pub fn clustered(&self, cell_mm: f32) -> Mesh {
-        if !(cell_mm.is_finite() && cell_mm > 0.0) {
+    /// A coarser copy of at most about `max_triangles` triangles for frames that must be quick
+    /// (the kiosk's gem while it turns): meshoptimizer's quadric edge collapse (Garland and
+    /// Heckbert), which spends the triangles where the surface bends, weighing the normals and
+    /// the shading attributes besides the positions and keeping the regions' borders (gold and
+    /// stone, hair and face) where they are. The vertices kept are copied unchanged. A mesh
+    /// already that small, or one whose indices do not all name a vertex, returns itself.
+    pub fn simplified(&self, max_triangles: usize) -> Mesh {
+        let count = self.vertices.len();
+        if self.indices.len() / 3 <= max_triangles
+            || self.indices.iter().any(|&i| i as usize >= count)
+        {
             return self.clone();
         }
-        let facing = |n: [f32; 3]| {
-            let a = n.map(f32::abs);
-            let axis = if a[0] >= a[1] && a[0] >= a[2] {
-                0
-            } else if a[1] >= a[2] {
-                1
-            } else {
-                2
-            };
-            (axis, n[axis] >= 0.0)
+        let bytes: &[u8] = bytemuck::cast_slice(&self.vertices);
+        let Ok(adapter) = meshopt::VertexDataAdapter::new(bytes, std::mem::size_of::<Vertex>(), 0)
+        else {
+            return self.clone();
         };
-        let mut clusters: std::collections::HashMap<_, u32> =
-            std::collections::HashMap::with_capacity(self.vertices.len() / 2);
-        let mut sums: Vec<(Vertex, f32)> = Vec::new();
-        let map: Vec<u32> = self
+        // Attributes per vertex, weighed against the position error (relative to the mesh's
+        // extent): the unit normal, the region, the hair layer, occlusion and key light.
+        const ATTRIBUTES: usize = 7;
+        let weights = [0.5, 0.5, 0.5, 4.0, 1.0, 0.5, 0.5];
+        let attributes: Vec<f32> = self
             .vertices
             .iter()
-            .map(|v| {
-                let cell = v.position.map(|c| (c / cell_mm).floor() as i64);
-                let key = (cell, v.region, facing(v.normal));
-                let at = *clusters.entry(key).or_insert_with(|| {
-                    sums.push((
-                        Vertex {
-                            position: [0.0; 3],
-                            normal: [0.0; 3],
-                            relief: 0.0,
-                            hair: 0.0,
-                            occlusion: 0.0,
-                            key_light: 0.0,
-                            ..*v
-                        },
-                        0.0,
-                    ));
-                    (sums.len() - 1) as u32
-                });
-                let (sum, n) = &mut sums[at as usize];
+            .flat_map(|v| {
+                let n = v.normal;
+                let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-12);
+                [
+                    n[0] / len,
+                    n[1] / len,
+                    n[2] / len,
+                    v.region as f32,
+                    v.hair,
+                    v.occlusion,
+                    v.key_light,
+                ]
+            })
+            .collect();
+        // Vertices on a region's border do not move (the gold bezel meets the stone on a line),
+        // nor do the gold's: the bezel is a few thousand triangles whose round profile carries
+        // its highlights.
+        let gold = Region::Gold as u32;
+        let mut lock: Vec<bool> = self.vertices.iter().map(|v| v.region == gold).collect();
+        // Nor do the vertices that bound the mesh: its box and bounding sphere stay the same,
+        // and with them the camera that frames it (a moving frame must not jump).
+        let mut lo = [(f32::INFINITY, 0); 3];
+        let mut hi = [(f32::NEG_INFINITY, 0); 3];
+        for (i, v) in self.vertices.iter().enumerate() {
+            for a in 0..3 {
+                if v.position[a] < lo[a].0 {
+                    lo[a] = (v.position[a], i);
+                }
+                if v.position[a] > hi[a].0 {
+                    hi[a] = (v.position[a], i);
+                }
+            }
+        }
+        let centre: [f32; 3] = std::array::from_fn(|a| 0.5 * (lo[a].0 + hi[a].0));
+        let far = self
+            .vertices
+            .iter()
+            .enumerate()
+            .fold((0.0f32, 0), |best, (i, v)| {
+                let d: f32 = (0..3).map(|a| (v.position[a] - centre[a]).powi(2)).sum();
+                if d > best.0 { (d, i) } else { best }
+            });
+        for i in lo.iter().chain(&hi).map(|e| e.1).chain([far.1]) {
+            lock[i] = true;
+        }
+        for t in self.indices.chunks_exact(3) {
+            let r = [0, 1, 2].map(|k| self.vertices[t[k] as usize].region);
+            if r[0] != r[1] || r[1] != r[2] {
                 for k in 0..3 {
-                    sum.position[k] += v.position[k];
-                    sum.normal[k] += v.normal[k];
+                    lock[t[k] as usize] = true;
                 }
-                sum.relief += v.relief;
-                sum.hair += v.hair;
-                sum.occlusion += v.occlusion;
-                sum.key_light += v.key_light;
-                *n += 1.0;
-                at
-            })
-            .collect();
-        let vertices = sums
+            }
+        }
+        let indices = meshopt::simplify_with_attributes_and_locks(
+            &self.indices,
+            &adapter,
+            &attributes,
+            &weights,
+            ATTRIBUTES * std::mem::size_of::<f32>(),
+            &lock,
+            3 * max_triangles,
+            1.0,
+            meshopt::SimplifyOptions::None,
+            None,
+        );
+        // Keep only the vertices still used, in their first use's order.
+        let mut remap = vec![u32::MAX; count];
+        let mut vertices = Vec::new();
+        let indices = indices
             .into_iter()
-            .map(|(v, n)| Vertex {
-                position: v.position.map(|c| c / n),
-                relief: v.relief / n,
-                hair: v.hair / n,
-                occlusion: v.occlusion / n,
-                key_light: v.key_light / n,
-                ..v
-            })
-            .collect();
-        let indices = self
-            .indices
-            .chunks_exact(3)
-            .filter_map(|t| {
-                let [a, b, c] = [t[0], t[1], t[2]].map(|i| map.get(i as usize).copied());
-                match (a, b, c) {
-                    (Some(a), Some(b), Some(c)) if a != b && b != c && a != c => Some([a, b, c]),
-                    _ => None,
+            .map(|i| {
+                let slot = &mut remap[i as usize];
+                if *slot == u32::MAX {
+                    *slot = vertices.len() as u32;
+                    vertices.push(self.vertices[i as usize]);
                 }
+                *slot
             })
-            .flatten()
             .collect();
         Mesh { vertices, indices }
     }
@@ -186,46 +209,110 @@ mod tests {
         }
     }
 
-    /// A fine grid of a flat plate collapses to the clusters' grid; a crease (two faces of
-    /// different facing in the same cell) and another region stay apart; no index dangles.
-    #[test]
-    fn clustering_merges_within_cells_and_keeps_creases_and_regions() {
-        let n = 20;
+    /// A grid of `n` x `n` cells over [0, 2] mm square, heights from `z`.
+    fn grid(n: usize, z: impl Fn(f32, f32) -> f32, region: impl Fn(f32, f32) -> Region) -> Mesh {
         let mut m = Mesh::default();
+        let step = 2.0 / n as f32;
         for y in 0..=n {
             for x in 0..=n {
-                let p = [x as f32 * 0.1, y as f32 * 0.1, 0.0];
-                m.vertices.push(vertex(p, [0.0, 0.0, 1.0], Region::Ground));
+                let (px, py) = (x as f32 * step, y as f32 * step);
+                let p = [px, py, z(px, py)];
+                m.vertices.push(vertex(p, [0.0, 0.0, 1.0], region(px, py)));
             }
         }
-        for y in 0..n {
-            for x in 0..n {
-                let i = (y * (n + 1) + x) as u32;
-                let w = (n + 1) as u32;
+        let w = (n + 1) as u32;
+        for y in 0..n as u32 {
+            for x in 0..n as u32 {
+                let i = y * w + x;
                 m.indices.extend([i, i + 1, i + w, i + 1, i + w + 1, i + w]);
             }
         }
-        let c = m.clustered(0.5);
-        assert!(c.vertices.len() <= 25, "{} clusters", c.vertices.len());
-        assert!(c.indices.len() < m.indices.len() / 8, "{}", c.indices.len());
-        assert!(c.indices.iter().all(|&i| (i as usize) < c.vertices.len()));
-        // Every cluster's mean lies inside the plate and keeps the attributes' mean.
+        m
+    }
+
+    fn bounds(m: &Mesh) -> [[f32; 3]; 2] {
+        let mut b = [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]];
+        for i in &m.indices {
+            let p = m.vertices[*i as usize].position;
+            for a in 0..3 {
+                b[0][a] = b[0][a].min(p[a]);
+                b[1][a] = b[1][a].max(p[a]);
+            }
+        }
+        b
+    }
+
+    /// The triangles go where the surface bends: a flat plate collapses to a handful, a bump
+    /// keeps its share; the gold and the mesh's bounds are untouched; no index dangles.
+    #[test]
+    fn simplifying_spends_the_triangles_on_the_relief_and_keeps_gold_and_bounds() {
+        let bump = |x: f32, y: f32| {
+            let r2 = (x - 1.5).powi(2) + (y - 1.0).powi(2);
+            if x > 1.0 {
+                0.3 * (-r2 / 0.05).exp()
+            } else {
+                0.0
+            }
+        };
+        let rim = |_x: f32, y: f32| {
+            if y > 1.9 {
+                Region::Gold
+            } else {
+                Region::Ground
+            }
+        };
+        let m = grid(60, bump, rim);
+        let total = m.indices.len() / 3;
+        let target = total / 8;
+        let s = m.simplified(target);
+        let kept = s.indices.len() / 3;
         assert!(
-            c.vertices
-                .iter()
-                .all(|v| v.position[0] >= 0.0 && v.position[0] <= 2.0)
+            kept <= target + target / 10,
+            "{kept} of {total}, asked {target}"
         );
-        assert!(c.vertices.iter().all(|v| (v.occlusion - 1.0).abs() < 1e-6));
-        // A wall vertex (facing +x) and a gold vertex in a cell with ground ones stay apart.
-        let mut m2 = m.clone();
-        m2.vertices
-            .push(vertex([0.05, 0.05, 0.0], [1.0, 0.0, 0.0], Region::Ground));
-        m2.vertices
-            .push(vertex([0.05, 0.05, 0.0], [0.0, 0.0, 1.0], Region::Gold));
-        let c2 = m2.clustered(0.5);
-        assert_eq!(c2.vertices.len(), c.vertices.len() + 2);
-        // A cell of 0 or NaN leaves the mesh as it is.
-        assert_eq!(m.clustered(0.0).indices, m.indices);
-        assert_eq!(m.clustered(f32::NAN).vertices.len(), m.vertices.len());
+        assert!(s.indices.iter().all(|&i| (i as usize) < s.vertices.len()));
+        // Every vertex kept is one of the mesh's, unchanged.
+        assert!(
+            s.vertices
+                .iter()
+                .all(|v| m.vertices.iter().any(|w| w.position == v.position))
+        );
+        let gold = |m: &Mesh| {
+            m.indices
+                .chunks_exact(3)
+                .filter(|t| {
+                    t.iter()
+                        .all(|&i| m.vertices[i as usize].region == Region::Gold as u32)
+                })
+                .count()
+        };
+        assert_eq!(gold(&s), gold(&m));
+        assert_eq!(bounds(&s), bounds(&m));
+        // The bump's half holds most of the stone's triangles that are left.
+        let centroid_x = |t: &[u32]| {
+            t.iter()
+                .map(|&i| s.vertices[i as usize].position[0])
+                .sum::<f32>()
+                / 3.0
+        };
+        let stone: Vec<&[u32]> = s
+            .indices
+            .chunks_exact(3)
+            .filter(|t| {
+                t.iter()
+                    .any(|&i| s.vertices[i as usize].region != Region::Gold as u32)
+            })
+            .collect();
+        let on_bump = stone.iter().filter(|t| centroid_x(t) > 1.0).count();
+        assert!(
+            on_bump * 10 >= stone.len() * 7,
+            "{on_bump} of {} on the bump",
+            stone.len()
+        );
+        // Small enough already, or an index past the vertices: the mesh as it is.
+        assert_eq!(m.simplified(total).indices, m.indices);
+        let mut broken = m.clone();
+        broken.indices[0] = broken.vertices.len() as u32;
+        assert_eq!(broken.simplified(10).indices, broken.indices);
     }
 }

@@ -435,7 +435,7 @@ impl Running {
                 .as_ref()
                 .is_none_or(|(from, _)| !Arc::ptr_eq(from, gem))
         {
-            self.moving_gem = Some((Arc::clone(gem), gem.clustered(MOVING.cell_mm)));
+            self.moving_gem = Some((Arc::clone(gem), gem.simplified(MOVING.max_triangles)));
         }
         if self.dirty
             && let (Some(gem), Some(layer)) = (&self.gem, &self.layer)
