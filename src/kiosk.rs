@@ -274,10 +274,11 @@ impl Controls {
 }
 
 /// How the gem is drawn while the visitor turns or zooms it: smaller, from a coarser mesh,
-/// without MSAA and with a shorter scattering kernel, so that on a CPU rasteriser it follows
-/// the hand (the still frame at full quality follows once the hand rests for `hold_s`). On
-/// this project's 2-core machine an 800x1000 window's gem takes ~330 ms at full quality and
-/// ~65 ms moving (BENCHMARKS.md, "The kiosk while the visitor turns the gem").
+/// without MSAA (the renderer's FXAA pass smooths its outline instead) and with a shorter
+/// scattering kernel, so that on a CPU rasteriser it follows the hand (the still frame at full
+/// quality follows once the hand rests for `hold_s`). On this project's 2-core machine an
+/// 800x1000 window's gem takes ~300 ms at full quality and ~60 ms moving (BENCHMARKS.md, "The
+/// kiosk while the visitor turns the gem").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Motion {
     /// The gem's resolution while moving, of the still one's (per side); egui scales it up.

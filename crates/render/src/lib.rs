@@ -21,14 +21,19 @@
 //!    the six faces of a cube depth map, which the scene pass compares against (with a
 //!    nine-tap percentage-closer filter);
 //! 1. **scene**: lit diffuse (linear Rgba16Float), specular (Rgba16Float) and linear depth with a
-//!    subsurface-scattering mask, 4x MSAA where the device allows, resolved;
+//!    subsurface-scattering mask, 4x MSAA where the device allows and the frame asks for it
+//!    ([`RenderParams::antialias`]), resolved. Its images (and the SSS pass's) cover only the
+//!    crop of the frame that holds the mesh's projection: the backdrop round the gem is never
+//!    drawn or blurred;
 //! 2. **subsurface scattering** (when [`RenderParams::sss`] is set): the resolved diffuse alone is
 //!    blurred horizontally, then vertically, with the kernel of [`crate::sss`] (the 2021 system
 //!    found that blurring the highlights too made the stone look hazy);
 //! 3. **composite**: diffuse (blurred or not) + specular over the backdrop, highlight shoulder,
 //!    sRGB encoding. With SSS off the composite reads the scene pass's diffuse directly.
 //! 4. **styles** ([`RenderParams::styles`]): the gallery styles on the GPU, in order; the serial
-//!    ones (and whatever follows them) on the CPU after the readback.
+//!    ones (and whatever follows them) on the CPU after the readback;
+//! 5. **edge antialiasing** (frames drawn with one sample a pixel): FXAA on the finished frame,
+//!    so a frame without MSAA (the kiosk's while the gem turns) has no stair-stepped outline.
 //!
 //! With [`RenderParams::engraving`] the scene pass also engraves a border into the ground:
 //! parallax occlusion mapping over a height map and normal mapping in tangent space, both from
