@@ -306,6 +306,20 @@ impl FaceDetector {
         Ok(postprocess(raw, &lb, opts))
     }
 
+    /// Runs the network on a prepared input (`input_name`: the graph's input).
+    fn infer(
+        &mut self,
+        input_name: &str,
+        input: &ndarray::Array4<f32>,
+    ) -> Result<ort::session::SessionOutputs<'_>, DetectError> {
+        let path = &self.model.path;
+        let tensor = TensorRef::from_array_view(input).map_err(|e| infer_err(path, e))?;
+        self.model
+            .session
+            .run(ort::inputs![input_name => tensor])
+            .map_err(|e| infer_err(path, e))
+    }
+
     /// Runs YuNet on a prepared (BGR) input and decodes candidates (model-input pixels).
     fn run_yunet(
         &mut self,
@@ -313,21 +327,12 @@ impl FaceDetector {
         lb: &Letterbox,
         threshold: f32,
     ) -> Result<Vec<Detection>, DetectError> {
-        let path = &self.model.path;
-        let tensor = TensorRef::from_array_view(input).map_err(|e| infer_err(path, e))?;
-        let outputs = self
-            .model
-            .session
-            .run(ort::inputs![yunet::INPUT => tensor])
-            .map_err(|e| infer_err(path, e))?;
+        let outputs = self.infer(yunet::INPUT, input)?;
         let mut flat: Vec<Vec<f32>> = Vec::with_capacity(12);
         for stride in yunet::STRIDES {
             for head in yunet::HEADS {
                 let name = yunet::output_name(head, stride);
-                let value = outputs
-                    .get(name.as_str())
-                    .ok_or_else(|| DetectError::Output(format!("no output `{name}`")))?;
-                let (_, data) = value
+                let (_, data) = output(&outputs, &name)?
                     .try_extract_tensor::<f32>()
                     .map_err(|e| DetectError::Output(format!("output `{name}`: {e}")))?;
                 flat.push(data.to_vec());
@@ -358,19 +363,10 @@ impl FaceDetector {
         lb: &Letterbox,
         threshold: f32,
     ) -> Result<Vec<Detection>, DetectError> {
-        let path = &self.model.path;
-        let tensor = TensorRef::from_array_view(input).map_err(|e| infer_err(path, e))?;
-        let outputs = self
-            .model
-            .session
-            .run(ort::inputs![centerface::INPUT => tensor])
-            .map_err(|e| infer_err(path, e))?;
+        let outputs = self.infer(centerface::INPUT, input)?;
         let mut maps = Vec::with_capacity(4);
         for name in centerface::OUTPUTS {
-            let value = outputs
-                .get(name)
-                .ok_or_else(|| DetectError::Output(format!("no output `{name}`")))?;
-            let array = value
+            let array = output(&outputs, name)?
                 .try_extract_array::<f32>()
                 .map_err(|e| DetectError::Output(format!("output `{name}`: {e}")))?;
             maps.push(array);
@@ -385,6 +381,16 @@ impl FaceDetector {
             threshold,
         ))
     }
+}
+
+/// The network's output `name`, or an error naming the missing output.
+fn output<'a>(
+    outputs: &'a ort::session::SessionOutputs<'_>,
+    name: &str,
+) -> Result<&'a ort::value::DynValue, DetectError> {
+    outputs
+        .get(name)
+        .ok_or_else(|| DetectError::Output(format!("no output `{name}`")))
 }
 
 /// An inference failure with the model it happened in.
