@@ -177,16 +177,18 @@ impl Renderer {
                 t.scene[a] >= needed && t.scene[a] <= scene[a] + camera::CROP_STEP_PX
             })
         };
-        if self
+        let resized = self
             .targets
             .as_ref()
-            .is_none_or(|t| t.width != w || t.height != h || t.samples != samples || !fits(t))
-        {
-            let resized = self
+            .is_none_or(|t| t.width != w || t.height != h);
+        if resized
+            || self
                 .targets
                 .as_ref()
-                .is_none_or(|t| t.width != w || t.height != h);
-            // Drop the old targets first so both sets are never alive at once.
+                .is_some_and(|t| t.samples != samples || !fits(t))
+        {
+            // Drop the old targets first so both sets are never alive at once; the style
+            // chain's images have the frame's size and outlive a new crop or sample count.
             self.targets = None;
             if resized {
                 self.style_targets = None;
