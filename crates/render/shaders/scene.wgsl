@@ -1,4 +1,4 @@
-// requires: noise.wgsl
+// requires: baked_noise.wgsl
 //
 // Scene pass: draws the gem and writes, per pixel (all premultiplied by coverage, cleared to 0):
 //   location 0  diffuse    rgb = diffuse radiance (linear), a = 1 (coverage after MSAA resolve)
@@ -37,6 +37,10 @@ struct Frame {
     lamp: vec4<f32>,
     // x: shadow far plane (mm), y: depth bias (mm), z: PCF radius (mm), w: lamp-centre distance.
     shadow: vec4<f32>,
+    // The baked noise's volume: xyz centre of voxel (0, 0, 0) (mm), w 1 / voxel size (1/mm);
+    // and xyz 1 / its voxel counts.
+    volume: vec4<f32>,
+    volume_texel: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -47,13 +51,15 @@ override ENGRAVING: bool = false;
 override LAMP: bool = false;
 
 // Group 1, surface detail: the engraving's height (r: 1 the ground, 0 a groove's bottom) and
-// tangent-space normal maps over the planar frame, and the lamp's shadow cube (distance to the
-// lamp over the far plane).
+// tangent-space normal maps over the planar frame, the lamp's shadow cube (distance to the
+// lamp over the far plane), and the slowly varying noise baked over the mesh (`noise_baked`,
+// read with the engraving's clamped linear sampler).
 @group(1) @binding(0) var engraving_height: texture_2d<f32>;
 @group(1) @binding(1) var engraving_normal: texture_2d<f32>;
 @group(1) @binding(2) var engraving_sampler: sampler;
 @group(1) @binding(3) var shadow_cube: texture_depth_cube;
 @group(1) @binding(4) var shadow_sampler: sampler_comparison;
+@group(1) @binding(5) var noise_volume: texture_3d<f32>;
 
 struct VsIn {
     @location(0) position: vec3<f32>,
@@ -106,6 +112,12 @@ struct FsOut {
     @location(2) depth_mask: vec2<f32>,
 }
 
+// The baked noise at `p` (mm): trilinear between voxel centres, clamped at the box.
+fn baked_noise(p: vec3<f32>) -> vec4<f32> {
+    let t = ((p - frame.volume.xyz) * frame.volume.w + 0.5) * frame.volume_texel.xyz;
+    return textureSampleLevel(noise_volume, engraving_sampler, t, 0.0);
+}
+
 fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
     let lo = c / 12.92;
     let hi = pow((c + 0.055) / 1.055, vec3<f32>(2.4));
@@ -144,7 +156,7 @@ fn marble_albedo(p: vec3<f32>) -> vec3<f32> {
     let v1 = exp(-pow(sin(3.14159265 * w1) / width, 2.0));
     let v2 = exp(-pow(sin(3.14159265 * w2) / (0.7 * width), 2.0));
     let vein = (1.0 - lightness) * (0.085 * v1 + 0.035 * v2);
-    let cloud = (1.0 - lightness) * (0.018 * snoise3(uv * 3.75) + 0.008 * snoise3(uv * 17.25));
+    let cloud = (1.0 - lightness) * baked_noise(p).r;
     let grey = 0.92 * (1.0 - vein) * (1.0 + cloud);
     return srgb_to_linear(grey * vec3<f32>(1.0, 0.985, 0.955));
 }
@@ -345,12 +357,9 @@ fn fs_main(in: VsOut) -> FsOut {
     var specular = vec3<f32>(0.0);
     var sss = 1.0;
     if in.gold > 0.5 {
-        // Polished gold: little diffuse, a coloured mirror of the studio plus a key highlight.
-        // A hand-finished surface is never optically flat: a faint low-frequency ripple of the
-        // normal keeps large flat parts (the back) from reflecting one uniform tone.
-        let q = in.world * 0.15;
-        let ripple = vec3<f32>(snoise3(q), snoise3(q + vec3<f32>(17.0, 3.0, 5.0)), snoise3(q - vec3<f32>(7.0, 11.0, 2.0)));
-        n = normalize(n + 0.035 * ripple);
+        // Polished gold: little diffuse, a coloured mirror of the studio plus a key highlight,
+        // its normal rippled faintly (`gold_ripple`, baked).
+        n = normalize(n + 0.035 * baked_noise(in.world).gba);
         let r = reflect(-v, n);
         diffuse = GOLD_F0 * 0.12 * (ambient + max(dot(n, l), 0.0) * light + max(dot(n, lamp_l), 0.0) * lamp);
         let ndv = max(dot(n, v), 0.0);

@@ -121,6 +121,9 @@ impl Renderer {
             },
             passes: Vec::new(),
         };
+        if let Some(bake) = &self.surface.pending_bake {
+            volume_pass(encoder, &frame, bake)?;
+        }
         if detail.lamp.is_some() {
             shadow_pass(encoder, &frame, &mut stamps);
         }
@@ -151,6 +154,8 @@ impl Renderer {
             style_passes(encoder, &frame, st, &chain, &mut stamps)?;
         }
         self.timed_passes = stamps.passes;
+        // Recorded: the volume is baked when this frame runs.
+        self.surface.pending_bake = None;
         Ok(())
     }
 
@@ -292,6 +297,15 @@ impl Renderer {
                 self.queue.write_buffer(buffer, 0, bytemuck::bytes_of(&u));
             }
         }
+        // The slowly varying noise, baked over the mesh once (again only when a mesh leaves the
+        // volume).
+        self.surface.ensure_volume(
+            &self.device,
+            &mut self.pipelines,
+            bounds.min,
+            bounds.max,
+            TEXTURE_SCALE,
+        );
         // The band the engraving's parallax search covers (mm inside the outline): a groove's
         // width beyond it each side.
         let band_mm = params.engraving.as_ref().map(|e| {
@@ -422,6 +436,13 @@ impl Renderer {
                 let centre_mm = l.offset_mm.iter().map(|c| c * c).sum::<f32>().sqrt();
                 [far, SHADOW_BIAS_MM, SHADOW_PCF_MM, centre_mm]
             }),
+            // Without a volume (no mesh drawn yet) the placeholder's one zero voxel.
+            volume: self.surface.volume_box.map_or([0.0, 0.0, 0.0, 1.0], |v| {
+                [v.origin[0], v.origin[1], v.origin[2], 1.0 / v.voxel_mm]
+            }),
+            volume_texel: self.surface.volume_box.map_or([1.0; 4], |v| {
+                [v.dims[0], v.dims[1], v.dims[2], 1].map(|d| 1.0 / d as f32)
+            }),
         };
         self.queue
             .write_buffer(&self.pipelines.frame_uniform, 0, bytemuck::bytes_of(&frame));
@@ -497,6 +518,29 @@ fn shadow_pass(encoder: &mut wgpu::CommandEncoder, frame: &Frame<'_>, stamps: &m
         );
         pass.draw_indexed(0..count, 0, 0..1);
     }
+}
+
+/// Before the passes, once: the slowly varying noise baked into the volume over the mesh.
+fn volume_pass(
+    encoder: &mut wgpu::CommandEncoder,
+    frame: &Frame<'_>,
+    bake: &gpu::NoiseBake,
+) -> Result<(), RenderError> {
+    let pipeline = frame
+        .pipelines
+        .noise_bake_pipeline()
+        .ok_or_else(|| RenderError::Gpu("no noise volume pipeline".into()))?;
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("glyptic noise volume"),
+        // Not timed: lavapipe stamps a compute pass before its work is done (0.01-0.07 ms for
+        // ~45 ms of work); bench_render times the bake by the frame's wall time instead.
+        timestamp_writes: None,
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, &bake.bind_group, &[]);
+    let [x, y, z] = bake.workgroups;
+    pass.dispatch_workgroups(x, y, z);
+    Ok(())
 }
 
 /// Pass 1: lit diffuse, specular and depth with the scattering mask; the engraved band's

@@ -8,11 +8,29 @@
 /// Simplex noise and turbulence, shared by the scene shader.
 pub const NOISE: &str = include_str!("../shaders/noise.wgsl");
 
-/// The scene pass (`vs_main`, `fs_main`), with the noise prepended.
+/// The noise the scene pass reads from a volume instead of computing it (needs the noise).
+pub const BAKED_NOISE: &str = concat!(
+    include_str!("../shaders/noise.wgsl"),
+    "\n",
+    include_str!("../shaders/baked_noise.wgsl")
+);
+
+/// The scene pass (`vs_main`, `fs_main`), with the noise and the baked noise prepended.
 pub const SCENE: &str = concat!(
     include_str!("../shaders/noise.wgsl"),
     "\n",
+    include_str!("../shaders/baked_noise.wgsl"),
+    "\n",
     include_str!("../shaders/scene.wgsl")
+);
+
+/// Bakes the slowly varying noise into a volume over the mesh (`cs_main`, a compute shader).
+pub const NOISE_VOLUME: &str = concat!(
+    include_str!("../shaders/noise.wgsl"),
+    "\n",
+    include_str!("../shaders/baked_noise.wgsl"),
+    "\n",
+    include_str!("../shaders/noise_volume.wgsl")
 );
 
 /// One face of the lamp's shadow cube (`vs_main`, `fs_main`): distance to the lamp as depth.
@@ -65,10 +83,12 @@ pub const CHROMATIC: &str = style_module!("chromatic.wgsl");
 pub const PAINTERLY: &str = style_module!("painterly.wgsl");
 
 /// Every module the renderer compiles, by name, exactly as it hands them to wgpu.
-pub fn modules() -> [(&'static str, &'static str); 12] {
+pub fn modules() -> [(&'static str, &'static str); 14] {
     [
         ("shadow", SHADOW),
         ("noise", NOISE),
+        ("baked_noise", BAKED_NOISE),
+        ("noise_volume", NOISE_VOLUME),
         ("fullscreen", FULLSCREEN),
         ("scene", SCENE),
         ("composite", COMPOSITE),

@@ -2,7 +2,8 @@
 //! ground (a height map and its tangent-space normal map, which the scene pass uses for
 //! parallax occlusion mapping and normal mapping), and per-vertex tangent frames with a guard
 //! against degenerate ones (the art-gallery seed's NaN tangents where two vertices of a
-//! triangle share texture coordinates).
+//! triangle share texture coordinates). Also the box over the mesh that its slowly varying
+//! noise is baked into ([`NoiseVolume`]).
 //!
 //! Units: object-space mm. The maps are planar: they cover the mesh's XY bounding box, texture
 //! coordinate u running with +X and v with -Y (image rows go down), (0, 0) at (min x, max y).
@@ -395,6 +396,61 @@ pub fn tangents(
         .collect()
 }
 
+/// Voxel size of the baked noise, mm. Its shortest waves (the marble's fine cloudiness, the
+/// gold's ripple) are 4.3 and 6.7 mm long; trilinear reads between voxels this far apart keep
+/// the goldens within their tolerance (measured in BENCHMARKS.md).
+pub const NOISE_VOXEL_MM: f32 = 0.35;
+/// Margin round the mesh's vertices, mm: the engraving's parallax moves the point the stone
+/// is shaded at along the ground and into its grooves.
+const NOISE_MARGIN_MM: f32 = 1.0;
+/// The box's corners lie on this grid (mm), so that gems of one size share a volume and the
+/// voxels sit at the same places in every volume.
+const NOISE_GRID_MM: f32 = 4.0;
+/// The most voxels along one side: a larger stone gets larger voxels.
+const NOISE_MAX_SIDE: u32 = 256;
+
+/// Where the mesh's baked noise lies: voxel centres at `origin + i * voxel_mm` for
+/// `i < dims` along each axis (mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NoiseVolume {
+    pub origin: [f32; 3],
+    pub voxel_mm: f32,
+    pub dims: [u32; 3],
+}
+
+impl NoiseVolume {
+    /// The volume over a mesh whose vertices span `min`..`max` (mm), with a margin, its
+    /// corners on a fixed grid; `None` for a non-finite or inverted box.
+    pub fn covering(min: [f32; 3], max: [f32; 3]) -> Option<Self> {
+        if !(0..3).all(|k| min[k].is_finite() && max[k].is_finite() && min[k] <= max[k]) {
+            return None;
+        }
+        let lo = min.map(|v| ((v - NOISE_MARGIN_MM) / NOISE_GRID_MM).floor() * NOISE_GRID_MM);
+        let hi = max.map(|v| ((v + NOISE_MARGIN_MM) / NOISE_GRID_MM).ceil() * NOISE_GRID_MM);
+        let longest = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f32::max);
+        let voxel_mm = NOISE_VOXEL_MM.max(longest / (NOISE_MAX_SIDE - 1) as f32);
+        let dims = [0, 1, 2].map(|k| ((hi[k] - lo[k]) / voxel_mm).ceil() as u32 + 1);
+        Some(NoiseVolume {
+            origin: lo,
+            voxel_mm,
+            dims,
+        })
+    }
+
+    /// Whether the volume holds a mesh spanning `min`..`max` with its margin (so it can be
+    /// kept for that mesh instead of baking again).
+    pub fn holds(&self, min: [f32; 3], max: [f32; 3]) -> bool {
+        (0..3).all(|k| {
+            let end = self.origin[k] + (self.dims[k] - 1) as f32 * self.voxel_mm;
+            min[k] - NOISE_MARGIN_MM >= self.origin[k] && max[k] + NOISE_MARGIN_MM <= end
+        })
+    }
+
+    pub fn voxels(&self) -> u64 {
+        self.dims.iter().map(|&d| u64::from(d)).product()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -603,5 +659,38 @@ mod tests {
         }
         // The 1 x 1 level of a mostly flat map: almost flat, almost white.
         assert!(e.height[7][0] > 240 && e.normal[7][0][2] > 250);
+    }
+
+    #[test]
+    fn the_noise_volume_covers_the_mesh_on_a_fixed_grid() {
+        // A 44 x 56 mm cameo, its back 3 mm below the ground, relief up to 5 mm.
+        let (min, max) = ([-22.0, -28.0, -3.0], [22.0, 28.0, 5.0]);
+        let v = NoiseVolume::covering(min, max).expect("a finite box");
+        assert_eq!(v.voxel_mm, NOISE_VOXEL_MM);
+        for k in 0..3 {
+            let end = v.origin[k] + (v.dims[k] - 1) as f32 * v.voxel_mm;
+            assert!(v.origin[k] <= min[k] - NOISE_MARGIN_MM, "axis {k}: {v:?}");
+            assert!(end >= max[k] + NOISE_MARGIN_MM, "axis {k}: {v:?}");
+            assert_eq!(v.origin[k] % NOISE_GRID_MM, 0.0, "axis {k}: {v:?}");
+            // No more than a grid step of slack each side.
+            assert!(end - v.origin[k] <= max[k] - min[k] + 2.0 * (NOISE_MARGIN_MM + NOISE_GRID_MM));
+        }
+        assert!(v.holds(min, max));
+        // A slightly different face on the same stone keeps the volume; a taller relief does not.
+        assert!(v.holds([-21.5, -27.5, -3.0], [21.0, 27.5, 5.5]));
+        assert!(!v.holds(min, [22.0, 28.0, 9.0]));
+        assert_eq!(
+            NoiseVolume::covering([-21.5, -27.5, -3.0], [21.0, 27.5, 5.5]),
+            Some(v)
+        );
+        // Bounded for a huge mesh, none for a broken box.
+        let huge = NoiseVolume::covering([-5e4; 3], [5e4; 3]).expect("finite");
+        assert!(
+            huge.dims.iter().all(|&d| d <= NOISE_MAX_SIDE + 1),
+            "{huge:?}"
+        );
+        assert!(huge.holds([-5e4; 3], [5e4; 3]));
+        assert_eq!(NoiseVolume::covering([0.0, 0.0, f32::NAN], [1.0; 3]), None);
+        assert_eq!(NoiseVolume::covering([1.0; 3], [0.0; 3]), None);
     }
 }

@@ -1,5 +1,5 @@
-//! The scene pass's group 1: the engraving's maps and the lamp's shadow cube, placeholders
-//! until a frame needs them.
+//! The scene pass's group 1: the engraving's maps, the lamp's shadow cube and the baked noise,
+//! placeholders until a frame needs them.
 
 // The GPU objects' shared formats, uniforms and imports (this file is a part of `gpu`).
 use super::*;
@@ -8,13 +8,19 @@ use super::*;
 pub(crate) const SHADOW_SIZE: u32 = 1024;
 pub(crate) const SHADOW_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// The scene pass's group 1: the engraving's height and normal maps and the lamp's shadow
-/// cube. Each starts as a one-texel placeholder and is made for real by the first frame that
-/// needs it (the engraving again when the mesh's planar frame changes).
+/// The scene pass's group 1: the engraving's height and normal maps, the lamp's shadow cube
+/// and the baked noise's volume. Each starts as a one-texel placeholder and is made for real by
+/// the first frame that needs it (the engraving again when the mesh's planar frame changes, the
+/// volume when a mesh leaves it).
 pub(crate) struct SurfaceMaps {
     height: wgpu::TextureView,
     normal: wgpu::TextureView,
     shadow: wgpu::TextureView,
+    volume: wgpu::TextureView,
+    /// Where the noise volume lies, once baked.
+    pub volume_box: Option<crate::surface::NoiseVolume>,
+    /// A bake the next frame must run before its scene pass.
+    pub pending_bake: Option<NoiseBake>,
     /// The shadow cube's faces (+x, -x, +y, -y, +z, -z) as render targets; empty until made.
     pub shadow_faces: Vec<wgpu::TextureView>,
     /// The frame and parameters the engraving was made for, if it was.
@@ -70,6 +76,37 @@ pub(super) fn map_texture(
     texture.create_view(&Default::default())
 }
 
+/// A noise volume's bake, waiting for the frame that records it: its bind group (uniform and
+/// the storage view of the volume) and its workgroup counts.
+pub(crate) struct NoiseBake {
+    pub bind_group: wgpu::BindGroup,
+    pub workgroups: [u32; 3],
+}
+
+/// Side of the bake's workgroups (`@workgroup_size(4, 4, 4)` in `noise_volume.wgsl`).
+const BAKE_GROUP: u32 = 4;
+
+fn volume_texture(
+    device: &wgpu::Device,
+    dims: [u32; 3],
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("glyptic noise volume"),
+        size: wgpu::Extent3d {
+            width: dims[0],
+            height: dims[1],
+            depth_or_array_layers: dims[2],
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D3,
+        format: NOISE_FORMAT,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | usage,
+        view_formats: &[],
+    })
+}
+
 pub(super) fn shadow_cube(device: &wgpu::Device, size: u32) -> (wgpu::Texture, wgpu::TextureView) {
     let texture = device.create_texture(&wgpu::TextureDescriptor {
         label: Some("glyptic shadow cube"),
@@ -113,11 +150,31 @@ impl SurfaceMaps {
             &[&[128, 128, 255, 255]],
         );
         let (_, shadow) = shadow_cube(device, 1);
-        let bind_group = Self::bind(device, pipelines, &height, &normal, &shadow);
+        // One zero voxel: no noise (no mesh has been drawn yet).
+        let placeholder = volume_texture(device, [1; 3], wgpu::TextureUsages::COPY_DST);
+        queue.write_texture(
+            placeholder.as_image_copy(),
+            &[0; 8],
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(8),
+                rows_per_image: Some(1),
+            },
+            wgpu::Extent3d {
+                width: 1,
+                height: 1,
+                depth_or_array_layers: 1,
+            },
+        );
+        let volume = placeholder.create_view(&Default::default());
+        let bind_group = Self::bind(device, pipelines, &height, &normal, &shadow, &volume);
         SurfaceMaps {
             height,
             normal,
             shadow,
+            volume,
+            volume_box: None,
+            pending_bake: None,
             shadow_faces: Vec::new(),
             engraving_key: None,
             bind_group,
@@ -130,6 +187,7 @@ impl SurfaceMaps {
         height: &wgpu::TextureView,
         normal: &wgpu::TextureView,
         shadow: &wgpu::TextureView,
+        volume: &wgpu::TextureView,
     ) -> wgpu::BindGroup {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("glyptic surface bind group"),
@@ -154,6 +212,10 @@ impl SurfaceMaps {
                 wgpu::BindGroupEntry {
                     binding: 4,
                     resource: wgpu::BindingResource::Sampler(&pipelines.shadow_sampler),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(volume),
                 },
             ],
         })
@@ -191,7 +253,7 @@ impl SurfaceMaps {
             &normals,
         );
         self.engraving_key = Some(key);
-        self.bind_group = Self::bind(device, pipelines, &self.height, &self.normal, &self.shadow);
+        self.rebind(device, pipelines);
     }
 
     /// Makes the full-size shadow cube (once).
@@ -212,6 +274,77 @@ impl SurfaceMaps {
             })
             .collect();
         self.shadow = view;
-        self.bind_group = Self::bind(device, pipelines, &self.height, &self.normal, &self.shadow);
+        self.rebind(device, pipelines);
+    }
+
+    fn rebind(&mut self, device: &wgpu::Device, pipelines: &Pipelines) {
+        self.bind_group = Self::bind(
+            device,
+            pipelines,
+            &self.height,
+            &self.normal,
+            &self.shadow,
+            &self.volume,
+        );
+    }
+
+    /// Makes a noise volume for a mesh spanning `min`..`max` (mm) unless the one there holds it
+    /// (and is not more than twice the size it needs): the volume is allocated here and its
+    /// bake left in `pending_bake` for the frame to record.
+    pub fn ensure_volume(
+        &mut self,
+        device: &wgpu::Device,
+        pipelines: &mut Pipelines,
+        min: [f32; 3],
+        max: [f32; 3],
+        texture_scale: f32,
+    ) {
+        let Some(wanted) = crate::surface::NoiseVolume::covering(min, max) else {
+            return;
+        };
+        if self
+            .volume_box
+            .is_some_and(|v| v.holds(min, max) && v.voxels() <= 2 * wanted.voxels())
+        {
+            return;
+        }
+        let texture = volume_texture(device, wanted.dims, wgpu::TextureUsages::STORAGE_BINDING);
+        let storage = texture.create_view(&Default::default());
+        let uniform = NoiseVolumeUniform {
+            origin: [
+                wanted.origin[0],
+                wanted.origin[1],
+                wanted.origin[2],
+                wanted.voxel_mm,
+            ],
+            params: [texture_scale, 0.0, 0.0, 0.0],
+        };
+        let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("glyptic noise volume uniform"),
+            contents: bytemuck::bytes_of(&uniform),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let (_, layout) = pipelines.noise_bake(device);
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("glyptic noise volume bake"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&storage),
+                },
+            ],
+        });
+        self.pending_bake = Some(NoiseBake {
+            bind_group,
+            workgroups: wanted.dims.map(|d| d.div_ceil(BAKE_GROUP)),
+        });
+        self.volume = storage;
+        self.volume_box = Some(wanted);
+        self.rebind(device, pipelines);
     }
 }

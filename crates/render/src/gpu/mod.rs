@@ -20,7 +20,9 @@
 //! The shadow pass (with a lamp) renders the mesh's distance from the lamp into the six
 //! Depth32Float faces of a cube (1024 x 1024 each), sampled by the scene pass with a comparison
 //! sampler; the engraving's height (R8) and tangent-space normal (Rgba8) maps, with mip chains,
-//! are uploaded once per planar frame. Both live in `SurfaceMaps` (one-texel placeholders until a
+//! are uploaded once per planar frame; the slowly varying noise (marble's cloudiness, gold's
+//! ripple) is baked by a compute pass into an Rgba16Float 3D texture over the mesh
+//! (`surface::NoiseVolume`) once, again only when a mesh leaves it. All live in `SurfaceMaps` (one-texel placeholders until a
 //! frame needs them) and are bound as the scene pass's group 1.
 //!
 //! The composite pass reads the resolved (or blurred) `diffuse` and `specular` and writes the Rgba8Unorm
@@ -48,6 +50,8 @@ pub(crate) const DEPTH_MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R
 pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub(crate) const SSS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub(crate) const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// The baked noise (four channels: `noise_baked` in `baked_noise.wgsl`).
+pub(crate) const NOISE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 const OUTPUT_BYTES_PER_PIXEL: u32 = 4;
 
 /// Uniforms of the scene pass; mirrors `Frame` in `scene.wgsl` (all 16-byte fields, no padding).
@@ -73,6 +77,20 @@ pub(crate) struct FrameUniform {
     /// The lamp's shadow: x far plane (mm), y depth bias (mm), z PCF radius (mm), w the lamp's
     /// distance from the gem's centre (mm; its light falls off from 1 there).
     pub shadow: [f32; 4],
+    /// The baked noise: xyz centre of voxel (0, 0, 0) (mm), w 1 / voxel size (1/mm).
+    pub volume: [f32; 4],
+    /// xyz: 1 / the volume's voxel counts.
+    pub volume_texel: [f32; 4],
+}
+
+/// Uniforms of the noise volume's bake; mirrors `Volume` in `noise_volume.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct NoiseVolumeUniform {
+    /// xyz centre of voxel (0, 0, 0) (mm), w voxel size (mm).
+    pub origin: [f32; 4],
+    /// x: the marble's texture scale (1/mm).
+    pub params: [f32; 4],
 }
 
 /// Uniforms of one shadow-cube face; mirrors `Face` in `shadow.wgsl`.

@@ -20,6 +20,8 @@ pub(crate) struct Pipelines {
     pub linear_mipmap: wgpu::Sampler,
     /// Depth comparison (less-equal) for the shadow cube, filtered (2x2 PCF where supported).
     pub shadow_sampler: wgpu::Sampler,
+    /// The compute pass that bakes the noise volume and its layout, built on first use.
+    noise_bake: Option<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
     /// The shadow pass: depth only, one draw per cube face, each with its own uniform.
     pub shadow: wgpu::RenderPipeline,
     pub shadow_uniforms: Vec<wgpu::Buffer>,
@@ -277,6 +279,16 @@ impl Pipelines {
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison),
                     count: None,
                 },
+                wgpu::BindGroupLayoutEntry {
+                    binding: 5,
+                    visibility: fragment,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D3,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
             ],
         });
         let linear_mipmap = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -508,6 +520,7 @@ impl Pipelines {
             surface_layout,
             linear_mipmap,
             shadow_sampler,
+            noise_bake: None,
             shadow,
             shadow_uniforms,
             shadow_bind_groups,
@@ -627,5 +640,55 @@ impl Pipelines {
             .iter()
             .find(|(f, _)| *f == format)
             .map(|(_, p)| p)
+    }
+
+    /// The noise volume's bake pipeline, if built.
+    pub fn noise_bake_pipeline(&self) -> Option<&wgpu::ComputePipeline> {
+        self.noise_bake.as_ref().map(|(p, _)| p)
+    }
+
+    /// The noise volume's bake (compute pipeline and its layout: the volume's uniform and the
+    /// storage texture it writes), built on first use.
+    pub fn noise_bake(
+        &mut self,
+        device: &wgpu::Device,
+    ) -> &(wgpu::ComputePipeline, wgpu::BindGroupLayout) {
+        self.noise_bake.get_or_insert_with(|| {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some("glyptic noise volume"),
+                source: wgpu::ShaderSource::Wgsl(shaders::NOISE_VOLUME.into()),
+            });
+            let compute = wgpu::ShaderStages::COMPUTE;
+            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("glyptic noise volume layout"),
+                entries: &[
+                    uniform_entry(0, compute),
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 1,
+                        visibility: compute,
+                        ty: wgpu::BindingType::StorageTexture {
+                            access: wgpu::StorageTextureAccess::WriteOnly,
+                            format: NOISE_FORMAT,
+                            view_dimension: wgpu::TextureViewDimension::D3,
+                        },
+                        count: None,
+                    },
+                ],
+            });
+            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("glyptic noise volume"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("glyptic noise volume"),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some("cs_main"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+            (pipeline, layout)
+        })
     }
 }

@@ -920,3 +920,29 @@ fn one_sample_frames_get_their_edges_smoothed() {
         );
     }
 }
+
+/// The noise baked over the mesh (marble's cloudiness, gold's ripple) is made again when a mesh
+/// leaves its box, and a mesh drawn after that looks as it did before: the volume is never read
+/// outside the box it was baked for.
+#[test]
+fn the_noise_volume_follows_the_mesh() {
+    let mut renderer = crate::renderer();
+    let mesh = cameo(48, 80);
+    let mut moved = mesh.clone();
+    for v in &mut moved.vertices {
+        v.position[0] += 40.0;
+    }
+    let p = params(80, 100, Material::Marble);
+    let before = renderer.render(&mesh, &p).expect("gem");
+    let elsewhere = renderer.render(&moved, &p).expect("moved gem");
+    let again = renderer.render(&mesh, &p).expect("gem again");
+    // The camera frames each mesh alike, so only the noise (sampled where the mesh is) differs.
+    let moved_diff = mean_abs_diff(&before, &elsewhere);
+    let again_diff = mean_abs_diff(&before, &again);
+    println!("mean channel difference: moved gem {moved_diff:.4}, the gem again {again_diff:.4}");
+    assert!(
+        moved_diff > 0.01,
+        "the moved gem's noise did not change ({moved_diff:.4}): no volume baked for it?"
+    );
+    assert_eq!(again_diff, 0.0, "the gem drawn again differs from before");
+}
