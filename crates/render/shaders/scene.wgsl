@@ -49,6 +49,10 @@ struct Frame {
 // rasteriser even an untaken branch costs, so the plain pipeline leaves them out.
 override ENGRAVING: bool = false;
 override LAMP: bool = false;
+// Whether the slowly varying noise comes from the baked volume (group 1, binding 5) or is
+// computed here: the renderer bakes it only for a mesh drawn twice, so a single frame (a
+// photo) does not pay for a bake it cannot amortise.
+override BAKED_NOISE: bool = false;
 
 // Group 1, surface detail: the engraving's height (r: 1 the ground, 0 a groove's bottom) and
 // tangent-space normal maps over the planar frame, the lamp's shadow cube (distance to the
@@ -156,7 +160,13 @@ fn marble_albedo(p: vec3<f32>) -> vec3<f32> {
     let v1 = exp(-pow(sin(3.14159265 * w1) / width, 2.0));
     let v2 = exp(-pow(sin(3.14159265 * w2) / (0.7 * width), 2.0));
     let vein = (1.0 - lightness) * (0.085 * v1 + 0.035 * v2);
-    let cloud = (1.0 - lightness) * baked_noise(p).r;
+    var cloud_noise: f32;
+    if BAKED_NOISE {
+        cloud_noise = baked_noise(p).r;
+    } else {
+        cloud_noise = marble_cloud(uv);
+    }
+    let cloud = (1.0 - lightness) * cloud_noise;
     let grey = 0.92 * (1.0 - vein) * (1.0 + cloud);
     return srgb_to_linear(grey * vec3<f32>(1.0, 0.985, 0.955));
 }
@@ -359,7 +369,13 @@ fn fs_main(in: VsOut) -> FsOut {
     if in.gold > 0.5 {
         // Polished gold: little diffuse, a coloured mirror of the studio plus a key highlight,
         // its normal rippled faintly (`gold_ripple`, baked).
-        n = normalize(n + 0.035 * baked_noise(in.world).gba);
+        var ripple: vec3<f32>;
+        if BAKED_NOISE {
+            ripple = baked_noise(in.world).gba;
+        } else {
+            ripple = gold_ripple(in.world);
+        }
+        n = normalize(n + 0.035 * ripple);
         let r = reflect(-v, n);
         diffuse = GOLD_F0 * 0.12 * (ambient + max(dot(n, l), 0.0) * light + max(dot(n, lamp_l), 0.0) * lamp);
         let ndv = max(dot(n, v), 0.0);

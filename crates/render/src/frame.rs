@@ -297,9 +297,9 @@ impl Renderer {
                 self.queue.write_buffer(buffer, 0, bytemuck::bytes_of(&u));
             }
         }
-        // The slowly varying noise, baked over the mesh once (again only when a mesh leaves the
-        // volume).
-        self.surface.ensure_volume(
+        // The slowly varying noise, baked over the mesh once it has been drawn twice (again only
+        // when a mesh leaves the volume).
+        let baked_noise = self.surface.ensure_volume(
             &self.device,
             &mut self.pipelines,
             bounds.min,
@@ -318,6 +318,7 @@ impl Renderer {
             engraving: false,
             lamp: params.lamp.is_some(),
             samples: self.frame_samples(params),
+            baked_noise,
         };
         let engraved = gpu::SceneVariant {
             engraving: true,

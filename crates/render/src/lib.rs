@@ -17,12 +17,13 @@
 //! A frame is these passes, one function each in `frame.rs`, which also builds the frame in
 //! steps (targets, surface detail and mesh upload, uniforms; the targets are described in
 //! `gpu.rs`):
-//! * **noise volume** (the first frame, and one whose mesh leaves the box baked before): a
+//! * **noise volume** (a mesh's second frame, unless the volume baked before holds it): a
 //!   compute pass bakes the noise that varies slowly and never changes between frames (the
 //!   marble's cloudiness, the gold's ripple) into a 3D texture over the mesh
-//!   ([`surface::NoiseVolume`], 0.35 mm voxels), which the scene pass reads with one trilinear
-//!   fetch instead of five simplex noises; the marble's veins stay per fragment (their warp
-//!   is too sensitive to be interpolated: BENCHMARKS.md);
+//!   ([`surface::NoiseVolume`], 0.35 mm voxels), which the scene pass then reads with one
+//!   trilinear fetch instead of five simplex noises. A mesh's first frame computes them (the
+//!   bake costs about what it saves in one frame; a photo draws one). The marble's veins stay
+//!   per fragment (their warp is too sensitive to be interpolated: BENCHMARKS.md);
 //! 0. **shadow** (when [`RenderParams::lamp`] is set): the mesh's distance from the lamp into
 //!    the six faces of a cube depth map, which the scene pass compares against (with a
 //!    nine-tap percentage-closer filter);

@@ -21,6 +21,8 @@ pub(crate) struct SurfaceMaps {
     pub volume_box: Option<crate::surface::NoiseVolume>,
     /// A bake the next frame must run before its scene pass.
     pub pending_bake: Option<NoiseBake>,
+    /// The volume the last frame wanted and did without (its mesh drawn once so far).
+    unbaked: Option<crate::surface::NoiseVolume>,
     /// The shadow cube's faces (+x, -x, +y, -y, +z, -z) as render targets; empty until made.
     pub shadow_faces: Vec<wgpu::TextureView>,
     /// The frame and parameters the engraving was made for, if it was.
@@ -175,6 +177,7 @@ impl SurfaceMaps {
             volume,
             volume_box: None,
             pending_bake: None,
+            unbaked: None,
             shadow_faces: Vec::new(),
             engraving_key: None,
             bind_group,
@@ -288,9 +291,12 @@ impl SurfaceMaps {
         );
     }
 
-    /// Makes a noise volume for a mesh spanning `min`..`max` (mm) unless the one there holds it
-    /// (and is not more than twice the size it needs): the volume is allocated here and its
-    /// bake left in `pending_bake` for the frame to record.
+    /// Whether this frame, of a mesh spanning `min`..`max` (mm), reads the baked noise. It
+    /// does where the volume there holds the mesh (and is not more than twice the size it
+    /// needs); otherwise a new volume is made when the previous frame wanted the same one (the
+    /// bake, about as costly as computing the noise for one frame, pays from the second frame
+    /// on; a photo draws one): allocated here, its bake left in `pending_bake` for the frame to
+    /// record.
     pub fn ensure_volume(
         &mut self,
         device: &wgpu::Device,
@@ -298,15 +304,19 @@ impl SurfaceMaps {
         min: [f32; 3],
         max: [f32; 3],
         texture_scale: f32,
-    ) {
+    ) -> bool {
         let Some(wanted) = crate::surface::NoiseVolume::covering(min, max) else {
-            return;
+            return false;
         };
         if self
             .volume_box
             .is_some_and(|v| v.holds(min, max) && v.voxels() <= 2 * wanted.voxels())
         {
-            return;
+            return true;
+        }
+        if self.unbaked != Some(wanted) {
+            self.unbaked = Some(wanted);
+            return false;
         }
         let texture = volume_texture(device, wanted.dims, wgpu::TextureUsages::STORAGE_BINDING);
         let storage = texture.create_view(&Default::default());
@@ -345,6 +355,8 @@ impl SurfaceMaps {
         });
         self.volume = storage;
         self.volume_box = Some(wanted);
+        self.unbaked = None;
         self.rebind(device, pipelines);
+        true
     }
 }

@@ -143,12 +143,14 @@ pub(super) fn color_target(format: wgpu::TextureFormat) -> Option<wgpu::ColorTar
 /// Which surface effects a scene pipeline has compiled in (the shader's `ENGRAVING` and
 /// `LAMP` override constants). On a CPU rasteriser even untaken branches cost: the plain scene
 /// pass ran about 1.6 times as long with both compiled in and switched off by uniforms.
-/// Also which MSAA sample count it draws with (a frame may ask for none).
+/// Also which MSAA sample count it draws with (a frame may ask for none), and whether it reads
+/// the slowly varying noise from the baked volume (`BAKED_NOISE`) or computes it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct SceneVariant {
     pub engraving: bool,
     pub lamp: bool,
     pub samples: u32,
+    pub baked_noise: bool,
 }
 
 pub(super) fn scene_pipeline(
@@ -169,6 +171,7 @@ pub(super) fn scene_pipeline(
     let constants = [
         ("ENGRAVING", f64::from(u8::from(variant.engraving))),
         ("LAMP", f64::from(u8::from(variant.lamp))),
+        ("BAKED_NOISE", f64::from(u8::from(variant.baked_noise))),
     ];
     let options = wgpu::PipelineCompilationOptions {
         constants: &constants,
@@ -317,6 +320,7 @@ impl Pipelines {
             engraving: false,
             lamp: false,
             samples,
+            baked_noise: false,
         };
         let scene = vec![(
             plain,
