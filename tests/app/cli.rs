@@ -941,3 +941,31 @@ fn verbosity_flags_steer_the_log_not_the_result() {
         "RUST_LOG did not decide: {stderr}"
     );
 }
+
+/// `--antialias off` draws one sample a pixel (and smooths the edges after): a different image
+/// from the 4x multisampled one, of the same size.
+#[test]
+fn antialiasing_can_be_turned_off() {
+    let dir = scratch("antialias");
+    let render = |aa: &str| {
+        let out = dir.join(format!("gem-{aa}.png"));
+        succeeds(
+            glyptic()
+                .args([
+                    "render",
+                    "--size",
+                    "64x80",
+                    "--sss",
+                    "off",
+                    "--antialias",
+                    aa,
+                    "-o",
+                ])
+                .arg(&out),
+        );
+        image::open(&out).unwrap().to_rgba8()
+    };
+    let (on, off) = (render("on"), render("off"));
+    assert_eq!(on.dimensions(), off.dimensions());
+    assert_ne!(on.as_raw(), off.as_raw(), "--antialias off changed nothing");
+}
