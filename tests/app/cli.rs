@@ -969,3 +969,118 @@ fn antialiasing_can_be_turned_off() {
     assert_eq!(on.dimensions(), off.dimensions());
     assert_ne!(on.as_raw(), off.as_raw(), "--antialias off changed nothing");
 }
+
+/// `--stl` and `--heightmap` (issue #21): the STL is a closed, consistently wound solid with a
+/// positive volume (vertices matched by their exact coordinates, as a slicer does), and the
+/// height map's stored scale gives back the relief's heights to within half a level.
+#[test]
+fn the_stone_exports_for_printing_and_milling() {
+    let dir = scratch("make");
+    let (stl, map) = (dir.join("gem.stl"), dir.join("gem-height.png"));
+    let run = succeeds(
+        glyptic()
+            .args(["render", "--size", "32x40", "--sss", "off", "-o"])
+            .arg(dir.join("gem.png"))
+            .arg("--stl")
+            .arg(&stl)
+            .arg("--heightmap")
+            .arg(&map),
+    );
+    let report = String::from_utf8_lossy(&run.stdout);
+    assert!(report.contains("mm a level"), "{report}");
+
+    // STL: every directed edge once and its reverse once.
+    let bytes = std::fs::read(&stl).unwrap();
+    assert!(
+        !bytes.starts_with(b"solid"),
+        "a binary STL must not open with 'solid'"
+    );
+    let count = u32::from_le_bytes(bytes[80..84].try_into().unwrap()) as usize;
+    assert_eq!(bytes.len(), 84 + 50 * count);
+    let mut ids: std::collections::HashMap<[u32; 3], u32> = Default::default();
+    let mut edges: std::collections::HashMap<(u32, u32), u32> = Default::default();
+    let mut volume = 0.0f64;
+    for t in 0..count {
+        let at = 84 + 50 * t + 12;
+        let corner = |k: usize| -> [f32; 3] {
+            [0, 1, 2].map(|c| {
+                let o = at + 12 * k + 4 * c;
+                f32::from_le_bytes(bytes[o..o + 4].try_into().unwrap())
+            })
+        };
+        let p = [corner(0), corner(1), corner(2)];
+        let v: Vec<u32> = p
+            .iter()
+            .map(|q| {
+                let next = ids.len() as u32;
+                *ids.entry(q.map(f32::to_bits)).or_insert(next)
+            })
+            .collect();
+        for k in 0..3 {
+            *edges.entry((v[k], v[(k + 1) % 3])).or_default() += 1;
+        }
+        let [a, b, c] = p.map(|q| q.map(f64::from));
+        volume += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+            + a[2] * (b[0] * c[1] - b[1] * c[0]))
+            / 6.0;
+    }
+    for (&(a, b), &n) in &edges {
+        assert_eq!(n, 1, "edge {a}-{b} used {n} times one way");
+        assert_eq!(edges.get(&(b, a)), Some(&1), "edge {a}-{b} is open");
+    }
+    // The cameo's 44 x 56 mm oval on a 3 mm slab, plus the relief.
+    let slab = std::f64::consts::PI * 22.0 * 28.0 * 3.0;
+    assert!(volume > slab && volume < 3.0 * slab, "volume {volume} mm^3");
+
+    // Height map: 16-bit grey, its scale in the text, the relief's heights back.
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&map).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let info = reader.info();
+    assert_eq!(
+        (info.color_type, info.bit_depth),
+        (png::ColorType::Grayscale, png::BitDepth::Sixteen)
+    );
+    let text = |key: &str| -> f32 {
+        info.uncompressed_latin1_text
+            .iter()
+            .find(|t| t.keyword == key)
+            .unwrap_or_else(|| panic!("no {key} in the height map's text"))
+            .text
+            .parse()
+            .unwrap()
+    };
+    let (mm_per_level, mm_per_pixel) = (text("glyptic:mm_per_level"), text("glyptic:mm_per_pixel"));
+    let (w, h) = (info.width as usize, info.height as usize);
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    reader.next_frame(&mut buf).unwrap();
+    let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir()).unwrap();
+    let cameo = glyptic::gem::View::Profile.cameo();
+    let relief = glyptic::gem::CameoBuilder::new(&cameo)
+        .unwrap()
+        .relief(&model.instance(&[], &[]), &model.shape.triangles)
+        .unwrap();
+    assert_eq!((w, h), (relief.cols, relief.rows));
+    assert_eq!(mm_per_pixel, relief.cell);
+    let mut worst = 0.0f32;
+    for row in 0..h {
+        for col in 0..w {
+            let level =
+                u16::from_be_bytes([buf[2 * (row * w + col)], buf[2 * (row * w + col) + 1]]);
+            let (x, y) = (
+                relief.origin[0] + col as f32 * relief.cell,
+                relief.origin[1] + (h - 1 - row) as f32 * relief.cell,
+            );
+            let inside = (x / cameo.half_width).powi(2) + (y / cameo.half_height).powi(2) <= 1.0;
+            let expected = if inside {
+                relief.at(col, h - 1 - row).max(0.0)
+            } else {
+                0.0
+            };
+            worst = worst.max((f32::from(level) * mm_per_level - expected).abs());
+        }
+    }
+    assert!(
+        worst <= 0.5 * mm_per_level + 1e-5,
+        "height off by {worst} mm"
+    );
+}

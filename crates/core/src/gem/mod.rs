@@ -28,6 +28,7 @@ mod obj;
 mod poisson;
 pub mod relief;
 mod shading;
+pub mod solid;
 pub mod template;
 mod tessellate;
 
@@ -171,6 +172,17 @@ pub struct Relief {
 }
 
 impl Relief {
+    /// The heights as a [`solid::HeightField`] (for the STL and height-map exports).
+    pub fn height_field(&self) -> solid::HeightField<'_> {
+        solid::HeightField {
+            heights: &self.height,
+            cols: self.cols,
+            rows: self.rows,
+            origin: self.origin,
+            cell: self.cell,
+        }
+    }
+
     /// Height at a grid node.
     pub fn at(&self, col: usize, row: usize) -> f32 {
         self.height[row * self.cols + col]

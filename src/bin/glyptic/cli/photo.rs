@@ -31,6 +31,32 @@ pub struct RenderArgs {
     /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
     #[arg(long, value_name = "FILE.obj")]
     pub gem_obj: Option<PathBuf>,
+    #[command(flatten)]
+    pub make: MakeArgs,
+}
+
+/// The carved stone for a 3D printer or a CNC router (`render`, `photo`).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct MakeArgs {
+    /// Also write the stone as a closed solid for a 3D printer or CAM program: binary STL in
+    /// millimetres, the relief on a flat-bottomed oval slab (the bezel left out).
+    #[arg(long, value_name = "FILE.stl")]
+    pub stl: Option<PathBuf>,
+    /// The slab's thickness below the ground, mm (with --stl).
+    #[arg(long, default_value_t = 3.0, value_name = "MM",
+          value_parser = super::args::finite_in::<f32>(0.1, 100.0))]
+    pub base: f32,
+    /// Also write the relief as a 16-bit grey PNG for a CNC router: one pixel per 0.2 mm
+    /// grid node, 0 the ground; the millimetres per level are printed and stored in the PNG's
+    /// text (`glyptic:mm_per_level`).
+    #[arg(long, value_name = "FILE.png")]
+    pub heightmap: Option<PathBuf>,
+}
+
+impl MakeArgs {
+    fn outputs(&self) -> impl Iterator<Item = &Path> {
+        self.stl.iter().chain(&self.heightmap).map(PathBuf::as_path)
+    }
 }
 
 #[cfg(feature = "face")]
@@ -54,6 +80,105 @@ pub struct PhotoArgs {
     /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
     #[arg(long, value_name = "FILE.obj")]
     pub gem_obj: Option<PathBuf>,
+    #[command(flatten)]
+    pub make: MakeArgs,
+}
+
+/// The STL and height map (whichever `make` asks for) of the relief cut from `face` (model mm)
+/// for `cameo`: the relief again (~30 ms), since the gem's mesh is made for rendering. Returns
+/// the files' bytes and a stage line, written only after everything else succeeded.
+fn make_files(
+    make: &MakeArgs,
+    face: &[f32],
+    triangles: &[[u32; 3]],
+    cameo: &gem::CameoParams,
+    source: &str,
+) -> Result<Vec<(PathBuf, Vec<u8>, String)>> {
+    if make.stl.is_none() && make.heightmap.is_none() {
+        return Ok(Vec::new());
+    }
+    let relief = gem::CameoBuilder::new(cameo)?.relief(face, triangles)?;
+    let field = relief.height_field();
+    let half = [cameo.half_width, cameo.half_height];
+    let mut files = Vec::new();
+    if let Some(path) = &make.stl {
+        let solid = gem::solid::solid(&field, half, make.base)
+            .with_context(|| format!("{}: cannot make the solid", path.display()))?;
+        let volume = gem::solid::volume(&solid);
+        let header = format!("glyptic cameo from {source}, mm");
+        files.push((
+            path.clone(),
+            gem::solid::stl(&solid, &header),
+            format!(
+                "{}: {} triangles, closed, {:.0} mm^3",
+                path.display(),
+                solid.triangles.len(),
+                volume
+            ),
+        ));
+    }
+    if let Some(path) = &make.heightmap {
+        let map = gem::solid::height_map(&field, half)
+            .with_context(|| format!("{}: cannot make the height map", path.display()))?;
+        let png = height_map_png(&map, source)
+            .with_context(|| format!("{}: cannot encode the height map", path.display()))?;
+        files.push((
+            path.clone(),
+            png,
+            format!(
+                "{}: {}x{} px, {} mm a pixel, {:.6} mm a level (highest point {:.3} mm)",
+                path.display(),
+                map.width,
+                map.height,
+                map.mm_per_pixel,
+                map.mm_per_level,
+                65535.0 * map.mm_per_level
+            ),
+        ));
+    }
+    Ok(files)
+}
+
+/// A 16-bit grey PNG with its scale in its text chunks, where CAM programs and people look.
+fn height_map_png(map: &gem::solid::HeightMap, source: &str) -> Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut bytes, map.width, map.height);
+        encoder.set_color(png::ColorType::Grayscale);
+        encoder.set_depth(png::BitDepth::Sixteen);
+        encoder.add_text_chunk(
+            "Description".into(),
+            format!(
+                "glyptic relief height map from {source}: level x {} mm = height above the ground; {} mm a pixel; 0 = the ground and outside the stone",
+                map.mm_per_level, map.mm_per_pixel
+            ),
+        )?;
+        encoder.add_text_chunk("glyptic:mm_per_level".into(), map.mm_per_level.to_string())?;
+        encoder.add_text_chunk("glyptic:mm_per_pixel".into(), map.mm_per_pixel.to_string())?;
+        let mut writer = encoder.write_header()?;
+        let data: Vec<u8> = map.levels.iter().flat_map(|l| l.to_be_bytes()).collect();
+        writer.write_image_data(&data)?;
+        writer.finish()?;
+    }
+    Ok(bytes)
+}
+
+/// Writes the files of [`make_files`] and prints their stage line.
+fn write_made(files: Vec<(PathBuf, Vec<u8>, String)>) -> Result<()> {
+    let t = Instant::now();
+    let mut details = Vec::new();
+    for (path, bytes, detail) in files {
+        write_atomic(&path, &bytes)?;
+        details.push(detail);
+    }
+    if !details.is_empty() {
+        print_stages(&[Stage {
+            name: "make files",
+            ms: t.elapsed().as_secs_f64() * 1e3,
+            detail: details.join("; "),
+        }]);
+    }
+    Ok(())
 }
 
 /// Starts the GPU device and pipelines on another thread: they do not depend on the face, so
@@ -106,6 +231,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
             landmarks_out: None,
             obj: None,
             gem_obj: args.gem_obj.clone(),
+            make: args.make.clone(),
         });
     }
     let start = Instant::now();
@@ -114,7 +240,8 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
         args.face.as_deref(),
         [args.output.as_path()]
             .into_iter()
-            .chain(args.gem_obj.as_deref()),
+            .chain(args.gem_obj.as_deref())
+            .chain(args.make.outputs()),
     )?;
     let renderer_thread = spawn_renderer();
     let (mesh, stages) = glyptic::stage::record(|| -> Result<_> {
@@ -134,19 +261,23 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 (model.instance(&[], &[]), model.shape.triangles.clone())
             }
         };
-        Ok(glyptic::pipeline::gem::build_gem(
-            &face,
-            &triangles,
-            &args.view.portrait.cameo(),
-        )?)
+        let cameo = args.view.portrait.cameo();
+        let mesh = glyptic::pipeline::gem::build_gem(&face, &triangles, &cameo)?;
+        Ok((mesh, face, triangles, cameo))
     });
     print_stages(&stages);
-    let mesh = mesh?;
+    let (mesh, face, triangles, cameo) = mesh?;
+    let source = match &args.face {
+        Some(path) => path.display().to_string(),
+        None => "the mean face".to_string(),
+    };
+    let made = make_files(&args.make, &face, &triangles, &cameo, &source)?;
     let mut renderer = join_renderer(renderer_thread)?;
     let png = render_png(&mut renderer, &mesh, &params, &args.output)?;
     if let Some(obj) = &args.gem_obj {
-        write_gem_obj(obj, &mesh, "the mean face")?;
+        write_gem_obj(obj, &mesh, &source)?;
     }
+    write_made(made)?;
     write_atomic(&args.output, &png)?;
     print_stages(&[Stage {
         name: "total",
@@ -202,7 +333,8 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
             args.gem_obj.as_deref(),
         ]
         .into_iter()
-        .flatten(),
+        .flatten()
+        .chain(args.make.outputs()),
     )?;
     let image_path = &args.image;
 
@@ -221,8 +353,16 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     let (pipeline, gem) = made?;
     let triangles = &pipeline.face.model.shape.triangles;
 
+    let made = make_files(
+        &args.make,
+        &gem.face.portrait,
+        triangles,
+        &gem.cameo,
+        &image_path.display().to_string(),
+    )?;
     let mut renderer = join_renderer(renderer_thread)?;
     let png = render_png(&mut renderer, &gem.mesh, &params, &args.output)?;
+    write_made(made)?;
     let t = Instant::now();
     // Everything succeeded: now write, so a failure above leaves no output behind.
     if let Some(pts) = &args.landmarks_out {
