@@ -264,10 +264,51 @@ pub fn render_png(
     mesh: &Mesh,
     params: &RenderParams,
 ) -> Result<Vec<u8>, GemPipelineError> {
+    render_encoded(renderer, mesh, params, ImageKind::Png)
+}
+
+/// The image formats a gem is written in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageKind {
+    Png,
+    /// Quality 92; no alpha (a transparent backdrop needs PNG).
+    Jpeg,
+}
+
+impl ImageKind {
+    /// The format an output path's extension names (`.png`, `.jpg`, `.jpeg`, any case).
+    pub fn from_path(path: &std::path::Path) -> Option<Self> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "png" => Some(ImageKind::Png),
+            "jpg" | "jpeg" => Some(ImageKind::Jpeg),
+            _ => None,
+        }
+    }
+}
+
+/// A rendered gem as JPEG bytes (the alpha dropped).
+pub fn encode_jpeg(rgba: image::RgbaImage) -> Result<Vec<u8>, image::ImageError> {
+    let mut jpeg = Vec::new();
+    let rgb = image::DynamicImage::ImageRgba8(rgba).into_rgb8();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 92).encode_image(&rgb)?;
+    Ok(jpeg)
+}
+
+/// Renders the gem and encodes it as `kind` (stages `render` and `encode`).
+pub fn render_encoded(
+    renderer: &mut Renderer,
+    mesh: &Mesh,
+    params: &RenderParams,
+    kind: ImageKind,
+) -> Result<Vec<u8>, GemPipelineError> {
     let rgba = render(renderer, mesh, params)?;
     Ok(timed(
         "encode",
-        || encode_png(rgba),
-        |png| format!("{} kB PNG", png.len() / 1024),
+        || match kind {
+            ImageKind::Png => encode_png(rgba),
+            ImageKind::Jpeg => encode_jpeg(rgba),
+        },
+        |bytes| format!("{} kB {kind:?}", bytes.len() / 1024),
     )?)
 }

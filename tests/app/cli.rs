@@ -1084,3 +1084,60 @@ fn the_stone_exports_for_printing_and_milling() {
         "height off by {worst} mm"
     );
 }
+
+/// `-o` follows its extension: .jpg writes JPEG, .png PNG (with `--background transparent` an
+/// alpha channel); an unknown extension, or transparency in a JPEG, is refused by name before
+/// any work (issue #21: `-o gem.jpg` wrote PNG).
+#[test]
+fn the_output_format_follows_its_name() {
+    let dir = scratch("formats");
+    let render = |name: &str, extra: &[&str]| {
+        glyptic()
+            .args(["render", "--size", "32x40", "--sss", "off"])
+            .args(extra)
+            .arg("-o")
+            .arg(dir.join(name))
+            .output()
+            .unwrap()
+    };
+    for (name, format) in [
+        ("gem.jpg", image::ImageFormat::Jpeg),
+        ("gem.JPEG", image::ImageFormat::Jpeg),
+        ("gem.png", image::ImageFormat::Png),
+    ] {
+        let run = render(name, &[]);
+        assert!(
+            run.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let bytes = std::fs::read(dir.join(name)).unwrap();
+        assert_eq!(image::guess_format(&bytes).unwrap(), format, "{name}");
+    }
+    let run = render("clear.png", &["--background", "transparent"]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let clear = image::open(dir.join("clear.png")).unwrap().to_rgba8();
+    assert_eq!(
+        clear.get_pixel(0, 0)[3],
+        0,
+        "the transparent gem's corner is opaque"
+    );
+    for (name, extra, says) in [
+        ("gem.gif", &[][..], ".png or .jpg"),
+        (
+            "clear.jpg",
+            &["--background", "transparent"][..],
+            "no transparency",
+        ),
+    ] {
+        let run = render(name, extra);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{name}: {stderr}");
+        assert!(stderr.contains(says), "{name}: {stderr}");
+        assert!(!dir.join(name).exists(), "{name} was written");
+    }
+}

@@ -10,7 +10,8 @@
 // nothing but backdrop.
 
 struct Composite {
-    // rgb: backdrop colour (linear) at the centre; a: unused.
+    // rgb: backdrop colour (linear) at the centre; a: 1 with the backdrop, 0 without (the
+    // output's alpha is then the gem's coverage and its colour unpremultiplied).
     background: vec4<f32>,
     // x: exposure, y: vignette strength, z: vertical gradient strength, w: dither amplitude
     // (in 8-bit steps).
@@ -67,6 +68,14 @@ fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     let vignette = 1.0 - comp.params.y * smoothstep(0.25, 0.95, length(centred));
     let backdrop = comp.background.rgb * gradient * vignette;
 
+    if comp.background.a < 0.5 {
+        if coverage <= 0.0 {
+            return vec4<f32>(0.0);
+        }
+        let own = (diffuse.rgb + specular.rgb) * comp.params.x / coverage;
+        let straight = linear_to_srgb(shoulder(max(own, vec3<f32>(0.0))));
+        return vec4<f32>(clamp(straight, vec3<f32>(0.0), vec3<f32>(1.0)), coverage);
+    }
     let radiance = (diffuse.rgb + specular.rgb) * comp.params.x + (1.0 - coverage) * backdrop;
     let encoded = linear_to_srgb(shoulder(max(radiance, vec3<f32>(0.0))));
     let noisy = encoded + vec3<f32>(dither(pos.xy) * comp.params.w / 255.0);

@@ -4,7 +4,9 @@
 // device without MSAA): Lottes's FXAA in its console form. On the finished frame (display
 // values): where the luma contrast round a pixel is high, blend along the edge's direction,
 // estimated from the four diagonal neighbours; keep the wider blend only if it stays within
-// the neighbourhood's luma range (else it crossed the edge). Nine reads a pixel.
+// the neighbourhood's luma range (else it crossed the edge). Nine reads a pixel. Colours are
+// blended premultiplied by alpha and written straight, so a transparent frame's outline is
+// smoothed in its alpha too (an opaque frame's alpha is 1 throughout).
 
 @group(0) @binding(0) var src: texture_2d<f32>;
 @group(0) @binding(1) var linear_clamp: sampler;
@@ -23,8 +25,17 @@ fn luma(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.299, 0.587, 0.114));
 }
 
-fn at(uv: vec2<f32>) -> vec3<f32> {
-    return textureSampleLevel(src, linear_clamp, uv, 0.0).rgb;
+fn at(uv: vec2<f32>) -> vec4<f32> {
+    let c = textureSampleLevel(src, linear_clamp, uv, 0.0);
+    return vec4<f32>(c.rgb * c.a, c.a);
+}
+
+// Straight colour again.
+fn straight(c: vec4<f32>) -> vec4<f32> {
+    if c.a <= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(c.rgb / c.a, c.a);
 }
 
 @fragment
@@ -32,15 +43,15 @@ fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     let texel = 1.0 / vec2<f32>(textureDimensions(src));
     let uv = pos.xy * texel;
     let m = at(uv);
-    let l_m = luma(m);
-    let l_nw = luma(at(uv + vec2<f32>(-1.0, -1.0) * texel));
-    let l_ne = luma(at(uv + vec2<f32>(1.0, -1.0) * texel));
-    let l_sw = luma(at(uv + vec2<f32>(-1.0, 1.0) * texel));
-    let l_se = luma(at(uv + vec2<f32>(1.0, 1.0) * texel));
+    let l_m = luma(m.rgb);
+    let l_nw = luma(at(uv + vec2<f32>(-1.0, -1.0) * texel).rgb);
+    let l_ne = luma(at(uv + vec2<f32>(1.0, -1.0) * texel).rgb);
+    let l_sw = luma(at(uv + vec2<f32>(-1.0, 1.0) * texel).rgb);
+    let l_se = luma(at(uv + vec2<f32>(1.0, 1.0) * texel).rgb);
     let l_min = min(l_m, min(min(l_nw, l_ne), min(l_sw, l_se)));
     let l_max = max(l_m, max(max(l_nw, l_ne), max(l_sw, l_se)));
     if l_max - l_min < max(EDGE_MIN, l_max * EDGE_SHARE) {
-        return vec4<f32>(m, 1.0);
+        return straight(m);
     }
     // Perpendicular to the luma gradient: along the edge.
     var dir = vec2<f32>(-((l_nw + l_ne) - (l_sw + l_se)), (l_nw + l_sw) - (l_ne + l_se));
@@ -49,9 +60,9 @@ fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     dir = clamp(dir * scale, vec2<f32>(-SPAN_MAX), vec2<f32>(SPAN_MAX)) * texel;
     let near = 0.5 * (at(uv + dir * (1.0 / 3.0 - 0.5)) + at(uv + dir * (2.0 / 3.0 - 0.5)));
     let wide = 0.5 * near + 0.25 * (at(uv - 0.5 * dir) + at(uv + 0.5 * dir));
-    let l_wide = luma(wide);
+    let l_wide = luma(wide.rgb);
     if l_wide < l_min || l_wide > l_max {
-        return vec4<f32>(near, 1.0);
+        return straight(near);
     }
-    return vec4<f32>(wide, 1.0);
+    return straight(wide);
 }

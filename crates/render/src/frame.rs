@@ -450,7 +450,8 @@ impl Renderer {
         let composite = CompositeUniform {
             background: {
                 let [r, g, b] = params.background.map(|c| srgb_to_linear(c.clamp(0.0, 1.0)));
-                [r, g, b, 1.0]
+                // a: 1 the backdrop, 0 none (alpha = coverage).
+                [r, g, b, if params.transparent { 0.0 } else { 1.0 }]
             },
             params: COMPOSITE_PARAMS,
             crop: [crop.x, crop.y, crop.width, crop.height].map(|v| v as f32),

@@ -132,6 +132,9 @@ pub struct RenderParams {
     /// Backdrop colour at the image centre, display (sRGB-encoded) values 0..1; the composite
     /// adds a gentle top-light gradient and vignette around it.
     pub background: [f32; 3],
+    /// No backdrop: the image's alpha is the gem's coverage (its colour unpremultiplied), for
+    /// putting the gem onto something else. Takes no gallery styles.
+    pub transparent: bool,
     /// Subsurface scattering in the stone (gold never scatters); `None` turns the pass off.
     pub sss: Option<crate::sss::SssParams>,
     /// Gallery styles applied after the composite, in order. Toon, painterly, fish-eye and
@@ -190,6 +193,7 @@ impl Default for RenderParams {
             zoom: 1.0,
             marble: MarbleParams::default(),
             background: [0.16, 0.18, 0.22],
+            transparent: false,
             sss: Some(crate::sss::SssParams::default()),
             styles: Vec::new(),
             style_time_s: 0.0,
@@ -539,6 +543,12 @@ impl Renderer {
         ];
         if let Some((name, value)) = numbers.iter().find(|(_, v)| !v.is_finite()) {
             return Err(RenderError::InvalidParams(format!("{name} is {value}")));
+        }
+        if params.transparent && !params.styles.is_empty() {
+            return Err(RenderError::InvalidParams(
+                "a transparent backdrop takes no gallery styles (they paint an opaque picture)"
+                    .into(),
+            ));
         }
         if let Some(sss) = &params.sss {
             sss.validate()

@@ -964,3 +964,55 @@ fn the_noise_volume_follows_the_mesh() {
     );
     assert_eq!(again_diff, 0.0, "the gem drawn again differs from before");
 }
+
+/// A transparent backdrop: alpha is the gem's coverage (0 round it, 255 inside, blended along
+/// the outline, with and without MSAA), the gem's colour as on the studio backdrop; styles are
+/// refused. Studio frames stay opaque.
+#[test]
+fn a_transparent_backdrop_leaves_only_the_gem() {
+    let mut renderer = crate::renderer();
+    let mesh = cameo(48, 80);
+    let studio = params(80, 100, Material::Marble);
+    let opaque = renderer.render(&mesh, &studio).expect("studio frame");
+    assert!(
+        opaque.pixels().all(|p| p[3] == 255),
+        "a studio frame has alpha"
+    );
+    for antialias in [true, false] {
+        let p = RenderParams {
+            transparent: true,
+            antialias,
+            ..studio.clone()
+        };
+        let img = renderer.render(&mesh, &p).expect("transparent frame");
+        let share = |pred: &dyn Fn(u8) -> bool| {
+            img.pixels().filter(|px| pred(px[3])).count() as f64 / f64::from(80 * 100)
+        };
+        let (clear, solid, edge) = (
+            share(&|a| a == 0),
+            share(&|a| a == 255),
+            share(&|a| a > 0 && a < 255),
+        );
+        println!(
+            "transparent, antialias {antialias}: clear {clear:.3}, solid {solid:.3}, edge {edge:.4}"
+        );
+        assert_eq!(img.get_pixel(0, 0)[3], 0, "the corner is not clear");
+        assert!(
+            clear > 0.3 && solid > 0.3 && edge > 0.002,
+            "{clear} {solid} {edge}"
+        );
+        // Inside the gem, the colour is the studio frame's (within the dither).
+        let (a, b) = (img.get_pixel(40, 50), opaque.get_pixel(40, 50));
+        assert_eq!(a[3], 255);
+        assert!(channel_diff(a, b) <= 2, "{a:?} vs {b:?}");
+    }
+    let styled = RenderParams {
+        transparent: true,
+        styles: vec![glyptic_render::styles::Style::Toon],
+        ..studio
+    };
+    assert!(matches!(
+        renderer.render(&mesh, &styled),
+        Err(RenderError::InvalidParams(_))
+    ));
+}

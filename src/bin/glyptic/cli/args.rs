@@ -47,7 +47,11 @@ pub struct ViewArgs {
     /// Agate: cut the hair from a third, brown layer (off: white like the face).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     pub hair_layer: OnOff,
-    /// 4x multisampling (off: one sample a pixel and an edge-smoothing pass, about three times
+    /// The backdrop: the studio's (a soft gradient) or none (a PNG whose alpha is the gem's
+    /// outline, for putting it onto something else).
+    #[arg(long, value_enum, default_value_t = Backdrop::Studio)]
+    pub background: Backdrop,
+    /// 4x multisampling (off: one sample a pixel and an edge-smoothing pass, about 1.8 times
     /// faster on a CPU rasteriser, with a slightly softer bezel rim).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     pub antialias: OnOff,
@@ -84,6 +88,12 @@ pub struct SssArgs {
     /// Diffusion profile.
     #[arg(long, value_enum, default_value_t = glyptic::sss::Profile::Marble)]
     pub sss_profile: glyptic::sss::Profile,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Backdrop {
+    Studio,
+    Transparent,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -126,6 +136,7 @@ impl ViewArgs {
             lamp: (self.lamp == OnOff::On).then(glyptic::render::Lamp::default),
             hair_layer: self.hair_layer == OnOff::On,
             antialias: self.antialias == OnOff::On,
+            transparent: self.background == Backdrop::Transparent,
             ..RenderParams::default()
         })
     }

@@ -16,7 +16,7 @@ use super::{ViewArgs, check_outputs, print_stages, write_atomic};
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
-    /// Output PNG.
+    /// Output image: .png or .jpg (the format follows the extension).
     #[arg(short, long)]
     pub output: PathBuf,
     #[command(flatten)]
@@ -64,7 +64,7 @@ impl MakeArgs {
 pub struct PhotoArgs {
     /// Portrait photo (JPEG, PNG, PPM, BMP, TIFF, WebP).
     pub image: PathBuf,
-    /// Output PNG.
+    /// Output image: .png or .jpg (the format follows the extension).
     #[arg(short, long)]
     pub output: PathBuf,
     #[command(flatten)]
@@ -243,6 +243,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
             .chain(args.gem_obj.as_deref())
             .chain(args.make.outputs()),
     )?;
+    output_kind(&args.output, &params)?;
     let renderer_thread = spawn_renderer();
     let (mesh, stages) = glyptic::stage::record(|| -> Result<_> {
         let (face, triangles) = match &args.face {
@@ -294,10 +295,34 @@ pub(super) fn render_png(
     params: &RenderParams,
     output: &Path,
 ) -> Result<Vec<u8>> {
-    let (png, stages) =
-        glyptic::stage::record(|| glyptic::pipeline::gem::render_png(renderer, mesh, params));
+    let kind = output_kind(output, params)?;
+    let (png, stages) = glyptic::stage::record(|| {
+        glyptic::pipeline::gem::render_encoded(renderer, mesh, params, kind)
+    });
     print_stages(&stages);
     png.with_context(|| output.display().to_string())
+}
+
+/// The image format the output's name asks for, refused before any work where it cannot
+/// hold the gem (an unknown extension; a transparent backdrop in JPEG).
+pub(super) fn output_kind(
+    output: &Path,
+    params: &RenderParams,
+) -> Result<glyptic::pipeline::gem::ImageKind> {
+    use glyptic::pipeline::gem::ImageKind;
+    let kind = ImageKind::from_path(output).ok_or_else(|| {
+        anyhow!(
+            "{}: name the image .png or .jpg (the format follows the extension)",
+            output.display()
+        )
+    })?;
+    if kind == ImageKind::Jpeg && params.transparent {
+        bail!(
+            "{}: JPEG has no transparency: write a .png for --background transparent",
+            output.display()
+        );
+    }
+    Ok(kind)
 }
 
 /// A face mesh from an OBJ file: positions `[x0, y0, z0, ...]` and triangles.
@@ -336,6 +361,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
         .flatten()
         .chain(args.make.outputs()),
     )?;
+    output_kind(&args.output, &params)?;
     let image_path = &args.image;
 
     // The GPU device and pipelines are independent of the face: start them now.
