@@ -10,8 +10,7 @@
 // nothing but backdrop.
 
 struct Composite {
-    // rgb: backdrop colour (linear) at the centre; a: 1 with the backdrop, 0 without (the
-    // output's alpha is then the gem's coverage and its colour unpremultiplied).
+    // rgb: backdrop colour (linear) at the centre; a: unused.
     background: vec4<f32>,
     // x: exposure, y: vignette strength, z: vertical gradient strength, w: dither amplitude
     // (in 8-bit steps).
@@ -23,6 +22,11 @@ struct Composite {
 }
 
 @group(0) @binding(0) var<uniform> comp: Composite;
+
+// No backdrop: the output's alpha is the gem's coverage and its colour unpremultiplied. A
+// pipeline constant, not a uniform: with a runtime branch here llvmpipe's composite slowed
+// the kiosk and its memory grew (20 % over a 24 s soak).
+override TRANSPARENT: bool = false;
 @group(0) @binding(1) var diffuse_tex: texture_2d<f32>;
 @group(0) @binding(2) var specular_tex: texture_2d<f32>;
 
@@ -68,7 +72,7 @@ fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     let vignette = 1.0 - comp.params.y * smoothstep(0.25, 0.95, length(centred));
     let backdrop = comp.background.rgb * gradient * vignette;
 
-    if comp.background.a < 0.5 {
+    if TRANSPARENT {
         if coverage <= 0.0 {
             return vec4<f32>(0.0);
         }

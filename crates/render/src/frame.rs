@@ -143,7 +143,15 @@ impl Renderer {
             .filter(|_| !styles.is_empty() || edge_aa);
         // With passes after it the composite writes the chain's first image.
         let composite_view = style_targets.map_or(final_view, |st| &st.views[0]);
-        composite_pass(encoder, &frame, format, composite_view, sss, &mut stamps)?;
+        composite_pass(
+            encoder,
+            &frame,
+            format,
+            composite_view,
+            sss,
+            params.transparent,
+            &mut stamps,
+        )?;
         if let Some(st) = style_targets {
             let chain = Chain {
                 styles,
@@ -171,7 +179,8 @@ impl Renderer {
         mesh_box: [u32; 4],
     ) -> Result<(usize, bool), RenderError> {
         let (w, h) = (params.width, params.height);
-        self.pipelines.ensure_composite(&self.device, format);
+        self.pipelines
+            .ensure_composite(&self.device, format, params.transparent);
         let samples = self.frame_samples(params);
         let scene = Crop::size_for(mesh_box, w, h);
         // The scene images are kept while the mesh's box fits them and they are no more than
@@ -450,8 +459,7 @@ impl Renderer {
         let composite = CompositeUniform {
             background: {
                 let [r, g, b] = params.background.map(|c| srgb_to_linear(c.clamp(0.0, 1.0)));
-                // a: 1 the backdrop, 0 none (alpha = coverage).
-                [r, g, b, if params.transparent { 0.0 } else { 1.0 }]
+                [r, g, b, 1.0]
             },
             params: COMPOSITE_PARAMS,
             crop: [crop.x, crop.y, crop.width, crop.height].map(|v| v as f32),
@@ -632,11 +640,12 @@ fn composite_pass(
     format: wgpu::TextureFormat,
     view: &wgpu::TextureView,
     sss: bool,
+    transparent: bool,
     stamps: &mut Stamps<'_>,
 ) -> Result<(), RenderError> {
     let composite = frame
         .pipelines
-        .composite(format)
+        .composite(format, transparent)
         .ok_or_else(|| RenderError::Gpu(format!("no composite pipeline for {format:?}")))?;
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("glyptic composite pass"),

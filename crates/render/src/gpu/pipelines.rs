@@ -27,7 +27,7 @@ pub(crate) struct Pipelines {
     pub shadow_uniforms: Vec<wgpu::Buffer>,
     pub shadow_bind_groups: Vec<wgpu::BindGroup>,
     /// Composite pipelines by output format (the image's, a window's), built on first use.
-    composite: Vec<(wgpu::TextureFormat, wgpu::RenderPipeline)>,
+    composite: Vec<((wgpu::TextureFormat, bool), wgpu::RenderPipeline)>,
     composite_module: wgpu::ShaderModule,
     pub composite_layout: wgpu::BindGroupLayout,
     pub composite_uniform: wgpu::Buffer,
@@ -92,6 +92,7 @@ pub(super) fn fullscreen_pipeline(
     module: &wgpu::ShaderModule,
     layout: &wgpu::BindGroupLayout,
     format: wgpu::TextureFormat,
+    constants: &[(&str, f64)],
 ) -> wgpu::RenderPipeline {
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(label),
@@ -104,7 +105,10 @@ pub(super) fn fullscreen_pipeline(
         vertex: wgpu::VertexState {
             module,
             entry_point: Some("vs_main"),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                ..Default::default()
+            },
             buffers: &[],
         },
         primitive: wgpu::PrimitiveState::default(),
@@ -113,7 +117,10 @@ pub(super) fn fullscreen_pipeline(
         fragment: Some(wgpu::FragmentState {
             module,
             entry_point: Some("fs_main"),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                ..Default::default()
+            },
             targets: &[color_target(format)],
         }),
         multiview_mask: None,
@@ -408,13 +415,14 @@ impl Pipelines {
             ],
         });
         let composite = vec![(
-            OUTPUT_FORMAT,
+            (OUTPUT_FORMAT, false),
             fullscreen_pipeline(
                 device,
                 "glyptic composite pipeline",
                 &composite_module,
                 &composite_layout,
                 OUTPUT_FORMAT,
+                &[("TRANSPARENT", 0.0)],
             ),
         )];
 
@@ -442,6 +450,7 @@ impl Pipelines {
             &sss_module,
             &sss_layout,
             SSS_FORMAT,
+            &[],
         );
         let sss_uniform = |label| {
             device.create_buffer(&wgpu::BufferDescriptor {
@@ -548,7 +557,6 @@ impl Pipelines {
 }
 
 impl Pipelines {
-    /// Builds the composite pipeline for `format` if there is none yet.
     /// Builds the scene pipeline of `variant` if there is none yet.
     pub fn ensure_scene(&mut self, device: &wgpu::Device, variant: SceneVariant) {
         if !self.scene.iter().any(|(v, _)| *v == variant) {
@@ -569,16 +577,28 @@ impl Pipelines {
             .map(|(_, p)| p)
     }
 
-    pub fn ensure_composite(&mut self, device: &wgpu::Device, format: wgpu::TextureFormat) {
-        if !self.composite.iter().any(|(f, _)| *f == format) {
+    /// Builds the composite pipeline for `format`, with the backdrop or without
+    /// (`transparent`: the shader's `TRANSPARENT`), if there is none yet.
+    pub fn ensure_composite(
+        &mut self,
+        device: &wgpu::Device,
+        format: wgpu::TextureFormat,
+        transparent: bool,
+    ) {
+        if !self
+            .composite
+            .iter()
+            .any(|(k, _)| *k == (format, transparent))
+        {
             let pipeline = fullscreen_pipeline(
                 device,
                 "glyptic composite pipeline",
                 &self.composite_module,
                 &self.composite_layout,
                 format,
+                &[("TRANSPARENT", f64::from(u8::from(transparent)))],
             );
-            self.composite.push((format, pipeline));
+            self.composite.push(((format, transparent), pipeline));
         }
     }
 
@@ -598,8 +618,14 @@ impl Pipelines {
             return;
         }
         if let Some((_, module)) = self.style_modules.iter().find(|(s, _)| *s == style) {
-            let pipeline =
-                fullscreen_pipeline(device, style.name(), module, &self.style_layout, format);
+            let pipeline = fullscreen_pipeline(
+                device,
+                style.name(),
+                module,
+                &self.style_layout,
+                format,
+                &[],
+            );
             self.style_pipelines.push(((style, format), pipeline));
         }
     }
@@ -625,6 +651,7 @@ impl Pipelines {
                 &self.edge_aa_module,
                 &self.edge_aa_layout,
                 format,
+                &[],
             );
             self.edge_aa.push((format, pipeline));
         }
@@ -639,10 +666,14 @@ impl Pipelines {
     }
 
     /// The composite pipeline for `format` (see [`Pipelines::ensure_composite`]).
-    pub fn composite(&self, format: wgpu::TextureFormat) -> Option<&wgpu::RenderPipeline> {
+    pub fn composite(
+        &self,
+        format: wgpu::TextureFormat,
+        transparent: bool,
+    ) -> Option<&wgpu::RenderPipeline> {
         self.composite
             .iter()
-            .find(|(f, _)| *f == format)
+            .find(|(k, _)| *k == (format, transparent))
             .map(|(_, p)| p)
     }
 
