@@ -3,9 +3,13 @@
 //! loaders never call this module; they take a [`ModelPaths`] (or single paths) as input.
 //!
 //! Assumption: `scripts/setup.sh` has populated `models/`, `shapemodel/sfm/`, `.deps/` and
-//! `data/` under the project root. The root is, in order: the `GLYPTIC_ROOT` environment
-//! variable; the first ancestor of the current directory or of the executable that holds
-//! `models/centerface.onnx` or `shapemodel/sfm/`; the source tree this binary was built from.
+//! `data/` under the project root, and `glyptic setup` may have copied what the program needs
+//! (not the test data) into the user's data folder (`$XDG_DATA_HOME/glyptic`, by default
+//! `~/.local/share/glyptic`). The root is, in order ([`locate_root`]): the `GLYPTIC_ROOT`
+//! environment variable; the first ancestor of the current directory or of the executable
+//! that holds `models/centerface.onnx` or `shapemodel/sfm/`; the user's data folder if it
+//! holds them; the source tree this binary was built from if it does; else the data folder
+//! (where `glyptic setup` puts them, so errors name it).
 
 use std::path::{Path, PathBuf};
 
@@ -60,30 +64,133 @@ impl ModelPaths {
     }
 }
 
-fn looks_like_root(dir: &Path) -> bool {
+/// Whether `dir` holds set-up's files (a project root or an installed data folder).
+pub fn looks_like_root(dir: &Path) -> bool {
     dir.join("models").join(ROOT_MARK).is_file() || dir.join("shapemodel").join("sfm").is_dir()
+}
+
+/// The user's data folder for glyptic: `$XDG_DATA_HOME/glyptic` (an absolute path), else
+/// `$HOME/.local/share/glyptic`; `None` without either.
+pub fn data_dir() -> Option<PathBuf> {
+    let xdg = std::env::var_os("XDG_DATA_HOME")
+        .map(PathBuf::from)
+        .filter(|p| p.is_absolute());
+    let base = xdg.or_else(|| {
+        std::env::var_os("HOME")
+            .map(PathBuf::from)
+            .filter(|p| p.is_absolute())
+            .map(|home| home.join(".local").join("share"))
+    })?;
+    Some(base.join("glyptic"))
+}
+
+/// How the project root was found (what `glyptic doctor` reports).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum RootSource {
+    /// `GLYPTIC_ROOT`.
+    Env,
+    /// An ancestor of the current directory.
+    WorkingDir,
+    /// An ancestor of the executable.
+    Executable,
+    /// The user's data folder ([`data_dir`]).
+    DataDir,
+    /// The source tree the binary was built from.
+    BuildTree,
+    /// Nowhere holds the files: the data folder, where `glyptic setup` would put them (or the
+    /// build tree without one).
+    NotFound,
+}
+
+/// The project root holding set-up's files and how it was found (see the module doc).
+pub fn locate_root() -> (PathBuf, RootSource) {
+    if let Some(dir) = std::env::var_os(ROOT_ENV) {
+        return (PathBuf::from(dir), RootSource::Env);
+    }
+    let mut starts: Vec<(PathBuf, RootSource)> = Vec::new();
+    if let Ok(cwd) = std::env::current_dir() {
+        starts.push((cwd, RootSource::WorkingDir));
+    }
+    if let Ok(exe) = std::env::current_exe() {
+        starts.push((exe, RootSource::Executable));
+    }
+    for (start, source) in starts {
+        for dir in start.ancestors() {
+            if looks_like_root(dir) {
+                return (dir.to_path_buf(), source);
+            }
+        }
+    }
+    let data = data_dir();
+    if let Some(dir) = data.as_ref().filter(|d| looks_like_root(d)) {
+        return (dir.clone(), RootSource::DataDir);
+    }
+    let build = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    if looks_like_root(&build) {
+        return (build, RootSource::BuildTree);
+    }
+    (data.unwrap_or(build), RootSource::NotFound)
 }
 
 /// The project root holding set-up's files (see the module doc for the search order).
 pub fn root() -> PathBuf {
-    if let Some(dir) = std::env::var_os(ROOT_ENV) {
-        return PathBuf::from(dir);
+    locate_root().0
+}
+
+/// What the program needs from set-up, as paths under a root: (path, what it is, needed by
+/// every face run). `glyptic setup` copies these into the data folder; `glyptic doctor` checks
+/// them. The landmark model's compact copy is made on first use when absent.
+pub fn installed_files(root: &Path) -> Vec<(PathBuf, &'static str, bool)> {
+    let models = root.join("models");
+    let mut files = vec![
+        (models.join(ROOT_MARK), "CenterFace (as downloaded)", false),
+        (
+            models.join(DETECTOR_FILE),
+            "face detector (CenterFace)",
+            true,
+        ),
+        (
+            models.join("yunet.onnx"),
+            "face detector (YuNet, optional)",
+            false,
+        ),
+        (
+            models.join(SEGMENTER_FILE),
+            "person segmentation (the hair)",
+            true,
+        ),
+        (models.join("SHA256SUMS"), "the models' checksums", true),
+        (
+            models.join(LANDMARK_FILE),
+            "dlib's 68-point landmark model",
+            true,
+        ),
+        (
+            models.join(format!("{LANDMARK_FILE}.compact")),
+            "its compact copy (made on first use)",
+            false,
+        ),
+        (
+            root.join(".deps")
+                .join("onnxruntime")
+                .join("libonnxruntime.so.1.31.1"),
+            "ONNX Runtime",
+            true,
+        ),
+    ];
+    let sfm = root.join("shapemodel").join("sfm");
+    use glyptic_core::shapemodel as sm;
+    for name in [
+        sm::SHAPE_FILE,
+        sm::BLENDSHAPES_FILE,
+        sm::MAPPING_FILE,
+        sm::EDGE_TOPOLOGY_FILE,
+        sm::CONTOURS_FILE,
+        "SHA256SUMS",
+    ] {
+        files.push((sfm.join(name), "Surrey Face Model", true));
     }
-    let mut starts: Vec<PathBuf> = Vec::new();
-    if let Ok(cwd) = std::env::current_dir() {
-        starts.push(cwd);
-    }
-    if let Ok(exe) = std::env::current_exe() {
-        starts.push(exe);
-    }
-    for start in starts {
-        for dir in start.ancestors() {
-            if looks_like_root(dir) {
-                return dir.to_path_buf();
-            }
-        }
-    }
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    files
 }
 
 /// Folder of the Surrey Face Model files (`GLYPTIC_SFM_DIR` or `<root>/shapemodel/sfm`).

@@ -107,6 +107,33 @@ pub enum CaptureEvent {
     Failed { error: String },
 }
 
+/// One line for a log or a status line.
+impl std::fmt::Display for CaptureEvent {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CaptureEvent::Started { source } => write!(f, "{source}: first frame"),
+            CaptureEvent::Unavailable {
+                reason,
+                attempt,
+                retry_in,
+            } => write!(
+                f,
+                "unavailable ({reason}); attempt {attempt}, next in {:.1} s",
+                retry_in.as_secs_f64()
+            ),
+            CaptureEvent::Resumed { failed_attempts } => {
+                write!(f, "frames again after {failed_attempts} failed attempts")
+            }
+            CaptureEvent::BadFrame { reason, count } => {
+                write!(f, "frame skipped ({reason}); {count} so far")
+            }
+            CaptureEvent::Ended { note: Some(note) } => write!(f, "ended: {note}"),
+            CaptureEvent::Ended { note: None } => write!(f, "ended"),
+            CaptureEvent::Failed { error } => write!(f, "failed: {error}"),
+        }
+    }
+}
+
 /// Totals of a capture run.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct CaptureSummary {

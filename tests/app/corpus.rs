@@ -519,6 +519,17 @@ fn cases() -> Vec<Case> {
             write(d, "text.png", "no pixels here");
             words(d, &["landmarks", "@text.png"])
         }),
+        // A faceless image is a failure, not an empty list (issue #21: it exited 0).
+        case("landmarks-no-face", 1, &["pattern.png", "no face"], |d| {
+            write(d, "pattern.png", no_face());
+            words(d, &["landmarks", "@pattern.png"])
+        }),
+        case(
+            "render-output-unknown-format",
+            1,
+            &["gem.gif", ".png or .jpg"],
+            p(&["render", "-o", "@gem.gif", "--size", "32x40"]),
+        ),
         case(
             "landmarks-pts-is-input",
             1,

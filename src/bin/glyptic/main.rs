@@ -31,6 +31,14 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("glyptic: error: {}", one_line(&err));
+            let (root, _) = glyptic::assets::locate_root();
+            if !glyptic::assets::looks_like_root(&root) {
+                eprintln!(
+                    "glyptic: {} holds no models: `glyptic doctor` says where glyptic looks \
+                     and how to get them",
+                    root.display()
+                );
+            }
             ExitCode::FAILURE
         }
     }

@@ -19,6 +19,12 @@ use glyptic::render::Renderer;
 use super::ViewArgs;
 
 #[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:
+  glyptic batch photos/ -o gems/
+  glyptic batch photos/ -o gems/ --jobs 2 --csv report.csv --material agate
+
+Exit codes: 0 every photo made a gem; 1 some did not (the CSV says which and why) or the run
+could not start; 2 a bad option.")]
 pub struct BatchArgs {
     /// Folder of photos (JPEG, PNG, PPM, BMP, TIFF, WebP; not recursive).
     pub dir: PathBuf,

@@ -13,6 +13,9 @@ use super::ChoiceArgs;
 use super::{OnOff, Size, SssArgs, check_outputs, write_atomic};
 
 #[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:
+  glyptic kernel 21
+  glyptic kernel 25 --profile burley --strength 0.8")]
 pub struct KernelArgs {
     /// Taps (odd, 3..=65).
     #[arg(value_parser = super::args::odd_taps)]
@@ -28,6 +31,12 @@ pub struct KernelArgs {
 
 #[cfg(feature = "face")]
 #[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:
+  glyptic landmarks portrait.jpg
+  glyptic landmarks group.jpg --json --max-faces 5
+  glyptic landmarks portrait.jpg --pts face.pts
+
+Exit codes: 0 faces found; 1 no face, or an error; 2 a bad option.")]
 pub struct LandmarksArgs {
     /// A photo (JPEG, PNG, PPM, ...).
     pub image: PathBuf,
@@ -46,6 +55,9 @@ pub struct LandmarksArgs {
 }
 
 #[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:
+  glyptic fit --landmarks face.pts --size 817x1024
+  glyptic fit --landmarks face.pts --size 1280x960 --fov 60 --json --obj face.obj")]
 pub struct FitArgs {
     /// 68 landmarks, iBUG .pts (1-based coordinates, as menpo writes them); a landmark that
     /// was not found may be written `nan nan`.
@@ -136,11 +148,16 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
             );
         }
     }
-    if args.pts.is_some() && faces.is_empty() {
-        bail!(
-            "{}: no face found, so no landmarks to write",
-            path.display()
-        );
+    // A faceless image is a failure (exit 1), after the report: a script must not take an
+    // empty list for landmarks.
+    if faces.is_empty() {
+        match args.pts {
+            Some(_) => bail!(
+                "{}: no face found, so no landmarks to write",
+                path.display()
+            ),
+            None => bail!("{}: no face found", path.display()),
+        }
     }
     Ok(())
 }

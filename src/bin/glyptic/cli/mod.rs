@@ -7,6 +7,7 @@ mod args;
 mod batch;
 mod inspect;
 mod photo;
+mod setup;
 #[cfg(feature = "face")]
 pub mod track;
 
@@ -17,6 +18,7 @@ use inspect::{LandmarksArgs, find_landmarks};
 #[cfg(feature = "face")]
 use photo::{PhotoArgs, photo};
 use photo::{RenderArgs, render_mean};
+use setup::{DoctorArgs, SetupArgs, doctor, setup};
 
 use std::path::{Path, PathBuf};
 
@@ -65,6 +67,11 @@ pub enum Command {
     Kiosk(crate::kiosk::KioskArgs),
     /// Prints the subsurface-scattering kernel: one line per tap, `offset  r g b`, centre first.
     Kernel(KernelArgs),
+    /// Copies the models from a checkout where scripts/setup.sh ran into the user's data
+    /// folder, so an installed glyptic works from anywhere.
+    Setup(SetupArgs),
+    /// Says where glyptic looks for its models, what it found and what is missing.
+    Doctor(DoctorArgs),
 }
 
 pub fn run(cli: Cli) -> Result<()> {
@@ -82,6 +89,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Batch(args) => batch::batch(&args),
         Command::Kernel(args) => print_kernel(&args),
         Command::Kiosk(args) => crate::kiosk::kiosk(&args),
+        Command::Setup(args) => setup(&args),
+        Command::Doctor(args) => doctor(&args),
     }
 }
 
@@ -167,8 +176,39 @@ pub fn write_png(rgba: image::RgbaImage, path: &Path) -> Result<()> {
 /// Whether `-q` asked for errors only (set once, before any command runs).
 static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
-/// The stage table's lines: name, time, what the stage found (nothing with `-q`).
+/// With `--json` (photo, render) the stage table is collected here instead of printed, and
+/// the command prints one JSON object at its end.
+static JSON_STAGES: std::sync::Mutex<Option<Vec<Stage>>> = std::sync::Mutex::new(None);
+
+/// Turns the JSON report on: stages are collected from now on.
+fn collect_stages() {
+    if let Ok(mut s) = JSON_STAGES.lock() {
+        *s = Some(Vec::new());
+    }
+}
+
+/// The collected stages as JSON (`[{"name", "ms", "detail"}]`).
+fn stages_json() -> serde_json::Value {
+    let stages = JSON_STAGES
+        .lock()
+        .ok()
+        .and_then(|s| s.clone())
+        .unwrap_or_default();
+    stages
+        .iter()
+        .map(|s| serde_json::json!({ "name": s.name, "ms": s.ms, "detail": s.detail }))
+        .collect()
+}
+
+/// The stage table's lines: name, time, what the stage found (nothing with `-q`; collected
+/// for the report with `--json`).
 fn print_stages(stages: &[Stage]) {
+    if let Ok(mut collected) = JSON_STAGES.lock()
+        && let Some(all) = collected.as_mut()
+    {
+        all.extend(stages.iter().cloned());
+        return;
+    }
     if QUIET.load(std::sync::atomic::Ordering::Relaxed) {
         return;
     }

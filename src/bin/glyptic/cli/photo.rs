@@ -15,6 +15,11 @@ use super::{ChoiceArgs, GlassesArg};
 use super::{ViewArgs, check_outputs, print_stages, write_atomic};
 
 #[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:
+  glyptic render -o mean.png                        the cameo with the model's mean face
+  glyptic render -o gem.png --photo portrait.jpg    as `glyptic photo`
+  glyptic render -o gem.png --face face.obj --gem-obj gem.obj --stl gem.stl
+  glyptic render -o clear.png --background transparent --material agate")]
 pub struct RenderArgs {
     /// Output image: .png or .jpg (the format follows the extension).
     #[arg(short, long)]
@@ -33,6 +38,10 @@ pub struct RenderArgs {
     pub gem_obj: Option<PathBuf>,
     #[command(flatten)]
     pub make: MakeArgs,
+    /// Report as one JSON object on stdout (stages and times, the files written) instead of
+    /// the stage table.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// The carved stone for a 3D printer or a CNC router (`render`, `photo`).
@@ -61,6 +70,14 @@ impl MakeArgs {
 
 #[cfg(feature = "face")]
 #[derive(clap::Args, Debug)]
+#[command(after_help = "Examples:
+  glyptic photo portrait.jpg -o gem.png
+  glyptic photo portrait.jpg -o gem.jpg --material agate --size 1280x1600
+  glyptic photo portrait.jpg -o gem.png --stl gem.stl --heightmap gem-height.png
+  glyptic photo portrait.jpg -o gem.png --antialias off     (faster without a GPU)
+
+Exit codes: 0 the gem was written; 1 an error (named on stderr, nothing written); 2 a bad
+option.")]
 pub struct PhotoArgs {
     /// Portrait photo (JPEG, PNG, PPM, BMP, TIFF, WebP).
     pub image: PathBuf,
@@ -82,6 +99,21 @@ pub struct PhotoArgs {
     pub gem_obj: Option<PathBuf>,
     #[command(flatten)]
     pub make: MakeArgs,
+    /// Report as one JSON object on stdout (stages and times, the files written, the face:
+    /// its box, 68 landmarks, pose and fit error) instead of the stage table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The files a run wrote, by kind, for the JSON report.
+fn outputs_json(pairs: &[(&str, Option<&Path>)]) -> serde_json::Value {
+    pairs
+        .iter()
+        .filter_map(|(kind, path)| {
+            path.map(|p| (kind.to_string(), serde_json::json!(p.display().to_string())))
+        })
+        .collect::<serde_json::Map<_, _>>()
+        .into()
 }
 
 /// The STL and height map (whichever `make` asks for) of the relief cut from `face` (model mm)
@@ -232,9 +264,13 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
             obj: None,
             gem_obj: args.gem_obj.clone(),
             make: args.make.clone(),
+            json: args.json,
         });
     }
     let start = Instant::now();
+    if args.json {
+        super::collect_stages();
+    }
     let params = args.view.params()?;
     check_outputs(
         args.face.as_deref(),
@@ -285,6 +321,23 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
         ms: start.elapsed().as_secs_f64() * 1e3,
         detail: args.output.display().to_string(),
     }]);
+    if args.json {
+        say!(
+            "{}",
+            serde_json::json!({
+                "command": "render",
+                "face": source,
+                "outputs": outputs_json(&[
+                    ("image", Some(args.output.as_path())),
+                    ("gem_obj", args.gem_obj.as_deref()),
+                    ("stl", args.make.stl.as_deref()),
+                    ("heightmap", args.make.heightmap.as_deref()),
+                ]),
+                "stages": super::stages_json(),
+                "total_ms": start.elapsed().as_secs_f64() * 1e3,
+            })
+        );
+    }
     Ok(())
 }
 
@@ -348,6 +401,9 @@ fn write_gem_obj(path: &Path, mesh: &glyptic::render::Mesh, source: &str) -> Res
 #[cfg(feature = "face")]
 pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     let start = Instant::now();
+    if args.json {
+        super::collect_stages();
+    }
     let params = args.view.params()?;
     check_outputs(
         [args.image.as_path()],
@@ -423,5 +479,34 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
             detail: String::new(),
         },
     ]);
+    if args.json {
+        let face = &gem.face;
+        let [yaw, pitch, roll] = face.fit.pose.yaw_pitch_roll_deg();
+        say!(
+            "{}",
+            serde_json::json!({
+                "command": "photo",
+                "image": image_path.display().to_string(),
+                "outputs": outputs_json(&[
+                    ("image", Some(args.output.as_path())),
+                    ("landmarks", args.landmarks_out.as_deref()),
+                    ("obj", args.obj.as_deref()),
+                    ("gem_obj", args.gem_obj.as_deref()),
+                    ("stl", args.make.stl.as_deref()),
+                    ("heightmap", args.make.heightmap.as_deref()),
+                ]),
+                "face": {
+                    "box": face.detection.bbox,
+                    "score": face.detection.score,
+                    "faces_found": face.faces_found,
+                    "landmarks": face.landmarks,
+                    "yaw_deg": yaw, "pitch_deg": pitch, "roll_deg": roll,
+                    "reprojection_px": face.fit.reprojection_px,
+                },
+                "stages": super::stages_json(),
+                "total_ms": start.elapsed().as_secs_f64() * 1e3,
+            })
+        );
+    }
     Ok(())
 }

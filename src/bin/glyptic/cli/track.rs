@@ -2,7 +2,7 @@
 //! speed per stage, latency and what happened to the source.
 
 use std::io::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -13,6 +13,10 @@ use glyptic::stream::{FaceStream, FaceUpdate, StreamEvent};
 use glyptic::track::{TrackOptions, Tracker};
 
 #[derive(clap::Args, Debug, Clone)]
+#[command(after_help = "Examples:
+  glyptic track clip.mp4
+  glyptic track --camera 0 --frames 300
+  glyptic track photos/ --all-frames")]
 pub struct TrackArgs {
     /// A video file, a folder of images or a photo (or use --camera).
     #[arg(required_unless_present = "camera")]
@@ -25,6 +29,7 @@ pub struct TrackArgs {
     pub looping: bool,
     /// Process every frame in order on one thread (offline analysis and benchmarks), instead
     /// of live: a capture thread playing videos in real time with the newest frame winning.
+    /// A folder of photos is always read this way (no photo is dropped).
     #[arg(long)]
     pub all_frames: bool,
     /// Stop after this many processed frames.
@@ -173,7 +178,9 @@ pub fn track(args: &TrackArgs) -> Result<()> {
     let mut last_status = Instant::now();
     let mut detections = 0;
     let mut end_note = None;
-    if args.all_frames {
+    // A folder's photos are separate pictures, not a live stream: every one is processed.
+    let every_frame = args.all_frames || args.source.as_deref().is_some_and(Path::is_dir);
+    if every_frame {
         let mut source = open_source(args)?;
         let clock = Instant::now();
         let mut index = 0u64;
@@ -250,7 +257,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
                     StreamEvent::Capture(CaptureEvent::Failed { error }) => {
                         bail!("{}: {error}", source_name(args))
                     }
-                    StreamEvent::Capture(e) => tracing::warn!("capture: {e:?}"),
+                    StreamEvent::Capture(e) => tracing::warn!("capture: {e}"),
                     StreamEvent::Error { frame_index, error } => {
                         tracing::warn!("frame {frame_index}: {error}")
                     }

@@ -37,6 +37,10 @@ use glyptic::kiosk::KioskConfig;
 use window::Running;
 
 #[derive(clap::Args, Debug, Clone)]
+#[command(after_help = "Examples:
+  glyptic kiosk --fullscreen                 the webcam, full screen
+  glyptic kiosk --video visitor.mp4 --config kiosk.toml
+  glyptic kiosk --camera 1 --size 800x1000 --snapshots ~/gems")]
 pub struct KioskArgs {
     /// Webcam N (/dev/videoN) [config: camera; default 0].
     #[arg(long, value_name = "N", conflicts_with = "video")]
