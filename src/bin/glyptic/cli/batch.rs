@@ -41,6 +41,10 @@ pub struct BatchArgs {
     pub view: ViewArgs,
     #[command(flatten)]
     pub choice: super::ChoiceArgs,
+    /// Report as one JSON object on stdout (each image's status, times and gem; the run's
+    /// totals) instead of the summary line, without the progress bar.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// One image's outcome.
@@ -196,7 +200,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         .0;
     let loaded_ms = start.elapsed().as_secs_f64() * 1e3;
 
-    let bar = if super::QUIET.load(Ordering::Relaxed) {
+    let bar = if super::QUIET.load(Ordering::Relaxed) || args.json {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(files.len() as u64)
@@ -306,14 +310,50 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         .map(|(_, ms)| ms / 1e3)
         .sum();
     let working_s = (secs - loaded_ms / 1e3).max(1e-9);
-    say!(
-        "{ok} of {} images made into gems in {secs:.1} s ({:.2} images/s after {:.1} s start-up, {jobs} face workers; the renderer busy {:.0} % of that time); per-image status and times in {}",
-        rows.len(),
-        rows.len() as f64 / working_s,
-        loaded_ms / 1e3,
-        100.0 * render_s / working_s,
-        csv.display()
-    );
+    if args.json {
+        let images: Vec<serde_json::Value> = rows
+            .iter()
+            .map(|r| {
+                let stages: serde_json::Map<String, serde_json::Value> = r
+                    .stages
+                    .iter()
+                    .map(|(name, ms)| (name.to_string(), serde_json::json!(ms)))
+                    .collect();
+                serde_json::json!({
+                    "input": r.input.display().to_string(),
+                    "gem": r.output.as_ref().map(|p| p.display().to_string()),
+                    "status": r.status,
+                    "faces": r.faces,
+                    "error": (!r.error.is_empty()).then_some(&r.error),
+                    "times_ms": stages,
+                })
+            })
+            .collect();
+        say!(
+            "{}",
+            serde_json::json!({
+                "command": "batch",
+                "images": rows.len(),
+                "ok": ok,
+                "seconds": secs,
+                "startup_s": loaded_ms / 1e3,
+                "images_per_s": rows.len() as f64 / working_s,
+                "face_workers": jobs,
+                "renderer_busy": render_s / working_s,
+                "csv": csv.display().to_string(),
+                "results": images,
+            })
+        );
+    } else {
+        say!(
+            "{ok} of {} images made into gems in {secs:.1} s ({:.2} images/s after {:.1} s start-up, {jobs} face workers; the renderer busy {:.0} % of that time); per-image status and times in {}",
+            rows.len(),
+            rows.len() as f64 / working_s,
+            loaded_ms / 1e3,
+            100.0 * render_s / working_s,
+            csv.display()
+        );
+    }
     if ok < rows.len() {
         bail!(
             "{} of {} images failed (see {})",
