@@ -34,6 +34,8 @@ const ROOT_MARK: &str = "centerface.onnx";
 const LANDMARK_FILE: &str = "shape_predictor_68_face_landmarks.dat";
 /// File name of the person segmentation model in [`models_dir`].
 const SEGMENTER_FILE: &str = "selfie_segmentation.onnx";
+/// File name of the ONNX Runtime library set-up puts in `.deps/onnxruntime/`.
+const ORT_FILE: &str = "libonnxruntime.so.1.31.1";
 
 /// Every model file the face pipeline, the person segmentation and ONNX Runtime need: what the
 /// library's loaders take. [`ModelPaths::locate`] fills it from set-up's layout.
@@ -61,6 +63,62 @@ impl ModelPaths {
             sfm_dir: sfm_dir(),
             segmenter: segmenter_model(),
         }
+    }
+
+    /// Set-up's layout under `root`, without the environment's overrides.
+    pub fn under(root: &Path) -> Self {
+        let models = root.join("models");
+        ModelPaths {
+            detector: models.join(DETECTOR_FILE),
+            onnxruntime: root.join(".deps").join("onnxruntime").join(ORT_FILE),
+            landmarks: models.join(LANDMARK_FILE),
+            sfm_dir: root.join("shapemodel").join("sfm"),
+            segmenter: models.join(SEGMENTER_FILE),
+        }
+    }
+
+    /// Every file these paths stand for, with what it is and whether every face run needs
+    /// it: the models, the checksum lists beside the landmark model and in the Surrey model's
+    /// folder, and the landmark model's compact copy (made on first use when absent).
+    pub fn files(&self) -> Vec<(PathBuf, &'static str, bool)> {
+        let mut compact = self.landmarks.clone().into_os_string();
+        compact.push(".compact");
+        let mut files = vec![
+            (self.detector.clone(), "face detector", true),
+            (
+                self.segmenter.clone(),
+                "person segmentation (the hair)",
+                true,
+            ),
+            (
+                self.landmarks.with_file_name("SHA256SUMS"),
+                "the models' checksums",
+                true,
+            ),
+            (
+                self.landmarks.clone(),
+                "dlib's 68-point landmark model",
+                true,
+            ),
+            (
+                PathBuf::from(compact),
+                "its compact copy (made on first use)",
+                false,
+            ),
+            (self.onnxruntime.clone(), "ONNX Runtime", true),
+        ];
+        use glyptic_core::shapemodel as sm;
+        for name in [
+            sm::SHAPE_FILE,
+            sm::BLENDSHAPES_FILE,
+            sm::MAPPING_FILE,
+            sm::EDGE_TOPOLOGY_FILE,
+            sm::CONTOURS_FILE,
+            "SHA256SUMS",
+        ] {
+            files.push((self.sfm_dir.join(name), "Surrey Face Model", true));
+        }
+        files
     }
 }
 
@@ -137,59 +195,18 @@ pub fn root() -> PathBuf {
     locate_root().0
 }
 
-/// What the program needs from set-up, as paths under a root: (path, what it is, needed by
-/// every face run). `glyptic setup` copies these into the data folder; `glyptic doctor` checks
-/// them. The landmark model's compact copy is made on first use when absent.
+/// What an installation holds under a root: (path, what it is, needed by every face run).
+/// `glyptic setup` copies these into the data folder: the files of [`ModelPaths::under`],
+/// CenterFace as downloaded (what marks a root) and the optional YuNet.
 pub fn installed_files(root: &Path) -> Vec<(PathBuf, &'static str, bool)> {
     let models = root.join("models");
-    let mut files = vec![
-        (models.join(ROOT_MARK), "CenterFace (as downloaded)", false),
-        (
-            models.join(DETECTOR_FILE),
-            "face detector (CenterFace)",
-            true,
-        ),
-        (
-            models.join("yunet.onnx"),
-            "face detector (YuNet, optional)",
-            false,
-        ),
-        (
-            models.join(SEGMENTER_FILE),
-            "person segmentation (the hair)",
-            true,
-        ),
-        (models.join("SHA256SUMS"), "the models' checksums", true),
-        (
-            models.join(LANDMARK_FILE),
-            "dlib's 68-point landmark model",
-            true,
-        ),
-        (
-            models.join(format!("{LANDMARK_FILE}.compact")),
-            "its compact copy (made on first use)",
-            false,
-        ),
-        (
-            root.join(".deps")
-                .join("onnxruntime")
-                .join("libonnxruntime.so.1.31.1"),
-            "ONNX Runtime",
-            true,
-        ),
-    ];
-    let sfm = root.join("shapemodel").join("sfm");
-    use glyptic_core::shapemodel as sm;
-    for name in [
-        sm::SHAPE_FILE,
-        sm::BLENDSHAPES_FILE,
-        sm::MAPPING_FILE,
-        sm::EDGE_TOPOLOGY_FILE,
-        sm::CONTOURS_FILE,
-        "SHA256SUMS",
-    ] {
-        files.push((sfm.join(name), "Surrey Face Model", true));
-    }
+    let mut files = ModelPaths::under(root).files();
+    files.push((models.join(ROOT_MARK), "CenterFace (as downloaded)", false));
+    files.push((
+        models.join("yunet.onnx"),
+        "face detector (YuNet, optional)",
+        false,
+    ));
     files
 }
 
@@ -229,10 +246,7 @@ pub fn segmenter_model() -> PathBuf {
 pub fn onnxruntime_lib() -> PathBuf {
     match std::env::var_os(ORT_ENV) {
         Some(p) => PathBuf::from(p),
-        None => root()
-            .join(".deps")
-            .join("onnxruntime")
-            .join("libonnxruntime.so.1.31.1"),
+        None => ModelPaths::under(&root()).onnxruntime,
     }
 }
 

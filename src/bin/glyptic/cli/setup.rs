@@ -155,30 +155,13 @@ pub(super) fn doctor(_: &DoctorArgs) -> Result<()> {
             say!("{var:<12} {}", PathBuf::from(value).display());
         }
     }
-    // The files the program will open (the environment may point some elsewhere) and the
-    // rest of set-up's layout under the root.
-    let paths = assets::ModelPaths::locate();
-    let mut checks: Vec<(PathBuf, &str, bool)> = vec![
-        (paths.detector.clone(), "face detector", true),
-        (paths.onnxruntime.clone(), "ONNX Runtime", true),
-        (paths.landmarks.clone(), "landmark model", true),
-        (paths.segmenter.clone(), "person segmentation", true),
-    ];
-    for (path, what, needed) in assets::installed_files(&root) {
-        if !checks.iter().any(|(p, ..)| *p == path) {
-            let overridden = path.starts_with(root.join("shapemodel"))
-                && std::env::var_os(assets::SFM_ENV).is_some();
-            if !overridden {
-                checks.push((path, what, needed));
-            }
+    // The files the program will open (the environment may point some elsewhere), and the
+    // rest of an installation under the root.
+    let mut checks = assets::ModelPaths::locate().files();
+    for file in assets::installed_files(&root) {
+        if !checks.iter().any(|(p, ..)| *p == file.0) && !file.2 {
+            checks.push(file);
         }
-    }
-    if std::env::var_os(assets::SFM_ENV).is_some() {
-        checks.push((
-            paths.sfm_dir.join(glyptic::shapemodel::SHAPE_FILE),
-            "Surrey Face Model",
-            true,
-        ));
     }
     let mut missing = 0;
     for (path, what, needed) in &checks {
