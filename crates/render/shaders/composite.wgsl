@@ -24,8 +24,8 @@ struct Composite {
 @group(0) @binding(0) var<uniform> comp: Composite;
 
 // No backdrop: the output's alpha is the gem's coverage and its colour unpremultiplied. A
-// pipeline constant, not a uniform: with a runtime branch here llvmpipe's composite slowed
-// the kiosk and its memory grew (20 % over a 24 s soak).
+// pipeline constant, not a uniform: with a runtime branch here the kiosk's memory grew on
+// llvmpipe (20 % over a 24 s soak; flat as a constant).
 override TRANSPARENT: bool = false;
 @group(0) @binding(1) var diffuse_tex: texture_2d<f32>;
 @group(0) @binding(2) var specular_tex: texture_2d<f32>;
