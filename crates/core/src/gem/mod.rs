@@ -23,6 +23,7 @@ pub mod basrelief;
 mod blur;
 mod builder;
 pub mod face;
+pub mod gltf;
 pub mod measure;
 mod obj;
 mod poisson;
