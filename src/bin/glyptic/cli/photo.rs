@@ -19,6 +19,7 @@ use super::{ViewArgs, check_outputs, print_stages, write_atomic};
   glyptic render -o mean.png                        the cameo with the model's mean face
   glyptic render -o gem.png --photo portrait.jpg    as `glyptic photo`
   glyptic render -o gem.png --face face.obj --gem-obj gem.obj --stl gem.stl
+  glyptic render -o gem.png --material agate --gltf gem.glb   the cameo for a 3D viewer
   glyptic render -o clear.png --background transparent --material agate")]
 pub struct RenderArgs {
     /// Output image: .png or .jpg (the format follows the extension).
@@ -44,7 +45,8 @@ pub struct RenderArgs {
     pub json: bool,
 }
 
-/// The carved stone for a 3D printer or a CNC router (`render`, `photo`).
+/// The gem for other programs (`render`, `photo`): the stone for a 3D printer or a CNC
+/// router, the cameo for a 3D viewer.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct MakeArgs {
     /// Also write the stone as a closed solid for a 3D printer or CAM program: binary STL in
@@ -60,12 +62,28 @@ pub struct MakeArgs {
     /// text (`glyptic:mm_per_level`).
     #[arg(long, value_name = "FILE.png")]
     pub heightmap: Option<PathBuf>,
+    /// Also write the cameo as shown (stone and gold bezel, with their materials) as binary
+    /// glTF 2.0 for a 3D viewer: metres, +Y up, facing +Z.
+    #[arg(long, value_name = "FILE.glb")]
+    pub gltf: Option<PathBuf>,
 }
 
 impl MakeArgs {
-    fn outputs(&self) -> impl Iterator<Item = &Path> {
-        self.stl.iter().chain(&self.heightmap).map(PathBuf::as_path)
+    pub(super) fn outputs(&self) -> impl Iterator<Item = &Path> {
+        self.stl
+            .iter()
+            .chain(&self.heightmap)
+            .chain(&self.gltf)
+            .map(PathBuf::as_path)
     }
+}
+
+/// Files made in memory, written only once everything else has succeeded.
+pub(super) struct Made {
+    /// Each file's path, bytes and what it holds (for the stage line).
+    pub files: Vec<(PathBuf, Vec<u8>, String)>,
+    /// How long making them took.
+    pub ms: f64,
 }
 
 #[cfg(feature = "face")]
@@ -74,6 +92,7 @@ impl MakeArgs {
   glyptic photo portrait.jpg -o gem.png
   glyptic photo portrait.jpg -o gem.jpg --material agate --size 1280x1600
   glyptic photo portrait.jpg -o gem.png --stl gem.stl --heightmap gem-height.png
+  glyptic photo portrait.jpg -o gem.png --gltf gem.glb      (binary glTF 2.0)
   glyptic photo portrait.jpg -o gem.png --antialias off     (faster without a GPU)
 
 Exit codes: 0 the gem was written; 1 an error (named on stderr, nothing written); 2 a bad
@@ -116,23 +135,63 @@ fn outputs_json(pairs: &[(&str, Option<&Path>)]) -> serde_json::Value {
         .into()
 }
 
-/// The STL and height map (whichever `make` asks for) of the relief cut from `face` (model mm)
-/// for `cameo`: the relief again (~30 ms), since the gem's mesh is made for rendering. Returns
-/// the files' bytes and a stage line, written only after everything else succeeded.
-fn make_files(
+/// The cameo as binary glTF, its materials the renderer's for `params`' stone.
+pub(super) fn glb(
+    mesh: &glyptic::render::Mesh,
+    params: &RenderParams,
+    source: &str,
+) -> Result<Vec<u8>, gem::gltf::GltfError> {
+    let stone = match params.material {
+        glyptic::render::Material::Marble => gem::gltf::Stone::Marble,
+        glyptic::render::Material::Agate => gem::gltf::Stone::Agate {
+            hair_layer: params.hair_layer,
+        },
+    };
+    gem::gltf::to_glb(
+        mesh,
+        &gem::gltf::GltfOptions {
+            stone,
+            generator: concat!("glyptic ", env!("CARGO_PKG_VERSION")),
+            source,
+        },
+    )
+}
+
+/// The files `make` asks for: the STL and height map of the relief cut from `face` (model
+/// mm) for `cameo` (the relief again, ~30 ms, since the gem's mesh is made for rendering),
+/// and the GLB of the gem's `mesh` as `params` shows it.
+pub(super) fn make_files(
     make: &MakeArgs,
     face: &[f32],
     triangles: &[[u32; 3]],
     cameo: &gem::CameoParams,
+    (mesh, params): (&glyptic::render::Mesh, &RenderParams),
     source: &str,
-) -> Result<Vec<(PathBuf, Vec<u8>, String)>> {
+) -> Result<Made> {
+    let start = Instant::now();
+    let mut files = Vec::new();
+    if let Some(path) = &make.gltf {
+        let t = Instant::now();
+        let bytes = glb(mesh, params, source)
+            .with_context(|| format!("{}: cannot make the glTF", path.display()))?;
+        let detail = format!(
+            "{}: {} triangles, {:.2} MB, {:.1} ms",
+            path.display(),
+            mesh.indices.len() / 3,
+            bytes.len() as f64 / 1e6,
+            t.elapsed().as_secs_f64() * 1e3
+        );
+        files.push((path.clone(), bytes, detail));
+    }
     if make.stl.is_none() && make.heightmap.is_none() {
-        return Ok(Vec::new());
+        return Ok(Made {
+            files,
+            ms: start.elapsed().as_secs_f64() * 1e3,
+        });
     }
     let relief = gem::CameoBuilder::new(cameo)?.relief(face, triangles)?;
     let field = relief.height_field();
     let half = [cameo.half_width, cameo.half_height];
-    let mut files = Vec::new();
     if let Some(path) = &make.stl {
         let solid = gem::solid::solid(&field, half, make.base)
             .with_context(|| format!("{}: cannot make the solid", path.display()))?;
@@ -168,7 +227,10 @@ fn make_files(
             ),
         ));
     }
-    Ok(files)
+    Ok(Made {
+        files,
+        ms: start.elapsed().as_secs_f64() * 1e3,
+    })
 }
 
 /// A 16-bit grey PNG with its scale in its text chunks, where CAM programs and people look.
@@ -195,18 +257,18 @@ fn height_map_png(map: &gem::solid::HeightMap, source: &str) -> Result<Vec<u8>> 
     Ok(bytes)
 }
 
-/// Writes the files of [`make_files`] and prints their stage line.
-fn write_made(files: Vec<(PathBuf, Vec<u8>, String)>) -> Result<()> {
+/// Writes the files of [`make_files`] and prints their stage line (making and writing).
+fn write_made(made: Made) -> Result<()> {
     let t = Instant::now();
     let mut details = Vec::new();
-    for (path, bytes, detail) in files {
+    for (path, bytes, detail) in made.files {
         write_atomic(&path, &bytes)?;
         details.push(detail);
     }
     if !details.is_empty() {
         print_stages(&[Stage {
             name: "make files",
-            ms: t.elapsed().as_secs_f64() * 1e3,
+            ms: made.ms + t.elapsed().as_secs_f64() * 1e3,
             detail: details.join("; "),
         }]);
     }
@@ -308,7 +370,14 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
         Some(path) => path.display().to_string(),
         None => "the mean face".to_string(),
     };
-    let made = make_files(&args.make, &face, &triangles, &cameo, &source)?;
+    let made = make_files(
+        &args.make,
+        &face,
+        &triangles,
+        &cameo,
+        (&mesh, &params),
+        &source,
+    )?;
     let mut renderer = join_renderer(renderer_thread)?;
     let png = render_png(&mut renderer, &mesh, &params, &args.output)?;
     if let Some(obj) = &args.gem_obj {
@@ -332,6 +401,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                     ("gem_obj", args.gem_obj.as_deref()),
                     ("stl", args.make.stl.as_deref()),
                     ("heightmap", args.make.heightmap.as_deref()),
+                    ("gltf", args.make.gltf.as_deref()),
                 ]),
                 "stages": super::stages_json(),
                 "total_ms": start.elapsed().as_secs_f64() * 1e3,
@@ -440,6 +510,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
         &gem.face.portrait,
         triangles,
         &gem.cameo,
+        (&gem.mesh, &params),
         &image_path.display().to_string(),
     )?;
     let mut renderer = join_renderer(renderer_thread)?;
@@ -494,6 +565,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
                     ("gem_obj", args.gem_obj.as_deref()),
                     ("stl", args.make.stl.as_deref()),
                     ("heightmap", args.make.heightmap.as_deref()),
+                    ("gltf", args.make.gltf.as_deref()),
                 ]),
                 "face": {
                     "box": face.detection.bbox,
