@@ -3,7 +3,8 @@
 //! Face workers (one per core by default, each with its own detector session, sharing the
 //! landmark and face models) feed one render thread (the software rasteriser spreads each frame
 //! over the cores itself). A bad image is recorded and skipped; the CSV lists every image with
-//! its status and per-stage times, in input order.
+//! its status and per-stage times, in input order. The exports (`--stl`, `--heightmap`,
+//! `--gltf`) are made on the face workers and written beside each gem, named after it.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -22,6 +23,8 @@ use super::ViewArgs;
 #[command(after_help = "Examples:
   glyptic batch photos/ -o gems/
   glyptic batch photos/ -o gems/ --jobs 2 --csv report.csv --material agate
+  glyptic batch photos/ -o gems/ --stl --heightmap --gltf
+      beside each NAME-gem.png: NAME-gem.stl, NAME-height.png and NAME-gem.glb
 
 Exit codes: 0 every photo made a gem; 1 some did not (the CSV says which and why) or the run
 could not start; 2 a bad option.")]
@@ -37,6 +40,22 @@ pub struct BatchArgs {
     /// Per-image status and times (default: OUTDIR/batch.csv).
     #[arg(long, value_name = "FILE.csv")]
     pub csv: Option<PathBuf>,
+    /// Also write each stone for a 3D printer as OUTDIR/NAME-gem.stl (as `photo --stl`:
+    /// binary STL in mm, a closed solid on a flat slab).
+    #[arg(long)]
+    pub stl: bool,
+    /// The slab's thickness below the ground, mm (with --stl).
+    #[arg(long, default_value_t = 3.0, value_name = "MM",
+          value_parser = super::args::finite_in::<f32>(0.1, 100.0))]
+    pub base: f32,
+    /// Also write each relief for a CNC router as OUTDIR/NAME-height.png (as `photo
+    /// --heightmap`: 16-bit grey, its mm per level in the PNG's text).
+    #[arg(long)]
+    pub heightmap: bool,
+    /// Also write each cameo for a 3D viewer as OUTDIR/NAME-gem.glb (as `photo --gltf`:
+    /// binary glTF 2.0).
+    #[arg(long)]
+    pub gltf: bool,
     #[command(flatten)]
     pub view: ViewArgs,
     #[command(flatten)]
@@ -52,6 +71,8 @@ pub struct BatchArgs {
 struct Row {
     input: PathBuf,
     output: Option<PathBuf>,
+    /// The exports written beside the gem, by kind (`stl`, `heightmap`, `gltf`).
+    exports: Vec<(&'static str, PathBuf)>,
     status: &'static str,
     faces: usize,
     stages: Vec<(&'static str, f64)>,
@@ -71,8 +92,49 @@ const CSV_STAGES: [&str; 10] = [
     "write",
 ];
 
-/// Output names: `NAME-gem.png`, or `NAME.ext-gem.png` for names shared by several inputs.
-fn output_names(files: &[PathBuf], out_dir: &Path) -> Vec<PathBuf> {
+/// One image's files: the gem and the exports asked for.
+#[derive(Clone, Debug)]
+struct Outputs {
+    gem: PathBuf,
+    make: super::photo::MakeArgs,
+}
+
+impl Outputs {
+    /// The exports by kind, as the JSON report names them.
+    fn exports(&self) -> Vec<(&'static str, PathBuf)> {
+        [
+            ("stl", &self.make.stl),
+            ("heightmap", &self.make.heightmap),
+            ("gltf", &self.make.gltf),
+        ]
+        .into_iter()
+        .filter_map(|(kind, p)| p.clone().map(|p| (kind, p)))
+        .collect()
+    }
+}
+
+/// Each image's files in `out_dir`, named after it: `NAME-gem.png` and beside it
+/// `NAME-gem.stl`, `NAME-height.png`, `NAME-gem.glb` (those asked for).
+fn outputs_for(files: &[PathBuf], out_dir: &Path, args: &BatchArgs) -> Vec<Outputs> {
+    output_names(files)
+        .into_iter()
+        .map(|name| {
+            let file = |suffix: &str| out_dir.join(format!("{name}{suffix}"));
+            Outputs {
+                gem: file("-gem.png"),
+                make: super::photo::MakeArgs {
+                    stl: args.stl.then(|| file("-gem.stl")),
+                    base: args.base,
+                    heightmap: args.heightmap.then(|| file("-height.png")),
+                    gltf: args.gltf.then(|| file("-gem.glb")),
+                },
+            }
+        })
+        .collect()
+}
+
+/// Output names: `NAME`, or `NAME.ext` for names shared by several inputs.
+fn output_names(files: &[PathBuf]) -> Vec<String> {
     let stem = |p: &Path| {
         p.file_stem()
             .map_or(String::new(), |s| s.to_string_lossy().into_owned())
@@ -85,13 +147,12 @@ fn output_names(files: &[PathBuf], out_dir: &Path) -> Vec<PathBuf> {
         .iter()
         .map(|f| {
             let s = stem(f);
-            let name = if count[&s] > 1 {
+            if count[&s] > 1 {
                 f.file_name()
                     .map_or(s.clone(), |n| n.to_string_lossy().into_owned())
             } else {
                 s
-            };
-            out_dir.join(format!("{name}-gem.png"))
+            }
         })
         .collect()
 }
@@ -138,12 +199,53 @@ fn face_job(
     pipeline: &mut GemPipeline,
     input: &Path,
     row: &mut Row,
-) -> Result<glyptic::render::Mesh, GemPipelineError> {
+) -> Result<glyptic::pipeline::gem::PhotoGem, GemPipelineError> {
     let (made, stages) = glyptic::stage::record(|| pipeline.photo(input));
     row.stages.extend(stages.iter().map(|s| (s.name, s.ms)));
     let made = made?;
     row.faces = made.face.faces_found;
-    Ok(made.mesh)
+    Ok(made)
+}
+
+/// The exports `make` asks for of one image's gem (stage `export`), in memory.
+fn export_job(
+    pipeline: &GemPipeline,
+    gem: &glyptic::pipeline::gem::PhotoGem,
+    make: &super::photo::MakeArgs,
+    view: &glyptic::render::RenderParams,
+    input: &Path,
+    row: &mut Row,
+) -> Result<super::photo::Made> {
+    if make.outputs().next().is_none() {
+        return Ok(super::photo::Made {
+            files: Vec::new(),
+            ms: 0.0,
+        });
+    }
+    let (made, stages) = glyptic::stage::record(|| {
+        glyptic::stage::timed(
+            "export",
+            || {
+                super::photo::make_files(
+                    make,
+                    &gem.face.portrait,
+                    &pipeline.face.model.shape.triangles,
+                    &gem.cameo,
+                    (&gem.mesh, view),
+                    &input.display().to_string(),
+                )
+            },
+            |m| {
+                m.files
+                    .iter()
+                    .map(|f| f.2.as_str())
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            },
+        )
+    });
+    row.stages.extend(stages.iter().map(|s| (s.name, s.ms)));
+    made
 }
 
 pub fn batch(args: &BatchArgs) -> Result<()> {
@@ -165,15 +267,18 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     }
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot make the output folder", args.output.display()))?;
-    let outputs = output_names(&files, &args.output);
+    let outputs = outputs_for(&files, &args.output, args);
     let csv = args
         .csv
         .clone()
         .unwrap_or_else(|| args.output.join("batch.csv"));
-    // No gem and not the CSV may replace a photo of the batch, nor each other.
+    // No gem, export or the CSV may replace a photo of the batch, nor each other.
     super::check_outputs(
         files.iter().map(PathBuf::as_path),
-        outputs.iter().map(PathBuf::as_path).chain([csv.as_path()]),
+        outputs
+            .iter()
+            .flat_map(|o| std::iter::once(o.gem.as_path()).chain(o.make.outputs()))
+            .chain([csv.as_path()]),
     )?;
     // Never more workers than cores: each holds a decoded photo and its buffers, and more
     // would only multiply the memory a hostile image can take, not the speed.
@@ -213,7 +318,12 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     let files = Arc::new(files);
     let next = Arc::new(AtomicUsize::new(0));
     // Bounded: workers wait while the renderer is behind rather than piling up meshes.
-    let (tx, rx) = crossbeam_channel::bounded::<(usize, Row, Option<glyptic::render::Mesh>)>(jobs);
+    type Job = (
+        usize,
+        Row,
+        Option<(glyptic::render::Mesh, super::photo::Made)>,
+    );
+    let (tx, rx) = crossbeam_channel::bounded::<Job>(jobs);
     let mut rows: Vec<Row> = files
         .iter()
         .map(|f| Row {
@@ -224,6 +334,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     std::thread::scope(|scope| -> Result<()> {
         for mut pipeline in pipelines {
             let (files, next, tx) = (files.clone(), next.clone(), tx.clone());
+            let (outputs, view) = (&outputs, &view);
             scope.spawn(move || {
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
@@ -233,14 +344,29 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                         ..Row::default()
                     };
                     // A panic in one image must not take the batch down.
-                    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        face_job(&mut pipeline, input, &mut row)
-                    }));
+                    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(
+                        || -> Result<_, (&'static str, String)> {
+                            let gem = face_job(&mut pipeline, input, &mut row).map_err(|e| {
+                                let status = if e.is_no_face() { "no face" } else { "error" };
+                                (status, format!("{e:#}"))
+                            })?;
+                            let made = export_job(
+                                &pipeline,
+                                &gem,
+                                &outputs[i].make,
+                                view,
+                                input,
+                                &mut row,
+                            )
+                            .map_err(|e| ("error", format!("{e:#}")))?;
+                            Ok((gem.mesh, made))
+                        },
+                    ));
                     let mesh = match outcome {
-                        Ok(Ok(mesh)) => Some(mesh),
-                        Ok(Err(e)) => {
-                            row.status = if e.is_no_face() { "no face" } else { "error" };
-                            row.error = format!("{e:#}");
+                        Ok(Ok(made)) => Some(made),
+                        Ok(Err((status, error))) => {
+                            row.status = status;
+                            row.error = error;
                             None
                         }
                         Err(_) => {
@@ -262,12 +388,18 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default();
-            if let Some(mesh) = mesh {
+            if let Some((mesh, made)) = mesh {
                 let (written, stages) = glyptic::stage::record(|| -> Result<()> {
                     let png = glyptic::pipeline::gem::render_png(&mut renderer, &mesh, &view)?;
                     glyptic::stage::timed(
                         "write",
-                        || super::write_atomic(&outputs[i], &png),
+                        || {
+                            // The gem last: it says the image is done.
+                            for (path, bytes, _) in &made.files {
+                                super::write_atomic(path, bytes)?;
+                            }
+                            super::write_atomic(&outputs[i].gem, &png)
+                        },
                         |_| String::new(),
                     )
                 });
@@ -275,7 +407,8 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                 match written {
                     Ok(()) => {
                         row.status = "ok";
-                        row.output = Some(outputs[i].clone());
+                        row.output = Some(outputs[i].gem.clone());
+                        row.exports = outputs[i].exports();
                     }
                     Err(e) => {
                         row.status = "error";
@@ -319,9 +452,15 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                     .iter()
                     .map(|(name, ms)| (name.to_string(), serde_json::json!(ms)))
                     .collect();
+                let exports: serde_json::Map<String, serde_json::Value> = r
+                    .exports
+                    .iter()
+                    .map(|(kind, p)| (kind.to_string(), serde_json::json!(p.display().to_string())))
+                    .collect();
                 serde_json::json!({
                     "input": r.input.display().to_string(),
                     "gem": r.output.as_ref().map(|p| p.display().to_string()),
+                    "exports": exports,
                     "status": r.status,
                     "faces": r.faces,
                     "error": (!r.error.is_empty()).then_some(&r.error),
