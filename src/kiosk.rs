@@ -12,6 +12,12 @@ use crate::render::{Material, RenderParams, ZOOM_RANGE};
 use crate::sss::SssParams;
 use crate::styles::Style;
 
+pub mod visitor;
+pub use visitor::{
+    ATTRACT, Attract, Change, HoldGesture, Mode, Presence, Prompt, STAFF_HOLD_S, Situation,
+    StaffAction, Texts, prompt, staff_action,
+};
+
 /// The SSS strength the reset button returns to (red's, as `glyptic render --sss-strength`).
 pub const DEFAULT_SSS_STRENGTH: f32 = crate::sss::DEFAULT_STRENGTH;
 /// Degrees of orbit per pixel dragged.
@@ -46,7 +52,8 @@ pub enum ConfigError {
 pub struct KioskConfig {
     /// Webcam index (/dev/videoN); ignored when `video` is set.
     pub camera: u32,
-    /// Play this video file (looping) instead of a camera.
+    /// Play this video file (looping), or show this photo as if a camera saw it, instead of
+    /// a camera.
     pub video: Option<PathBuf>,
     pub material: Material,
     pub portrait: View,
@@ -58,7 +65,22 @@ pub struct KioskConfig {
     pub idle_seconds: f32,
     /// Seconds the ease back takes.
     pub ease_seconds: f32,
+    /// Fill the screen: the monitor's size at its origin (so no window manager is needed),
+    /// without decorations.
     pub fullscreen: bool,
+    /// Hide the mouse cursor (a touch screen's visitors have no use for it); unset: hidden
+    /// when full screen.
+    pub hide_cursor: Option<bool>,
+    /// The attract mode: when nobody has been seen for `attract_seconds`, the default gem
+    /// turns slowly under a caption inviting the next visitor.
+    pub attract: bool,
+    /// Seconds without a face or a touch before the attract mode (never before the visitor
+    /// has left, after `idle_seconds`).
+    pub attract_seconds: f32,
+    /// A finger held on the screen's top-left corner for four seconds opens the staff panel.
+    pub staff_gesture: bool,
+    /// The visitor's words ([`visitor::Texts`]): another language, the museum's voice.
+    pub texts: visitor::Texts,
     /// The engraved border on the ground at start.
     pub engraving: bool,
     /// The raking lamp and its shadows at start.
@@ -90,6 +112,11 @@ impl Default for KioskConfig {
             idle_seconds: 8.0,
             ease_seconds: 2.0,
             fullscreen: false,
+            hide_cursor: None,
+            attract: true,
+            attract_seconds: 30.0,
+            staff_gesture: true,
+            texts: visitor::Texts::default(),
             engraving: false,
             lamp: false,
             hair_layer: true,
@@ -103,6 +130,11 @@ impl Default for KioskConfig {
 }
 
 impl KioskConfig {
+    /// Whether the cursor is hidden: as configured, else when full screen.
+    pub fn hides_cursor(&self) -> bool {
+        self.hide_cursor.unwrap_or(self.fullscreen)
+    }
+
     /// Reads and checks a configuration file.
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
         let text = crate::files::read_text_limited(path, crate::files::MAX_TEXT_BYTES).map_err(
@@ -139,10 +171,18 @@ impl KioskConfig {
             ("idle_seconds", self.idle_seconds, 0.0, 86_400.0),
             ("ease_seconds", self.ease_seconds, 0.0, 60.0),
             ("render_scale", self.render_scale, 0.25, 1.0),
+            ("attract_seconds", self.attract_seconds, 1.0, 86_400.0),
         ] {
             if !within(v, lo, hi) {
                 return invalid(key, format!("is {v}, not within {lo}..={hi}"));
             }
+        }
+        if let Some((key, problem)) = self.texts.problem() {
+            return Err(ConfigError::Invalid {
+                path: path.to_owned(),
+                key: "texts",
+                problem: format!("{key} {problem}"),
+            });
         }
         for (key, v) in [("width", self.width), ("height", self.height)] {
             if !(64..=8192).contains(&v) {
@@ -421,6 +461,18 @@ mod tests {
         );
         assert_eq!(c.ease_seconds, KioskConfig::default().ease_seconds);
         assert_eq!(parse("").expect("empty is valid"), KioskConfig::default());
+        // Full screen hides the cursor unless told otherwise; a window shows it.
+        assert!(c.hides_cursor() && !KioskConfig::default().hides_cursor());
+        assert!(
+            !parse("fullscreen = true\nhide_cursor = false")
+                .unwrap()
+                .hides_cursor()
+        );
+        // The visitor's words, one replaced, the others kept.
+        let c = parse("attract_seconds = 45\n[texts]\nlook = \"Vaata kaamerasse\"\n").unwrap();
+        assert_eq!(c.texts.get(Prompt::Look), "Vaata kaamerasse");
+        assert_eq!(c.texts.carving, Texts::default().carving);
+        assert_eq!(c.attract_seconds, 45.0);
     }
 
     #[test]
@@ -436,6 +488,15 @@ mod tests {
         assert!(m.contains("width") && m.contains("64"), "{m}");
         let m = msg("render_scale = nan");
         assert!(m.contains("render_scale"), "{m}");
+        let m = msg("[texts]\nlok = \"typo\"");
+        assert!(m.contains("lok"), "{m}");
+        let m = msg("[texts]\nyours = \"  \"");
+        assert!(
+            m.contains("texts") && m.contains("yours") && m.contains("empty"),
+            "{m}"
+        );
+        let m = msg("attract_seconds = 0");
+        assert!(m.contains("attract_seconds"), "{m}");
         let m = msg("camera = [");
         assert!(m.contains("kiosk.toml"), "{m}");
         assert!(matches!(

@@ -141,6 +141,61 @@ impl FrameSource for ImageFileSource {
     }
 }
 
+/// One photo seen again and again at `fps`, as by a camera pointed at it: a kiosk shown
+/// without a camera (a demonstration, the documentation's screenshots). The photo is read once.
+pub struct StillSource {
+    path: PathBuf,
+    image: Option<RgbImage>,
+    fps: f64,
+    index: u64,
+}
+
+impl StillSource {
+    pub fn new(path: impl Into<PathBuf>, fps: f64) -> Self {
+        StillSource {
+            path: path.into(),
+            image: None,
+            fps: if fps.is_finite() && fps > 0.0 {
+                fps
+            } else {
+                10.0
+            },
+            index: 0,
+        }
+    }
+}
+
+impl FrameSource for StillSource {
+    fn name(&self) -> String {
+        self.path.display().to_string()
+    }
+
+    fn next_frame(&mut self) -> Result<Option<RawFrame>, SourceError> {
+        let image = match &self.image {
+            Some(image) => image.clone(),
+            None => {
+                let image = super::load_photo(&self.path).map_err(|e| SourceError::Fatal {
+                    source_name: self.name(),
+                    reason: e.to_string(),
+                })?;
+                self.image = Some(image.clone());
+                image
+            }
+        };
+        let time_s = self.index as f64 / self.fps;
+        self.index += 1;
+        Ok(Some(RawFrame {
+            image,
+            time_s: Some(time_s),
+            path: None,
+        }))
+    }
+
+    fn frame_rate(&self) -> Option<f64> {
+        Some(self.fps)
+    }
+}
+
 /// The images of a folder in name order; an unreadable one is a [`SourceError::BadFrame`]
 /// and the next call goes on with the next file.
 pub struct FolderSource {
@@ -282,5 +337,28 @@ mod tests {
             .map(|f| f.time_s.unwrap())
             .collect();
         assert_eq!(times, [0.0, 0.04, 0.08]);
+    }
+    #[test]
+    fn a_still_photo_plays_as_an_endless_camera() {
+        let dir = scratch("still");
+        let path = dir.join("face.png");
+        RgbImage::from_pixel(48, 40, image::Rgb([200, 10, 10]))
+            .save(&path)
+            .unwrap();
+        let mut src = StillSource::new(&path, 10.0);
+        assert_eq!(src.frame_rate(), Some(10.0));
+        for i in 0..5 {
+            let f = src.next_frame().unwrap().expect("never ends");
+            assert_eq!(f.image.dimensions(), (48, 40));
+            assert!((f.time_s.unwrap() - f64::from(i) * 0.1).abs() < 1e-9);
+        }
+        // Damaged or missing: fatal and named, not a panic.
+        std::fs::write(&path, b"not a png").unwrap();
+        let e = StillSource::new(&path, f64::NAN).next_frame().unwrap_err();
+        assert!(
+            matches!(e, SourceError::Fatal { .. }) && e.to_string().contains("face.png"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
