@@ -192,9 +192,59 @@ fn kiosk_shows_the_gem_and_follows_the_face_in_a_video() {
 struct Live {
     child: Child,
     lines: Arc<Mutex<Vec<serde_json::Value>>>,
+    /// What the kiosk logged (drained as it comes, so the pipe never fills).
+    log: Arc<Mutex<String>>,
 }
 
 impl Live {
+    /// Starts a kiosk (with `--trace`) and collects its trace lines as they come.
+    fn spawn(cmd: &mut Command) -> Live {
+        let mut child = cmd
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start the kiosk");
+        let stdout = child.stdout.take().expect("kiosk stdout");
+        let stderr = child.stderr.take().expect("kiosk stderr");
+        let lines = Arc::new(Mutex::new(Vec::new()));
+        let log = Arc::new(Mutex::new(String::new()));
+        let sink = Arc::clone(&lines);
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(stdout)
+                .lines()
+                .map_while(Result::ok)
+            {
+                if let Ok(v) = serde_json::from_str(&line) {
+                    sink.lock().unwrap().push(v);
+                }
+            }
+        });
+        let sink = Arc::clone(&log);
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(stderr)
+                .lines()
+                .map_while(Result::ok)
+            {
+                let mut log = sink.lock().unwrap();
+                log.push_str(&line);
+                log.push('\n');
+            }
+        });
+        Live { child, lines, log }
+    }
+
+    /// Waits up to `secs` for the kiosk to exit; its status.
+    fn wait_exit(&mut self, secs: u64) -> Option<std::process::ExitStatus> {
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(secs) {
+            if let Ok(Some(status)) = self.child.try_wait() {
+                return Some(status);
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        None
+    }
+
     fn latest(&self) -> Option<serde_json::Value> {
         self.lines.lock().unwrap().last().cloned()
     }
@@ -209,8 +259,9 @@ impl Live {
             std::thread::sleep(Duration::from_millis(100));
         }
         panic!(
-            "waited {secs} s for {what}; last frame: {:?}",
-            self.latest()
+            "waited {secs} s for {what}; last frame: {:?}\nlog:\n{}",
+            self.latest(),
+            self.log.lock().unwrap()
         );
     }
 }
@@ -265,28 +316,13 @@ fn injected_pointer_events_drive_the_controls_without_moving_the_camera() {
     let x = Xvfb::start();
     let dir = scratch("pointer");
     let video = clip(&dir, "takeo.ppm");
-    let mut child = kiosk(&x)
-        .arg("--video")
-        .arg(&video)
-        .args(["--seconds", "40", "--size", "600x800", "--trace"])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start the kiosk");
-    let stdout = child.stdout.take().expect("kiosk stdout");
-    let lines = Arc::new(Mutex::new(Vec::new()));
-    let sink = Arc::clone(&lines);
-    std::thread::spawn(move || {
-        for line in std::io::BufReader::new(stdout)
-            .lines()
-            .map_while(Result::ok)
-        {
-            if let Ok(v) = serde_json::from_str(&line) {
-                sink.lock().unwrap().push(v);
-            }
-        }
-    });
-    let live = Live { child, lines };
+    let live = Live::spawn(kiosk(&x).arg("--video").arg(&video).args([
+        "--seconds",
+        "40",
+        "--size",
+        "600x800",
+        "--trace",
+    ]));
     live.wait_for(20, "the first gem", |l| l["gems"].as_u64() >= Some(1));
     let frame = live.latest().unwrap();
     let still = |l: &serde_json::Value| l["yaw_deg"] == 0.0 && l["pitch_deg"] == 0.0;
@@ -581,6 +617,8 @@ fn the_build_without_the_face_pipeline_shows_the_default_gem() {
         last["status"]
     );
     assert!(last["full_gem_frame_s"].is_number(), "{last}");
+    // The visitor is told what there is, not why.
+    assert_eq!(last["prompt"], "resting", "{last}");
     let img = image::open(&shot).unwrap().to_rgba8();
     assert!(gold_pixels(&img) > 2000, "no gem in the screenshot");
     let photo = Command::new(&bin)
@@ -754,4 +792,273 @@ fn a_camera_that_comes_and_goes_is_waited_for() {
         })
         .count();
     assert_eq!(outages, 2, "two outages seen");
+}
+
+/// Whether the X server's cursor, where the pointer is, shows any pixel (XFixes' cursor image).
+fn cursor_visible(x: &Xvfb) -> bool {
+    use x11rb::protocol::xfixes::ConnectionExt as _;
+    let (conn, _) = x11rb::connect(Some(&x.display)).expect("connect to Xvfb");
+    conn.xfixes_query_version(5, 0)
+        .expect("XFixes")
+        .reply()
+        .expect("XFixes' version");
+    let image = conn
+        .xfixes_get_cursor_image()
+        .expect("ask for the cursor")
+        .reply()
+        .expect("the cursor's image");
+    image.cursor_image.iter().any(|argb| argb >> 24 != 0)
+}
+
+fn xdotool_output(x: &Xvfb, args: &str) -> String {
+    let out = Command::new("xdotool")
+        .args(words(args))
+        .env("DISPLAY", &x.display)
+        .output()
+        .expect("xdotool");
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Full screen on an X server without a window manager (as in a museum: Xorg alone) covers
+/// the screen, the cursor is hidden even over a button, and the staff's keys open and close
+/// the staff panel and quit with exit 0.
+#[test]
+fn full_screen_needs_no_window_manager_hides_the_cursor_and_answers_the_staff_keys() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("fullscreen");
+    xdotool(&x, &words("mousemove 500 600"));
+    assert!(
+        cursor_visible(&x),
+        "the X server's own cursor shows before the kiosk starts"
+    );
+    let shot = dir.join("staff.png");
+    let _ = std::fs::remove_file(&shot);
+    // No camera here: the default gem, the kiosk waits for one.
+    let mut live = Live::spawn(
+        kiosk(&x)
+            .args([
+                "--fullscreen",
+                "--camera",
+                "57",
+                "--trace",
+                "--seconds",
+                "150",
+            ])
+            .arg("--screenshot")
+            .arg(&shot),
+    );
+    live.wait_for(90, "the gem at full size", |l| {
+        !l["full_gem_frame_s"].is_null()
+    });
+    let frame = live.latest().unwrap();
+    assert_eq!(frame["window"], serde_json::json!([1024, 1280]), "{frame}");
+    assert_eq!(frame["cursor_hidden"], true);
+    let geometry = xdotool_output(&x, "search --name ^glyptic$ getwindowgeometry");
+    assert!(
+        geometry.contains("Position: 0,0") && geometry.contains("Geometry: 1024x1280"),
+        "as the X server sees it: {geometry}"
+    );
+    // The visitor sees a prompt, never the camera's error (that goes to the log).
+    assert_eq!(frame["prompt"], "resting", "{frame}");
+    let text = frame["prompt_text"].as_str().unwrap();
+    assert!(
+        !text.contains("camera 57") && !text.contains("error"),
+        "{text}"
+    );
+    assert!(
+        live.log.lock().unwrap().contains("no camera"),
+        "the log names the problem"
+    );
+
+    xdotool(&x, &words("mousemove 510 610 sleep 0.5"));
+    assert!(!cursor_visible(&x), "the cursor shows over the kiosk");
+    // Over a button, where egui would show its pointing hand.
+    let (bx, by) = centre(&frame, "agate");
+    xdotool(&x, &words(&format!("mousemove {bx} {by} sleep 1")));
+    assert!(!cursor_visible(&x), "the cursor shows over a button");
+
+    xdotool(&x, &words("key ctrl+shift+s"));
+    live.wait_for(10, "the staff panel", |l| l["staff"] == true);
+    xdotool(&x, &words("key Escape"));
+    live.wait_for(10, "the staff panel closed", |l| l["staff"] == false);
+    std::thread::sleep(Duration::from_secs(1));
+    assert!(
+        live.child.try_wait().unwrap().is_none(),
+        "Escape quit a full-screen kiosk"
+    );
+    xdotool(&x, &words("key F12"));
+    live.wait_for(10, "the staff panel again", |l| l["staff"] == true);
+    std::thread::sleep(Duration::from_secs(1));
+    xdotool(&x, &words("key ctrl+shift+q"));
+    let status = live.wait_exit(30);
+    let log = live.log.lock().unwrap().clone();
+    let Some(status) = status else {
+        let _ = live.child.kill();
+        panic!("Ctrl+Shift+Q did not quit; log:\n{log}");
+    };
+    assert!(status.success(), "{status}; log:\n{log}");
+    assert!(log.contains("quit by the staff"), "{log}");
+    let screen = image::open(&shot).expect("the screenshot").to_rgba8();
+    assert_eq!(screen.dimensions(), (1024, 1280));
+}
+
+/// A visitor changes every control and leaves: after `idle_seconds` every control is back as
+/// configured (the frozen portrait released, the gem facing front); after `attract_seconds`
+/// the gem turns under the invitation; a touch brings the visitor's kiosk back.
+#[test]
+fn a_visitor_leaving_resets_every_control_and_the_attract_mode_follows() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("attract");
+    let config = dir.join("kiosk.toml");
+    std::fs::write(
+        &config,
+        "idle_seconds = 5.0\nease_seconds = 0.5\nattract_seconds = 11.0\n",
+    )
+    .unwrap();
+    let mut live = Live::spawn(kiosk(&x).arg("--config").arg(&config).args([
+        "--camera",
+        "57",
+        "--size",
+        "500x800",
+        "--trace",
+        "--seconds",
+        "150",
+    ]));
+    live.wait_for(90, "the gem at full size", |l| {
+        !l["full_gem_frame_s"].is_null()
+    });
+    let first = live.latest().unwrap();
+    assert_eq!(first["mode"], "idle");
+    let strength = first["sss_strength"].as_f64().unwrap();
+
+    // Every control changed, one after the other (each a touch: the visitor stays).
+    click(&x, centre(&first, "agate"));
+    live.wait_for(10, "agate", |l| {
+        l["material"] == "agate" && l["mode"] == "visitor"
+    });
+    click(&x, centre(&first, "freeze"));
+    live.wait_for(10, "frozen", |l| {
+        l["frozen"] == true && l["prompt"] == "kept"
+    });
+    click(&x, centre(&first, "style"));
+    live.wait_for(10, "a style", |l| l["style"] == "toon");
+    click(&x, centre(&first, "lamp"));
+    live.wait_for(10, "the lamp", |l| l["lamp"] == true);
+    click(&x, centre(&first, "border"));
+    live.wait_for(10, "the border", |l| l["engraving"] == true);
+    click(&x, centre(&first, "sss"));
+    live.wait_for(10, "the glow off", |l| l["sss"] == false);
+    let (gx, gy) = centre(&first, "gem");
+    drag(&x, (gx, gy), (gx + 60, gy + 20));
+    live.wait_for(10, "the gem turned", |l| {
+        l["yaw_deg"].as_f64().unwrap() < -5.0 && l["mode"] == "visitor"
+    });
+
+    // The visitor leaves.
+    live.wait_for(20, "every control as configured", |l| {
+        l["mode"] == "idle"
+            && l["material"] == "marble"
+            && l["frozen"] == false
+            && l["style"] == "none"
+            && l["lamp"] == false
+            && l["engraving"] == false
+            && l["sss"] == true
+            && l["sss_strength"].as_f64() == Some(strength)
+            && l["yaw_deg"] == 0.0
+            && l["pitch_deg"] == 0.0
+            && l["zoom"] == 1.0
+    });
+    live.wait_for(20, "the attract mode", |l| {
+        l["mode"] == "attract" && l["caption"] == true && l["prompt"] == "attract"
+    });
+    live.wait_for(20, "the gem turning by itself", |l| {
+        l["mode"] == "attract" && l["yaw_deg"].as_f64().unwrap().abs() > 3.0
+    });
+    std::thread::sleep(Duration::from_secs(4));
+    {
+        let lines = live.lines.lock().unwrap();
+        let attract: Vec<&serde_json::Value> =
+            lines.iter().filter(|l| l["mode"] == "attract").collect();
+        let drawn = attract.iter().filter(|l| l["gem_rendered"] == true).count();
+        let span = attract.last().unwrap()["t_s"].as_f64().unwrap()
+            - attract.first().unwrap()["t_s"].as_f64().unwrap();
+        eprintln!("attract: {drawn} gem frames in {span:.1} s");
+        // About 5 a second on a CPU rasteriser (a third of the time drawing).
+        assert!(
+            drawn as f64 >= 2.0 * span,
+            "{drawn} attract frames in {span:.1} s"
+        );
+        assert!(
+            attract
+                .iter()
+                .filter(|l| l["gem_rendered"] == true)
+                .all(|l| l["gem_moving"] == true),
+            "attract frames are moving frames (cheap on a CPU)"
+        );
+    }
+    // A touch: the visitor's kiosk, facing front.
+    click(&x, (gx, gy));
+    live.wait_for(10, "a visitor again", |l| {
+        l["mode"] == "visitor"
+            && l["caption"] == false
+            && l["yaw_deg"] == 0.0
+            && l["material"] == "marble"
+    });
+    let _ = live.child.kill();
+    let _ = live.child.wait();
+}
+
+/// The systemd unit's kiosk command is one the kiosk takes: its `--check` passes with the
+/// example configuration (and fails, by name, on a broken one).
+#[test]
+fn the_deployed_kiosk_command_passes_its_own_check() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let unit = std::fs::read_to_string(root.join("deploy/glyptic-kiosk.service")).unwrap();
+    let exec = unit
+        .lines()
+        .find_map(|l| l.strip_prefix("ExecStart="))
+        .expect("an ExecStart line");
+    let mut words = exec.split_whitespace();
+    assert!(
+        words.next().is_some_and(|b| b.ends_with("/glyptic")),
+        "{exec}"
+    );
+    assert!(
+        unit.lines().any(|l| l.starts_with("ExecStartPre=")
+            && l.contains(exec.split_once(' ').unwrap().1)
+            && l.ends_with("--check")),
+        "the unit checks the same command before it starts"
+    );
+    let dir = scratch("deploy");
+    let args: Vec<String> = words
+        .map(|w| match w {
+            "/etc/glyptic/kiosk.toml" => root.join("deploy/kiosk.toml").display().to_string(),
+            "/var/lib/glyptic/snapshots" => dir.join("snapshots").display().to_string(),
+            w => w.to_string(),
+        })
+        .collect();
+    assert_eq!(args.first().map(String::as_str), Some("kiosk"));
+    let run = Command::new(env!("CARGO_BIN_EXE_glyptic"))
+        .args(&args)
+        .arg("--check")
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success() && out.contains("ready") && out.contains("full screen"),
+        "{out}{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "[texts]\nlook = \"\"\n").unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_glyptic"))
+        .args(["kiosk", "--check", "--config"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "{err}");
+    assert!(err.contains("bad.toml") && err.contains("look"), "{err}");
 }

@@ -21,6 +21,11 @@ pub(super) enum FaceNews {
         latency_ms: f64,
     },
     Status(String),
+    /// Something went wrong (for the staff panel and the log); `camera_down`: no frames come.
+    Trouble {
+        what: String,
+        camera_down: bool,
+    },
     /// The face side died more often than it may be restarted: the kiosk cannot go on.
     Fatal(String),
 }
@@ -63,6 +68,10 @@ impl FrameSource for Faulty {
 
 fn open_source(config: &KioskConfig) -> Box<dyn FrameSource> {
     match &config.video {
+        // A photo: seen as a camera pointed at it would see it.
+        Some(path) if glyptic::capture::source::is_image_path(path) => {
+            Box::new(glyptic::capture::StillSource::new(path.clone(), 10.0))
+        }
         #[cfg(feature = "video")]
         Some(path) => Box::new(glyptic::capture::video::VideoSource::new(
             path.clone(),
@@ -147,7 +156,10 @@ impl Live {
         match Self::spawn_setup(&self.config, None) {
             Ok(rx) => {
                 self.starting = Some(rx);
-                FaceNews::Status("face tracking stopped; restarting".into())
+                FaceNews::Trouble {
+                    what: "face tracking stopped; restarting".into(),
+                    camera_down: true,
+                }
             }
             Err(e) => FaceNews::Fatal(format!("{e:#}")),
         }
@@ -165,7 +177,10 @@ impl Live {
                 }
                 Ok(Err(e)) => {
                     self.starting = None;
-                    news.push(FaceNews::Status(format!("no face tracking: {e}")));
+                    news.push(FaceNews::Trouble {
+                        what: format!("no face tracking: {e}"),
+                        camera_down: true,
+                    });
                 }
                 Err(crossbeam_channel::TryRecvError::Empty) => {}
                 Err(crossbeam_channel::TryRecvError::Disconnected) => self.starting = None,
@@ -175,23 +190,28 @@ impl Live {
             return news;
         };
         for e in stream.events().try_iter() {
-            news.push(FaceNews::Status(match e {
+            let trouble = |what: String, camera_down| FaceNews::Trouble { what, camera_down };
+            news.push(match e {
                 StreamEvent::Capture(CaptureEvent::Started { source }) => {
-                    format!("camera: {source}")
+                    FaceNews::Status(format!("camera: {source}"))
                 }
                 StreamEvent::Capture(CaptureEvent::Unavailable { reason, .. }) => {
-                    format!("no camera: {reason}")
+                    trouble(format!("no camera: {reason}"), true)
                 }
-                StreamEvent::Capture(CaptureEvent::Resumed { .. }) => "camera: back".into(),
+                StreamEvent::Capture(CaptureEvent::Resumed { .. }) => {
+                    FaceNews::Status("camera: back".into())
+                }
                 StreamEvent::Capture(CaptureEvent::BadFrame { reason, .. }) => {
-                    format!("camera: bad frame ({reason})")
+                    trouble(format!("camera: bad frame ({reason})"), false)
                 }
-                StreamEvent::Capture(CaptureEvent::Ended { .. }) => "camera: ended".into(),
+                StreamEvent::Capture(CaptureEvent::Ended { .. }) => {
+                    trouble("camera: ended".into(), true)
+                }
                 StreamEvent::Capture(CaptureEvent::Failed { error }) => {
-                    format!("no camera: {error}")
+                    trouble(format!("no camera: {error}"), true)
                 }
-                StreamEvent::Error { error, .. } => format!("face: {error}"),
-            }));
+                StreamEvent::Error { error, .. } => trouble(format!("face: {error}"), false),
+            });
         }
         match stream.updates().try_recv() {
             Ok(Some(u)) => news.push(FaceNews::Update {

@@ -21,6 +21,7 @@ mod gem_thread;
 mod news;
 mod trace;
 mod ui;
+mod visit;
 mod window;
 
 use std::path::{Path, PathBuf};
@@ -40,12 +41,22 @@ use window::Running;
 #[command(after_help = "Examples:
   glyptic kiosk --fullscreen                 the webcam, full screen
   glyptic kiosk --video visitor.mp4 --config kiosk.toml
-  glyptic kiosk --camera 1 --size 800x1000 --snapshots ~/gems")]
+  glyptic kiosk --camera 1 --size 800x1000 --snapshots ~/gems
+  glyptic kiosk --video portrait.jpg         a photo, as if a camera saw it
+
+Staff: Ctrl+Shift+S or F12 (or a finger held on the top-left corner for 4 s) opens the staff
+panel (timings, recent problems, Quit); Ctrl+Shift+Q quits; Esc closes the panel, and quits in
+a window. Problems are logged to stderr (the journal under systemd), never shown to visitors.
+deploy/ holds a systemd unit that starts the kiosk on its own X server and restarts it.
+
+Exit codes: 0 quit by the staff or --frames/--seconds reached; 1 a bad configuration, a
+missing video, no display, or a worker that kept dying.")]
 pub struct KioskArgs {
     /// Webcam N (/dev/videoN) [config: camera; default 0].
     #[arg(long, value_name = "N", conflicts_with = "video")]
     pub camera: Option<u32>,
-    /// Play this video file, looping, instead of a camera [config: video].
+    /// Play this video file, looping, or show this photo as a camera would, instead of a
+    /// camera [config: video].
     #[arg(long, value_name = "FILE")]
     pub video: Option<PathBuf>,
     /// Fill the screen [config: fullscreen].
@@ -71,6 +82,14 @@ pub struct KioskArgs {
     /// Where the "Save" button writes its PNGs.
     #[arg(long, value_name = "DIR", default_value = ".")]
     pub snapshots: PathBuf,
+    /// Check the set-up (configuration, video, folders, models) and exit without opening a
+    /// window: 0 if the kiosk can start, 1 with what is wrong (for install scripts and staff).
+    #[arg(long)]
+    pub check: bool,
+    /// Open the staff panel at start (figures, recent problems, the quit button); staff open
+    /// it later with Ctrl+Shift+S, F12 or a finger held on the top-left corner.
+    #[arg(long)]
+    pub staff: bool,
     /// Print one JSON line per presented frame to stdout (frame, gem, controls, orbit, status).
     #[arg(long)]
     pub trace: bool,
@@ -116,6 +135,9 @@ pub fn kiosk(args: &KioskArgs) -> Result<()> {
     crate::cli::check_outputs(config.video.as_deref(), args.screenshot.as_deref())?;
     std::fs::create_dir_all(&args.snapshots)
         .with_context(|| format!("{}: cannot create", args.snapshots.display()))?;
+    if args.check {
+        return check(&config, args);
+    }
 
     let event_loop = EventLoop::new().context("opening the display (is DISPLAY set?)")?;
     event_loop.set_control_flow(ControlFlow::Poll);
@@ -133,6 +155,51 @@ pub fn kiosk(args: &KioskArgs) -> Result<()> {
     }
 }
 
+/// `--check`: the models the kiosk loads are there; what it would show and where.
+fn check(config: &KioskConfig, args: &KioskArgs) -> Result<()> {
+    let paths = glyptic::assets::ModelPaths::locate();
+    // The build without the face pipeline needs only the shape model (the default face).
+    let missing: Vec<String> = paths
+        .files()
+        .into_iter()
+        .filter(|(path, _, required)| {
+            *required
+                && !path.exists()
+                && (cfg!(feature = "face") || path.starts_with(&paths.sfm_dir))
+        })
+        .map(|(path, what, _)| format!("{what} ({})", path.display()))
+        .collect();
+    if !missing.is_empty() {
+        anyhow::bail!(
+            "missing {}: `glyptic setup` fetches what may be fetched, `glyptic doctor` says more",
+            missing.join(", ")
+        );
+    }
+    let source = match &config.video {
+        Some(v) => v.display().to_string(),
+        None => format!(
+            "camera {} (/dev/video{}; waited for if absent)",
+            config.camera, config.camera
+        ),
+    };
+    let screen = if config.fullscreen {
+        "full screen".to_string()
+    } else {
+        format!("a {}x{} window", config.width, config.height)
+    };
+    say!(
+        "kiosk: ready: {source}, {screen}, snapshots to {}, {}",
+        args.snapshots.display(),
+        args.config
+            .as_ref()
+            .map_or("default configuration".into(), |c| format!(
+                "configuration {}",
+                c.display()
+            ))
+    );
+    Ok(())
+}
+
 struct App {
     args: KioskArgs,
     config: KioskConfig,
@@ -147,7 +214,7 @@ impl ApplicationHandler for App {
         if self.running.is_some() {
             return;
         }
-        match Running::new(event_loop, &self.config, self.started) {
+        match Running::new(event_loop, &self.config, self.started, self.args.staff) {
             Ok(r) => self.running = Some(r),
             Err(e) => {
                 self.error = Some(e);
@@ -163,6 +230,15 @@ impl ApplicationHandler for App {
         let response = r.egui_state.on_window_event(&r.window, &event);
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::ModifiersChanged(m) => r.modifiers = m.state(),
+            WindowEvent::KeyboardInput { event, .. }
+                if event.state.is_pressed() && !event.repeat =>
+            {
+                if let Some(key) = key_name(&event) {
+                    r.key(key);
+                    r.window.request_redraw();
+                }
+            }
             WindowEvent::Resized(size) => r.resize(size.width, size.height),
             WindowEvent::RedrawRequested => match r.frame(&self.args) {
                 Ok(Continue::Yes) => {}
@@ -227,6 +303,19 @@ impl Fault {
             "capture-panic" => Some(Fault::CapturePanic { at }),
             _ => None,
         }
+    }
+}
+
+/// A key's name for the staff's chords ([`glyptic::kiosk::staff_action`]): letters by their
+/// place on the keyboard (so Ctrl+Shift+Q is found whatever the layout makes of it).
+fn key_name(event: &winit::event::KeyEvent) -> Option<&'static str> {
+    use winit::keyboard::{Key, KeyCode, NamedKey, PhysicalKey};
+    match (&event.physical_key, &event.logical_key) {
+        (PhysicalKey::Code(KeyCode::KeyQ), _) => Some("q"),
+        (PhysicalKey::Code(KeyCode::KeyS), _) => Some("s"),
+        (_, Key::Named(NamedKey::F12)) => Some("F12"),
+        (_, Key::Named(NamedKey::Escape)) => Some("Escape"),
+        _ => None,
     }
 }
 

@@ -77,6 +77,8 @@ impl Running {
         if let Some(built) = built {
             match built {
                 Ok(built) => {
+                    // A gem from the visitor's own face (not the default, not an ease).
+                    self.visitor_gem = self.sent_weight == 0.0 && self.last_face.is_some();
                     self.timeline.gem_print = built.mesh.fingerprint();
                     self.gem = Some(built.mesh);
                     self.timeline.gem_ms = built.ms;
@@ -87,7 +89,10 @@ impl Running {
                             Some(self.timeline.started.elapsed().as_secs_f64());
                     }
                 }
-                Err(e) => self.status = e,
+                Err(e) => {
+                    self.note_problem(format!("gem: {e}"));
+                    self.status = e;
+                }
             }
             changed = true;
         }
@@ -117,6 +122,11 @@ impl Running {
                         "no face"
                     }
                     .into();
+                    self.camera_ok = true;
+                    self.face_now = face.is_some();
+                    if face.is_some() {
+                        self.visitor_seen();
+                    }
                     if let Some(face) = face {
                         if !self.controls.frozen {
                             self.send_job(GemJob {
@@ -128,7 +138,19 @@ impl Running {
                         self.last_face = Some((face, Instant::now()));
                     }
                 }
-                FaceNews::Status(s) => self.face_status = s,
+                FaceNews::Status(s) => {
+                    tracing::info!("kiosk: {s}");
+                    self.camera_ok = true;
+                    self.face_status = s;
+                }
+                FaceNews::Trouble { what, camera_down } => {
+                    self.note_problem(what.clone());
+                    if camera_down {
+                        self.camera_ok = false;
+                        self.face_now = false;
+                    }
+                    self.face_status = what;
+                }
                 FaceNews::Fatal(e) => {
                     self.face_status = e.clone();
                     self.fatal = Some(anyhow::anyhow!("{e}"));
@@ -137,6 +159,7 @@ impl Running {
             changed = true;
         }
         changed |= self.ease_back();
+        changed |= self.visit_step();
         changed
     }
 
@@ -184,7 +207,7 @@ impl Running {
             self.fatal = Some(anyhow::anyhow!("the gem thread died {times} (last: {why})"));
             return;
         }
-        tracing::error!("the gem thread died ({why}); restarting it");
+        self.note_problem(format!("the gem thread died ({why}); restarting it"));
         let fault = self.gem_fault.filter(|f| f.every_thread);
         match GemThread::spawn(self.portrait, self.last_job.clone(), fault) {
             Ok(gems) => {

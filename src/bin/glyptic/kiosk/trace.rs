@@ -81,7 +81,7 @@ impl Running {
     }
 
     /// Times the face side was restarted after it died (none without the face pipeline).
-    fn face_restarts(&self) -> u64 {
+    pub(super) fn face_restarts(&self) -> u64 {
         #[cfg(feature = "face")]
         return self.live.restarts.count;
         #[cfg(not(feature = "face"))]
@@ -110,6 +110,14 @@ impl Running {
             "pitch_deg": self.orbit.pitch_deg,
             "zoom": self.orbit.zoom,
             "status": self.status_line(),
+            "mode": self.presence.mode().name(),
+            "prompt": self.prompt().name(),
+            "prompt_text": self.config.texts.get(self.prompt()),
+            "caption": self.caption().is_some(),
+            "staff": self.staff.open,
+            "problems": self.staff.problems,
+            "cursor_hidden": self.cursor_hidden,
+            "window": [self.surface_config.width, self.surface_config.height],
             "first_frame_s": self.timeline.first_frame_s,
             "first_gem_s": self.timeline.first_gem_s,
             "gem_print": format!("{:016x}", self.timeline.gem_print),

@@ -18,6 +18,26 @@ pub(super) fn style(ctx: &egui::Context) {
         s.spacing.item_spacing = egui::vec2(12.0, 10.0);
         s.spacing.slider_width = 260.0;
         s.spacing.slider_rail_height = 14.0;
+        // Buttons look like buttons: a raised grey face with a light rim and round corners
+        // (egui's default shows an unselected button as bare text); the chosen one is gold
+        // with dark text.
+        let face = egui::Color32::from_rgb(0x3b, 0x3f, 0x47);
+        let rim = egui::Stroke::new(1.5, egui::Color32::from_rgb(0xa4, 0xa9, 0xb3));
+        for (w, lift) in [
+            (&mut s.visuals.widgets.inactive, 0u8),
+            (&mut s.visuals.widgets.hovered, 14),
+        ] {
+            let c = egui::Color32::from_rgb(face.r() + lift, face.g() + lift, face.b() + lift);
+            w.bg_fill = c;
+            w.weak_bg_fill = c;
+            w.bg_stroke = rim;
+            w.corner_radius = egui::CornerRadius::same(12);
+            w.fg_stroke = egui::Stroke::new(1.5, egui::Color32::from_rgb(0xf0, 0xf0, 0xf0));
+        }
+        s.visuals.widgets.active.corner_radius = egui::CornerRadius::same(12);
+        s.visuals.selection.bg_fill = egui::Color32::from_rgb(0xd4, 0xa7, 0x3c);
+        s.visuals.selection.stroke =
+            egui::Stroke::new(2.0, egui::Color32::from_rgb(0x14, 0x10, 0x08));
         // Pressed: gold and a little larger, so a finger sees its tap land.
         let pressed = &mut s.visuals.widgets.active;
         pressed.bg_fill = egui::Color32::from_rgb(0xc9, 0x9a, 0x2e);
@@ -36,33 +56,86 @@ pub(super) fn style(ctx: &egui::Context) {
     });
 }
 
-/// One frame of the controls.
 /// A button that shows `on` as selected and flips it when pressed; `label` says the state.
 fn toggle(ui: &mut egui::Ui, on: &mut bool, label: &str) -> egui::Response {
-    let r = ui.add(egui::Button::selectable(*on, label));
+    let r = ui.add(egui::Button::new(label).selected(*on));
     if r.clicked() {
         *on = !*on;
     }
     r
 }
 
+/// What the staff panel shows: figures and the recent problems (the visitor sees neither).
+pub(super) struct StaffView {
+    /// (what, value) rows.
+    pub(super) rows: Vec<(&'static str, String)>,
+    /// The newest problems, oldest first.
+    pub(super) log: Vec<String>,
+}
+
+/// One frame of the controls.
 pub(super) struct UiFrame<'a> {
     pub(super) controls: &'a mut Controls,
     pub(super) orbit: &'a mut Orbit,
     pub(super) layer: Option<egui::TextureId>,
-    pub(super) status: String,
+    /// The visitor's line at the top.
+    pub(super) prompt: String,
+    /// The attract mode's caption over the gem (title, line).
+    pub(super) caption: Option<(String, String)>,
+    /// The staff panel, when open.
+    pub(super) staff: Option<StaffView>,
     pub(super) toast: Option<String>,
     /// Where the gem is shown (points).
     pub(super) gem_rect: Option<egui::Rect>,
     pub(super) snapshot: bool,
+    /// The staff panel's buttons: close it, quit the kiosk.
+    pub(super) close_staff: bool,
+    pub(super) quit: bool,
+    /// A finger or the mouse is down, pressed within the top-left corner (the staff gesture).
+    pub(super) corner_held: bool,
+    /// The visitor pressed, touched, scrolled or pinched this frame (a sign of presence).
+    pub(super) touched: bool,
     /// Where each control is (points), for scripted runs.
     pub(super) rects: Vec<(&'static str, egui::Rect)>,
 }
 
+/// The text colour on the dark panels (egui's "strong" colour is the pressed button's dark
+/// text here).
+const LIGHT: egui::Color32 = egui::Color32::from_rgb(0xf2, 0xec, 0xe0);
+
+/// The staff gesture's corner, points from the window's top-left.
+const CORNER: f32 = 90.0;
+
 impl UiFrame<'_> {
     pub(super) fn draw(&mut self, root: &mut egui::Ui) {
-        egui::Panel::top("status").show(root, |ui| {
-            ui.add(egui::Label::new(egui::RichText::new(&self.status).size(18.0)).truncate());
+        let ctx = root.ctx().clone();
+        (self.corner_held, self.touched) = ctx.input(|i| {
+            let corner = i
+                .pointer
+                .press_origin()
+                .is_some_and(|p| p.x < CORNER && p.y < CORNER);
+            let touched = i.pointer.any_pressed()
+                || i.events.iter().any(|e| {
+                    matches!(e, egui::Event::MouseWheel { .. } | egui::Event::Zoom(_))
+                        || matches!(
+                            e,
+                            egui::Event::Touch {
+                                phase: egui::TouchPhase::Start,
+                                ..
+                            }
+                        )
+                });
+            (i.pointer.any_down() && corner, touched)
+        });
+        egui::Panel::top("prompt").show(root, |ui| {
+            ui.add_space(4.0);
+            ui.vertical_centered(|ui| {
+                ui.add(
+                    egui::Label::new(egui::RichText::new(&self.prompt).size(26.0).color(LIGHT))
+                        .wrap(),
+                );
+            });
+            ui.add_space(4.0);
         });
         egui::Panel::bottom("controls").show(root, |ui| {
             ui.add_space(6.0);
@@ -73,7 +146,7 @@ impl UiFrame<'_> {
                     (Material::Agate, "Agate", "agate"),
                 ] {
                     let on = self.controls.material == material;
-                    let r = ui.add(egui::Button::selectable(on, name));
+                    let r = ui.add(egui::Button::new(name).selected(on));
                     if r.clicked() {
                         self.controls.material = material;
                     }
@@ -85,14 +158,19 @@ impl UiFrame<'_> {
                 self.rects.push(("sss", r.rect));
             });
             ui.horizontal(|ui| {
-                // The slider takes the row but the reset button's room.
-                ui.spacing_mut().slider_width = (ui.available_width() - 130.0).clamp(120.0, 600.0);
+                // A label, the slider, its reset: the slider takes the row but their room.
+                let label = ui.add_enabled(
+                    self.controls.sss,
+                    egui::Label::new(egui::RichText::new("Glow strength").color(LIGHT)),
+                );
+                self.rects.push(("strength_label", label.rect));
+                ui.spacing_mut().slider_width = (ui.available_width() - 190.0).clamp(120.0, 600.0);
                 let r = ui.add_enabled(
                     self.controls.sss,
                     egui::Slider::new(&mut self.controls.sss_strength, 0.0..=1.0).show_value(false),
                 );
                 self.rects.push(("strength", r.rect));
-                let r = ui.button("Reset");
+                let r = ui.add_enabled(self.controls.sss, egui::Button::new("Reset glow"));
                 if r.clicked() {
                     self.controls.reset_strength();
                 }
@@ -114,10 +192,10 @@ impl UiFrame<'_> {
                 self.rects.push(("front", r.rect));
             });
             ui.horizontal(|ui| {
-                let r = ui.add(egui::Button::selectable(
-                    self.controls.style.is_some(),
-                    self.controls.style_label(),
-                ));
+                let r = ui.add(
+                    egui::Button::new(self.controls.style_label())
+                        .selected(self.controls.style.is_some()),
+                );
                 if r.clicked() {
                     self.controls.next_style();
                 }
@@ -148,6 +226,9 @@ impl UiFrame<'_> {
                         egui::Color32::WHITE,
                     );
                 }
+                if let Some((title, line)) = &self.caption {
+                    caption(ui.painter(), rect, title, line);
+                }
                 // Orbit and zoom only on the gem itself: a drag that starts on a control
                 // belongs to the control, so the camera never moves while a slider is dragged.
                 let response = ui.interact(rect, egui::Id::unique("gem view"), egui::Sense::drag());
@@ -165,5 +246,111 @@ impl UiFrame<'_> {
                     }
                 }
             });
+        if let Some(staff) = &self.staff {
+            let (close, quit) = staff_panel(&ctx, staff);
+            self.close_staff |= close;
+            self.quit |= quit;
+        }
     }
+}
+
+/// The staff panel: the kiosk's figures, its recent problems, and the way out. Only staff
+/// open it (keys, or the corner held), so it may speak of milliseconds and errors.
+fn staff_panel(ctx: &egui::Context, staff: &StaffView) -> (bool, bool) {
+    let (mut close, mut quit) = (false, false);
+    // As wide as the screen allows, long lines (a camera's error) wrapped.
+    let width = (ctx.content_rect().width() - 40.0).clamp(200.0, 720.0);
+    let text = |s: &str, size: f32| egui::RichText::new(s).size(size).color(LIGHT);
+    egui::Area::new(egui::Id::unique("staff panel"))
+        .anchor(egui::Align2::CENTER_TOP, egui::vec2(0.0, 64.0))
+        .order(egui::Order::Foreground)
+        .show(ctx, |ui| {
+            egui::Frame::window(ui.style())
+                .fill(egui::Color32::from_rgba_unmultiplied(16, 18, 22, 240))
+                .inner_margin(egui::Margin::same(16))
+                .show(ui, |ui| {
+                    ui.set_width(width);
+                    // Compact rows (the kiosk's finger-sized spacing is for its buttons).
+                    ui.spacing_mut().interact_size.y = 20.0;
+                    ui.spacing_mut().item_spacing = egui::vec2(8.0, 4.0);
+                    ui.label(text("Staff", 24.0));
+                    ui.add_space(6.0);
+                    for (what, value) in &staff.rows {
+                        ui.horizontal_wrapped(|ui| {
+                            ui.label(text(what, 16.0).weak());
+                            ui.label(text(value, 16.0).monospace());
+                        });
+                    }
+                    ui.separator();
+                    ui.label(text("Recent problems", 17.0));
+                    if staff.log.is_empty() {
+                        ui.label(text("none", 16.0).weak());
+                    }
+                    for line in &staff.log {
+                        ui.add(egui::Label::new(text(line, 14.0).monospace()).wrap());
+                    }
+                    ui.separator();
+                    ui.add(
+                        egui::Label::new(
+                            text(
+                                "Ctrl+Shift+S or F12: this panel · Esc: close · Ctrl+Shift+Q: quit",
+                                15.0,
+                            )
+                            .weak(),
+                        )
+                        .wrap(),
+                    );
+                    ui.horizontal(|ui| {
+                        let big = egui::vec2(140.0, 56.0);
+                        close = ui.add(egui::Button::new("Close").min_size(big)).clicked();
+                        quit = ui
+                            .add(egui::Button::new("Quit kiosk").min_size(big))
+                            .clicked();
+                    });
+                });
+        });
+    (close, quit)
+}
+
+/// The attract mode's caption: two lines near the gem's foot, light on a dark band so that
+/// they read over marble and agate alike.
+fn caption(painter: &egui::Painter, rect: egui::Rect, title: &str, line: &str) {
+    let font = |size| egui::FontId::proportional(size);
+    let (title_size, line_size) = (
+        (rect.width() / 12.0).clamp(28.0, 64.0),
+        (rect.width() / 26.0).clamp(18.0, 32.0),
+    );
+    let width = rect.width() * 0.92;
+    let title = painter.layout(
+        title.to_owned(),
+        font(title_size),
+        egui::Color32::from_rgb(0xf6, 0xe7, 0xc1),
+        width,
+    );
+    let line = painter.layout(
+        line.to_owned(),
+        font(line_size),
+        egui::Color32::from_rgb(0xee, 0xee, 0xee),
+        width,
+    );
+    let height = title.size().y + line.size().y + 28.0;
+    let band = egui::Rect::from_min_size(
+        egui::pos2(rect.left(), rect.bottom() - height - rect.height() * 0.04),
+        egui::vec2(rect.width(), height),
+    );
+    painter.rect_filled(band, 0.0, egui::Color32::from_black_alpha(150));
+    let y = band.top() + 10.0;
+    painter.galley(
+        egui::pos2(rect.center().x - title.size().x / 2.0, y),
+        title.clone(),
+        egui::Color32::WHITE,
+    );
+    painter.galley(
+        egui::pos2(
+            rect.center().x - line.size().x / 2.0,
+            y + title.size().y + 8.0,
+        ),
+        line,
+        egui::Color32::WHITE,
+    );
 }

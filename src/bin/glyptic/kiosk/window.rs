@@ -14,13 +14,14 @@ use winit::event_loop::ActiveEventLoop;
 use winit::window::{Fullscreen, Window};
 
 use glyptic::gem::{HairStyle, View};
-use glyptic::kiosk::{Controls, KioskConfig, MOVING, Orbit};
+use glyptic::kiosk::{Controls, KioskConfig, MOVING, Orbit, Presence};
 use glyptic::render::{Mesh, RenderParams, Renderer};
 
 use super::gem_thread::{GemFault, GemJob, GemThread};
 use super::news::Restarts;
 use super::trace::{Rate, Timeline};
 use super::ui::{UiFrame, style};
+use super::visit::Staff;
 use super::{Continue, KioskArgs};
 
 /// The first gem's resolution, of the window's (per side).
@@ -95,6 +96,19 @@ pub(super) struct Running {
     pub(super) control_rects: Vec<(&'static str, [f32; 4])>,
     /// Times and counts for the status line and the trace.
     pub(super) timeline: Timeline,
+    /// The configuration (the controls go back to it when a visitor leaves).
+    pub(super) config: KioskConfig,
+    /// Whether anyone is there, and since when the attract mode runs and its last step.
+    pub(super) presence: Presence,
+    pub(super) attract_since: Option<Instant>,
+    pub(super) attract_frame_at: Option<Instant>,
+    pub(super) staff: Staff,
+    pub(super) modifiers: winit::keyboard::ModifiersState,
+    /// The newest frame had a face; the gem shown is the visitor's; frames are coming.
+    pub(super) face_now: bool,
+    pub(super) visitor_gem: bool,
+    pub(super) camera_ok: bool,
+    pub(super) cursor_hidden: bool,
 }
 
 impl Running {
@@ -102,18 +116,36 @@ impl Running {
         event_loop: &ActiveEventLoop,
         config: &KioskConfig,
         started: Instant,
+        staff_open: bool,
     ) -> Result<Self> {
         let mut attributes = Window::default_attributes()
             .with_title("glyptic")
             .with_inner_size(winit::dpi::LogicalSize::new(config.width, config.height));
         if config.fullscreen {
-            attributes = attributes.with_fullscreen(Some(Fullscreen::Borderless(None)));
+            // The monitor's own size at its origin, undecorated: full screen with no window
+            // manager (a kiosk's X server alone); a window manager also gets the request.
+            let monitor = event_loop
+                .primary_monitor()
+                .or_else(|| event_loop.available_monitors().next());
+            if let Some(m) = monitor.as_ref().filter(|m| m.size().width > 0) {
+                attributes = attributes
+                    .with_position(m.position())
+                    .with_inner_size(m.size());
+            }
+            attributes = attributes
+                .with_decorations(false)
+                .with_fullscreen(Some(Fullscreen::Borderless(monitor)));
         }
         let window = Arc::new(
             event_loop
                 .create_window(attributes)
                 .context("creating the window")?,
         );
+        let cursor_hidden = config.hides_cursor();
+        if cursor_hidden {
+            window.set_cursor_visible(false);
+        }
+        window.focus_window();
         let fault = super::Fault::from_env();
         let gem_fault = match fault {
             Some(super::Fault::Gem(f)) => Some(f),
@@ -199,6 +231,16 @@ impl Running {
             sent_weight: 1.0,
             gem: None,
             status: "loading the face model".into(),
+            config: config.clone(),
+            presence: Presence::new(config, 0.0),
+            attract_since: None,
+            attract_frame_at: None,
+            staff: Staff::new(staff_open),
+            modifiers: Default::default(),
+            face_now: false,
+            visitor_gem: false,
+            camera_ok: false,
+            cursor_hidden,
             face_status: if cfg!(feature = "face") {
                 "loading the face tracker".into()
             } else {
@@ -245,8 +287,11 @@ impl Running {
 
     /// Draws one frame: the controls, and the gem if it changed.
     pub(super) fn frame(&mut self, args: &KioskArgs) -> Result<Continue> {
+        if self.staff.quit {
+            return Ok(Continue::Quit);
+        }
         if let Some(error) = self.renderer.take_gpu_error() {
-            self.toast = Some((format!("GPU: {error}"), Instant::now()));
+            self.note_problem(format!("GPU: {error}"));
         }
         let (output, gem_rect) = self.controls_step();
         let ppp = output.pixels_per_point;
@@ -274,7 +319,7 @@ impl Running {
                 None
             }
             other => {
-                self.toast = Some((format!("window surface: {other:?}"), Instant::now()));
+                self.note_problem(format!("window surface: {other:?}"));
                 None
             }
         };
@@ -311,7 +356,10 @@ impl Running {
             .contains(wgpu::TextureUsages::COPY_SRC);
         let want_copy = self.snapshot_request || args.screenshot.is_some();
         if want_copy && !can_copy {
-            self.toast = Some(("this window cannot be copied".into(), Instant::now()));
+            self.note_problem("this window cannot be copied (no snapshot, no screenshot)");
+            if self.snapshot_request {
+                self.toast = Some((self.config.texts.not_saved.clone(), Instant::now()));
+            }
             self.snapshot_request = false;
         }
         let capture = (can_copy && want_copy)
@@ -335,7 +383,7 @@ impl Running {
                     }
                     self.last_screen = Some(image);
                 }
-                Err(e) => self.toast = Some((format!("screenshot: {e}"), Instant::now())),
+                Err(e) => self.note_problem(format!("screenshot: {e}")),
             }
         }
         self.window.pre_present_notify();
@@ -374,13 +422,34 @@ impl Running {
     /// marked for rendering; unfreezing shows the newest face again).
     fn controls_step(&mut self) -> (egui::FullOutput, Option<egui::Rect>) {
         let raw_input = self.egui_state.take_egui_input(&self.window);
+        // A press, a touch, a scroll or a pinch is a visitor: taken before the controls run,
+        // so that a tap that wakes the kiosk from attract mode also takes effect.
+        let touched = raw_input.events.iter().any(|e| {
+            matches!(
+                e,
+                egui::Event::PointerButton { pressed: true, .. }
+                    | egui::Event::MouseWheel { .. }
+                    | egui::Event::Zoom(_)
+                    | egui::Event::Touch {
+                        phase: egui::TouchPhase::Start,
+                        ..
+                    }
+            )
+        });
+        if touched {
+            self.visitor_seen();
+        }
         let before = (self.controls.clone(), self.orbit);
-        let status = self.status_line();
+        let prompt = self.config.texts.get(self.prompt()).to_owned();
+        let caption = self.caption();
+        let staff = self.staff.open.then(|| self.staff_view());
         let mut ui = UiFrame {
             controls: &mut self.controls,
             orbit: &mut self.orbit,
             layer: self.layer.as_ref().map(|l| l.id),
-            status,
+            prompt,
+            caption,
+            staff,
             toast: self
                 .toast
                 .as_ref()
@@ -388,10 +457,15 @@ impl Running {
                 .map(|(m, _)| m.clone()),
             gem_rect: None,
             snapshot: false,
+            close_staff: false,
+            quit: false,
+            corner_held: false,
+            touched: false,
             rects: Vec::new(),
         };
         let mut output = self.egui_ctx.run_ui(raw_input, |ui_root| ui.draw(ui_root));
         let (gem_rect, snapshot) = (ui.gem_rect, ui.snapshot);
+        let (close_staff, quit, corner_held) = (ui.close_staff, ui.quit, ui.corner_held);
         let ppp = output.pixels_per_point;
         self.control_rects = ui
             .rects
@@ -402,6 +476,22 @@ impl Running {
             })
             .collect();
         self.snapshot_request |= snapshot;
+        if close_staff {
+            self.staff.open = false;
+        }
+        if quit {
+            tracing::info!("kiosk: quit by the staff (the staff panel)");
+            self.staff.quit = true;
+        }
+        let now = self.now_s();
+        if self.config.staff_gesture && self.staff.gesture.update(now, corner_held) {
+            tracing::info!("kiosk: staff panel opened by the corner gesture");
+            self.staff.open = true;
+        }
+        if self.cursor_hidden {
+            // egui would show the cursor again over a button (its pointing hand).
+            output.platform_output.cursor_icon = egui::CursorIcon::None;
+        }
         if (self.controls.clone(), self.orbit) != before {
             self.dirty = true;
         }
@@ -482,7 +572,7 @@ impl Running {
                     rendered_gem = true;
                 }
                 Err(e) => {
-                    self.toast = Some((format!("render: {e}"), Instant::now()));
+                    self.note_problem(format!("render: {e}"));
                     self.dirty = false;
                 }
             }
@@ -510,8 +600,10 @@ impl Running {
 
     /// Whether the gem is moving: turned or zoomed within the last [`MOVING`]`.hold_s`.
     fn moving(&self) -> bool {
-        self.moved_at
-            .is_some_and(|t| t.elapsed().as_secs_f32() < MOVING.hold_s)
+        self.attracting()
+            || self
+                .moved_at
+                .is_some_and(|t| t.elapsed().as_secs_f32() < MOVING.hold_s)
     }
 
     /// Sizes the gem's texture to the area it is shown in (`ppp` pixels a point).
@@ -620,9 +712,16 @@ impl Running {
             .map(|d| d.as_millis())
             .unwrap_or(0);
         let path = dir.join(format!("glyptic-{stamp}.png"));
+        // The visitor hears that it worked or not; the path and the reason go to the log.
         let message = match crate::cli::write_png(image.clone(), &path) {
-            Ok(()) => format!("saved {}", path.display()),
-            Err(e) => format!("not saved: {e:#}"),
+            Ok(()) => {
+                tracing::info!("kiosk: saved {}", path.display());
+                self.config.texts.saved.clone()
+            }
+            Err(e) => {
+                self.note_problem(format!("snapshot not saved: {e:#}"));
+                self.config.texts.not_saved.clone()
+            }
         };
         self.toast = Some((message, Instant::now()));
     }
