@@ -13,6 +13,7 @@ use crate::sss::SssParams;
 use crate::styles::Style;
 
 pub mod visitor;
+pub use visitor::Labels;
 pub use visitor::{
     ATTRACT, Attract, Change, HoldGesture, Mode, Presence, Prompt, STAFF_HOLD_S, Situation,
     StaffAction, Texts, prompt, staff_action,
@@ -81,6 +82,8 @@ pub struct KioskConfig {
     pub staff_gesture: bool,
     /// The visitor's words ([`visitor::Texts`]): another language, the museum's voice.
     pub texts: visitor::Texts,
+    /// The controls' labels ([`visitor::Labels`]), for the same reasons.
+    pub labels: visitor::Labels,
     /// The engraved border on the ground at start.
     pub engraving: bool,
     /// The raking lamp and its shadows at start.
@@ -117,6 +120,7 @@ impl Default for KioskConfig {
             attract_seconds: 30.0,
             staff_gesture: true,
             texts: visitor::Texts::default(),
+            labels: visitor::Labels::default(),
             engraving: false,
             lamp: false,
             hair_layer: true,
@@ -184,6 +188,13 @@ impl KioskConfig {
                 problem: format!("{key} {problem}"),
             });
         }
+        if let Some((key, problem)) = self.labels.problem() {
+            return Err(ConfigError::Invalid {
+                path: path.to_owned(),
+                key: "labels",
+                problem: format!("{key} {problem}"),
+            });
+        }
         for (key, v) in [("width", self.width), ("height", self.height)] {
             if !(64..=8192).contains(&v) {
                 return invalid(key, format!("is {v}, not within 64..=8192 pixels"));
@@ -238,35 +249,39 @@ impl Controls {
 
     /// The SSS toggle's label: the state it is in now (the 2021 kiosk showed the next state,
     /// which visitors read as the current one).
-    pub fn sss_label(&self) -> &'static str {
-        if self.sss { "Glow: on" } else { "Glow: off" }
+    pub fn sss_label<'a>(&self, l: &'a Labels) -> &'a str {
+        if self.sss { &l.glow_on } else { &l.glow_off }
     }
 
-    pub fn freeze_label(&self) -> &'static str {
+    pub fn freeze_label<'a>(&self, l: &'a Labels) -> &'a str {
         if self.frozen {
-            "Portrait: frozen"
+            &l.portrait_frozen
         } else {
-            "Portrait: live"
+            &l.portrait_live
         }
     }
 
     /// The border button's label: its state now.
-    pub fn engraving_label(&self) -> &'static str {
+    pub fn engraving_label<'a>(&self, l: &'a Labels) -> &'a str {
         if self.engraving {
-            "Border: on"
+            &l.border_on
         } else {
-            "Border: off"
+            &l.border_off
         }
     }
 
     /// The lamp button's label: its state now.
-    pub fn lamp_label(&self) -> &'static str {
-        if self.lamp { "Lamp: on" } else { "Lamp: off" }
+    pub fn lamp_label<'a>(&self, l: &'a Labels) -> &'a str {
+        if self.lamp { &l.lamp_on } else { &l.lamp_off }
     }
 
     /// The style button's label: the style shown now.
-    pub fn style_label(&self) -> String {
-        format!("Style: {}", self.style.map_or("none", |s| s.name()))
+    pub fn style_label(&self, l: &Labels) -> String {
+        format!(
+            "{}: {}",
+            l.style,
+            self.style.map_or(l.style_none.as_str(), |s| s.name())
+        )
     }
 
     /// The next style: none, then each of [`KIOSK_STYLES`], then none again.
@@ -445,8 +460,9 @@ mod tests {
         // The lamp reaches the controls and the render; the border stays off.
         let controls = Controls::from_config(&c);
         assert!(controls.lamp && !controls.engraving);
+        let l = Labels::default();
         assert_eq!(
-            (controls.lamp_label(), controls.engraving_label()),
+            (controls.lamp_label(&l), controls.engraving_label(&l)),
             ("Lamp: on", "Border: off")
         );
         let p = controls.apply(&RenderParams::default(), &Orbit::default());
@@ -473,6 +489,15 @@ mod tests {
         assert_eq!(c.texts.get(Prompt::Look), "Vaata kaamerasse");
         assert_eq!(c.texts.carving, Texts::default().carving);
         assert_eq!(c.attract_seconds, 45.0);
+        // The controls' labels too.
+        let c = parse(
+            "[labels]\nglow_on = \"Kuma: sees\"\nstyle = \"Stiil\"\nstyle_none = \"puudub\"\n",
+        )
+        .unwrap();
+        let controls = Controls::from_config(&c);
+        assert_eq!(controls.sss_label(&c.labels), "Kuma: sees");
+        assert_eq!(controls.style_label(&c.labels), "Stiil: puudub");
+        assert_eq!(controls.lamp_label(&c.labels), "Lamp: off");
     }
 
     #[test]
@@ -495,6 +520,10 @@ mod tests {
             m.contains("texts") && m.contains("yours") && m.contains("empty"),
             "{m}"
         );
+        let m = msg("[labels]\nmarble = \"\"");
+        assert!(m.contains("labels") && m.contains("marble"), "{m}");
+        let m = msg("[labels]\nagate = \"a very long name for a stone, more than a button holds\"");
+        assert!(m.contains("agate") && m.contains("40"), "{m}");
         let m = msg("attract_seconds = 0");
         assert!(m.contains("attract_seconds"), "{m}");
         let m = msg("camera = [");
@@ -508,9 +537,10 @@ mod tests {
     #[test]
     fn sss_label_shows_the_current_state() {
         let mut c = Controls::from_config(&KioskConfig::default());
-        assert!(c.sss && c.sss_label().ends_with("on"));
+        let l = Labels::default();
+        assert!(c.sss && c.sss_label(&l).ends_with("on"));
         c.sss = false;
-        assert!(c.sss_label().ends_with("off"));
+        assert!(c.sss_label(&l).ends_with("off"));
         let p = c.apply(&RenderParams::default(), &Orbit::default());
         assert!(p.sss.is_none());
         c.sss = true;
@@ -524,11 +554,12 @@ mod tests {
     #[test]
     fn the_style_button_steps_through_the_styles_and_back() {
         let mut c = Controls::from_config(&KioskConfig::default());
-        assert_eq!(c.style_label(), "Style: none");
+        let l = Labels::default();
+        assert_eq!(c.style_label(&l), "Style: none");
         let mut seen = Vec::new();
         for _ in 0..6 {
             c.next_style();
-            seen.push(c.style_label());
+            seen.push(c.style_label(&l));
         }
         assert_eq!(
             seen,

@@ -304,19 +304,96 @@ impl Texts {
             ("not_saved", &self.not_saved),
         ]
         .into_iter()
-        .find_map(|(key, text)| {
-            let n = text.chars().count();
-            if text.trim().is_empty() {
-                Some((key, "is empty".to_string()))
-            } else if n > MAX_TEXT_CHARS {
-                Some((
-                    key,
-                    format!("is {n} characters, more than {MAX_TEXT_CHARS}"),
-                ))
-            } else {
-                None
-            }
-        })
+        .find_map(|(key, text)| too_long_or_empty(key, text, MAX_TEXT_CHARS))
+    }
+}
+
+/// The controls' labels; each may be replaced in the configuration's `[labels]` table. The
+/// toggles say the state they are in ("Glow: on"), the style button its style ("Style: none";
+/// the styles' own names stay as they are).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Labels {
+    pub marble: String,
+    pub agate: String,
+    pub glow_on: String,
+    pub glow_off: String,
+    pub glow_strength: String,
+    pub reset_glow: String,
+    pub portrait_live: String,
+    pub portrait_frozen: String,
+    pub save: String,
+    pub front: String,
+    pub style: String,
+    pub style_none: String,
+    pub border_on: String,
+    pub border_off: String,
+    pub lamp_on: String,
+    pub lamp_off: String,
+}
+
+impl Default for Labels {
+    fn default() -> Self {
+        let s = |t: &str| t.to_string();
+        Labels {
+            marble: s("Marble"),
+            agate: s("Agate"),
+            glow_on: s("Glow: on"),
+            glow_off: s("Glow: off"),
+            glow_strength: s("Glow strength"),
+            reset_glow: s("Reset glow"),
+            portrait_live: s("Portrait: live"),
+            portrait_frozen: s("Portrait: frozen"),
+            save: s("Save picture"),
+            front: s("Front view"),
+            style: s("Style"),
+            style_none: s("none"),
+            border_on: s("Border: on"),
+            border_off: s("Border: off"),
+            lamp_on: s("Lamp: on"),
+            lamp_off: s("Lamp: off"),
+        }
+    }
+}
+
+/// The longest label: a button that still fits a row of three on a narrow screen.
+pub const MAX_LABEL_CHARS: usize = 40;
+
+impl Labels {
+    /// The first label that is empty or too long, by its key.
+    pub fn problem(&self) -> Option<(&'static str, String)> {
+        [
+            ("marble", &self.marble),
+            ("agate", &self.agate),
+            ("glow_on", &self.glow_on),
+            ("glow_off", &self.glow_off),
+            ("glow_strength", &self.glow_strength),
+            ("reset_glow", &self.reset_glow),
+            ("portrait_live", &self.portrait_live),
+            ("portrait_frozen", &self.portrait_frozen),
+            ("save", &self.save),
+            ("front", &self.front),
+            ("style", &self.style),
+            ("style_none", &self.style_none),
+            ("border_on", &self.border_on),
+            ("border_off", &self.border_off),
+            ("lamp_on", &self.lamp_on),
+            ("lamp_off", &self.lamp_off),
+        ]
+        .into_iter()
+        .find_map(|(key, text)| too_long_or_empty(key, text, MAX_LABEL_CHARS))
+    }
+}
+
+/// `Some((key, problem))` for an empty text or one over `max` characters.
+fn too_long_or_empty(key: &'static str, text: &str, max: usize) -> Option<(&'static str, String)> {
+    let n = text.chars().count();
+    if text.trim().is_empty() {
+        Some((key, "is empty".to_string()))
+    } else if n > max {
+        Some((key, format!("is {n} characters, more than {max}")))
+    } else {
+        None
     }
 }
 

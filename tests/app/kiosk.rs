@@ -914,7 +914,8 @@ fn a_visitor_leaving_resets_every_control_and_the_attract_mode_follows() {
     let config = dir.join("kiosk.toml");
     std::fs::write(
         &config,
-        "idle_seconds = 5.0\nease_seconds = 0.5\nattract_seconds = 11.0\n",
+        "idle_seconds = 5.0\nease_seconds = 0.5\nattract_seconds = 11.0\n\
+         [labels]\nglow_off = \"Kuma: väljas\"\n",
     )
     .unwrap();
     let mut live = Live::spawn(kiosk(&x).arg("--config").arg(&config).args([
@@ -949,7 +950,10 @@ fn a_visitor_leaving_resets_every_control_and_the_attract_mode_follows() {
     click(&x, centre(&first, "border"));
     live.wait_for(10, "the border", |l| l["engraving"] == true);
     click(&x, centre(&first, "sss"));
-    live.wait_for(10, "the glow off", |l| l["sss"] == false);
+    // The button says so in the configured words.
+    live.wait_for(10, "the glow off", |l| {
+        l["sss"] == false && l["sss_label"] == "Kuma: väljas"
+    });
     let (gx, gy) = centre(&first, "gem");
     drag(&x, (gx, gy), (gx + 60, gy + 20));
     live.wait_for(10, "the gem turned", |l| {

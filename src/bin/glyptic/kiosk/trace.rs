@@ -100,7 +100,7 @@ impl Running {
             "gem_ms": self.timeline.gem_ms,
             "material": match self.controls.material { Material::Marble => "marble", Material::Agate => "agate" },
             "sss": self.controls.sss,
-            "sss_label": self.controls.sss_label(),
+            "sss_label": self.controls.sss_label(&self.config.labels),
             "style": self.controls.style.map_or("none", |s| s.name()),
             "engraving": self.controls.engraving,
             "lamp": self.controls.lamp,

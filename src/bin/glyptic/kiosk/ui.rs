@@ -1,7 +1,7 @@
 //! The kiosk's controls (egui): finger-sized, three rows under the gem, drags on the gem orbit
 //! it. Each control's rectangle is kept for scripted runs (`--trace`).
 
-use glyptic::kiosk::{Controls, Orbit};
+use glyptic::kiosk::{Controls, Labels, Orbit};
 use glyptic::render::Material;
 
 /// Finger-sized controls: 56-point buttons, a thick slider, large text, a gold pressed state. A press counts as a
@@ -76,6 +76,7 @@ pub(super) struct StaffView {
 /// One frame of the controls.
 pub(super) struct UiFrame<'a> {
     pub(super) controls: &'a mut Controls,
+    pub(super) labels: &'a Labels,
     pub(super) orbit: &'a mut Orbit,
     pub(super) layer: Option<egui::TextureId>,
     /// The visitor's line at the top.
@@ -142,18 +143,18 @@ impl UiFrame<'_> {
             // Three rows: the stone, the glow, the portrait.
             ui.horizontal(|ui| {
                 for (material, name, key) in [
-                    (Material::Marble, "Marble", "marble"),
-                    (Material::Agate, "Agate", "agate"),
+                    (Material::Marble, &self.labels.marble, "marble"),
+                    (Material::Agate, &self.labels.agate, "agate"),
                 ] {
                     let on = self.controls.material == material;
-                    let r = ui.add(egui::Button::new(name).selected(on));
+                    let r = ui.add(egui::Button::new(name.as_str()).selected(on));
                     if r.clicked() {
                         self.controls.material = material;
                     }
                     self.rects.push((key, r.rect));
                 }
                 ui.separator();
-                let label = self.controls.sss_label();
+                let label = self.controls.sss_label(self.labels);
                 let r = toggle(ui, &mut self.controls.sss, label);
                 self.rects.push(("sss", r.rect));
             });
@@ -161,7 +162,7 @@ impl UiFrame<'_> {
                 // A label, the slider, its reset: the slider takes the row but their room.
                 let label = ui.add_enabled(
                     self.controls.sss,
-                    egui::Label::new(egui::RichText::new("Glow strength").color(LIGHT)),
+                    egui::Label::new(egui::RichText::new(&self.labels.glow_strength).color(LIGHT)),
                 );
                 self.rects.push(("strength_label", label.rect));
                 ui.spacing_mut().slider_width = (ui.available_width() - 190.0).clamp(120.0, 600.0);
@@ -170,22 +171,25 @@ impl UiFrame<'_> {
                     egui::Slider::new(&mut self.controls.sss_strength, 0.0..=1.0).show_value(false),
                 );
                 self.rects.push(("strength", r.rect));
-                let r = ui.add_enabled(self.controls.sss, egui::Button::new("Reset glow"));
+                let r = ui.add_enabled(
+                    self.controls.sss,
+                    egui::Button::new(self.labels.reset_glow.as_str()),
+                );
                 if r.clicked() {
                     self.controls.reset_strength();
                 }
                 self.rects.push(("reset", r.rect));
             });
             ui.horizontal(|ui| {
-                let label = self.controls.freeze_label();
+                let label = self.controls.freeze_label(self.labels);
                 let r = toggle(ui, &mut self.controls.frozen, label);
                 self.rects.push(("freeze", r.rect));
-                let r = ui.button("Save picture");
+                let r = ui.button(self.labels.save.as_str());
                 if r.clicked() {
                     self.snapshot = true;
                 }
                 self.rects.push(("save", r.rect));
-                let r = ui.button("Front view");
+                let r = ui.button(self.labels.front.as_str());
                 if r.clicked() {
                     *self.orbit = Orbit::default();
                 }
@@ -193,17 +197,17 @@ impl UiFrame<'_> {
             });
             ui.horizontal(|ui| {
                 let r = ui.add(
-                    egui::Button::new(self.controls.style_label())
+                    egui::Button::new(self.controls.style_label(self.labels))
                         .selected(self.controls.style.is_some()),
                 );
                 if r.clicked() {
                     self.controls.next_style();
                 }
                 self.rects.push(("style", r.rect));
-                let label = self.controls.engraving_label();
+                let label = self.controls.engraving_label(self.labels);
                 let r = toggle(ui, &mut self.controls.engraving, label);
                 self.rects.push(("border", r.rect));
-                let label = self.controls.lamp_label();
+                let label = self.controls.lamp_label(self.labels);
                 let r = toggle(ui, &mut self.controls.lamp, label);
                 self.rects.push(("lamp", r.rect));
             });

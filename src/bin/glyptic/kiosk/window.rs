@@ -445,6 +445,7 @@ impl Running {
         let staff = self.staff.open.then(|| self.staff_view());
         let mut ui = UiFrame {
             controls: &mut self.controls,
+            labels: &self.config.labels,
             orbit: &mut self.orbit,
             layer: self.layer.as_ref().map(|l| l.id),
             prompt,
