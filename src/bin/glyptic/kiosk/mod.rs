@@ -164,7 +164,7 @@ fn check(config: &KioskConfig, args: &KioskArgs) -> Result<()> {
         .into_iter()
         .filter(|(path, _, required)| {
             *required
-                && !path.exists()
+                && !path.is_file()
                 && (cfg!(feature = "face") || path.starts_with(&paths.sfm_dir))
         })
         .map(|(path, what, _)| format!("{what} ({})", path.display()))

@@ -94,8 +94,6 @@ pub(super) struct UiFrame<'a> {
     pub(super) quit: bool,
     /// A finger or the mouse is down, pressed within the top-left corner (the staff gesture).
     pub(super) corner_held: bool,
-    /// The visitor pressed, touched, scrolled or pinched this frame (a sign of presence).
-    pub(super) touched: bool,
     /// Where each control is (points), for scripted runs.
     pub(super) rects: Vec<(&'static str, egui::Rect)>,
 }
@@ -110,23 +108,12 @@ const CORNER: f32 = 90.0;
 impl UiFrame<'_> {
     pub(super) fn draw(&mut self, root: &mut egui::Ui) {
         let ctx = root.ctx().clone();
-        (self.corner_held, self.touched) = ctx.input(|i| {
+        self.corner_held = ctx.input(|i| {
             let corner = i
                 .pointer
                 .press_origin()
                 .is_some_and(|p| p.x < CORNER && p.y < CORNER);
-            let touched = i.pointer.any_pressed()
-                || i.events.iter().any(|e| {
-                    matches!(e, egui::Event::MouseWheel { .. } | egui::Event::Zoom(_))
-                        || matches!(
-                            e,
-                            egui::Event::Touch {
-                                phase: egui::TouchPhase::Start,
-                                ..
-                            }
-                        )
-                });
-            (i.pointer.any_down() && corner, touched)
+            i.pointer.any_down() && corner
         });
         egui::Panel::top("prompt").show(root, |ui| {
             ui.add_space(4.0);

@@ -461,7 +461,6 @@ impl Running {
             close_staff: false,
             quit: false,
             corner_held: false,
-            touched: false,
             rects: Vec::new(),
         };
         let mut output = self.egui_ctx.run_ui(raw_input, |ui_root| ui.draw(ui_root));
