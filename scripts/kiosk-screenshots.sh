@@ -10,25 +10,12 @@
 #   bash scripts/kiosk-screenshots.sh [SIZE]      (default 600x900)
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/ready.sh"
+source scripts/astronaut.sh
 SIZE=${1:-600x900}
 OUT=out/kiosk-shots
 mkdir -p "$OUT" docs
-CACHE=.deps/cache
 astronaut="$OUT/astronaut.png"
-if [ ! -s "$astronaut" ]; then
-  whl=$(ls "$CACHE"/scikit_image-*.whl 2>/dev/null | head -n1 || true)
-  if [ -z "$whl" ]; then
-    python3 -m pip download --quiet --no-deps --only-binary=:all: -d "$CACHE" \
-      --python-version 3.11 --implementation cp --platform manylinux_2_17_x86_64 \
-      scikit-image==0.24.0 >&2
-    whl=$(ls "$CACHE"/scikit_image-*.whl | head -n1)
-  fi
-  python3 - "$whl" "$astronaut" <<'PYEOF'
-import shutil, sys, zipfile
-with zipfile.ZipFile(sys.argv[1]) as z, z.open("skimage/data/astronaut.png") as s, open(sys.argv[2], "wb") as d:
-    shutil.copyfileobj(s, d)
-PYEOF
-fi
+fetch_astronaut "$astronaut"
 
 cargo build --release --locked --bin glyptic
 GLYPTIC=./target/release/glyptic
