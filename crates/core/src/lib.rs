@@ -4,7 +4,9 @@
 //! [`landmarks`] (dlib's regression trees) -> [`shapemodel`] (the Surrey Face Model) ->
 //! [`fit`] (pose, shape, expressions) -> [`smooth`] (steadying a fit over frames) ->
 //! [`person`] (which pixels are hair) -> [`gem`] (the relief, carved into the cameo) ->
-//! [`scene`] (the draw data the renderer takes).
+//! [`scene`] (the draw data the renderer takes). Beside them, [`raster`] draws the fitted
+//! face grey on the CPU and [`identity`] steers its identity towards the photo by a
+//! recognition network's embedding (the network is the caller's).
 //!
 //! Nothing here opens a camera, a window, a GPU or an ONNX session, and nothing decides where a
 //! file lives: readers take the path (or bytes) they are given. So this crate builds and tests
@@ -13,8 +15,10 @@
 pub mod files;
 pub mod fit;
 pub mod gem;
+pub mod identity;
 pub mod landmarks;
 pub mod person;
+pub mod raster;
 pub mod scene;
 pub mod shapemodel;
 pub mod smooth;

@@ -4,6 +4,7 @@
 
 use crate::scene::Mesh;
 
+use super::detail::FaceDetail;
 use super::shading::{cavity, light_visibility, smooth_121};
 use super::tessellate::{add_bezel_and_back, add_relief_surface, plan_surface};
 use super::{
@@ -150,6 +151,19 @@ impl CameoBuilder {
         triangles: &[[u32; 3]],
         warm: &[f32],
     ) -> Result<Relief, GemError> {
+        self.relief_detailed(positions, triangles, warm, None)
+    }
+
+    /// [`Self::relief_from`] with the photo's own detail carved into the face
+    /// ([`FaceDetail`]: brows, irises, the mouth's line, folds), when given for this mesh's
+    /// vertices.
+    pub fn relief_detailed(
+        &self,
+        positions: &[f32],
+        triangles: &[[u32; 3]],
+        warm: &[f32],
+        detail: Option<&FaceDetail>,
+    ) -> Result<Relief, GemError> {
         if positions.len() < 9 || triangles.is_empty() {
             return Err(GemError::EmptyFace);
         }
@@ -186,6 +200,9 @@ impl CameoBuilder {
         let face: Vec<bool> = (0..n)
             .map(|i| raw[i].is_finite() && self.allowed[i])
             .collect();
+        let photo = detail
+            .filter(|d| d.seen().len() == points.len())
+            .map(|d| photo_detail(d, &points, triangles, &face, cols, rows));
         let face_box = Window::of(cols, rows, |i| face[i]).map(|w| w.grow(2, cols, rows));
         let face_cover = relief::coverage(&points, triangles, &raw, cols, rows);
         // Smooth the face within its footprint (1-2-1 each way, about 0.7 cells: the Surrey
@@ -266,6 +283,10 @@ impl CameoBuilder {
                 }
                 // Facial hair carved in locks, as deep as it is thick (up to 4 mm).
                 let thick = fuzz.get(i).copied().unwrap_or(0.0);
+                // The photo's detail, except under a beard (carved as locks instead).
+                if let Some(d) = &photo {
+                    carved += d[i] * (1.0 - template::smoothstep(0.5, 2.0, thick));
+                }
                 let locks = if thick > 0.05 {
                     (thick / 4.0).min(1.0) * template::beard_locks(u, v, p.hair.curl)
                 } else {
@@ -526,7 +547,7 @@ impl CameoBuilder {
 
     /// The whole cameo mesh for a face mesh in model mm (`[x0, y0, z0, ...]`).
     pub fn build(&self, positions: &[f32], triangles: &[[u32; 3]]) -> Result<Mesh, GemError> {
-        Ok(self.mesh(&self.relief(positions, triangles)?))
+        Ok(self.mesh_of(&self.relief(positions, triangles)?))
     }
 
     /// [`Self::build`] for the next face of a sequence (a tracked visitor): the relief's solve
@@ -539,13 +560,13 @@ impl CameoBuilder {
         warm: &mut Vec<f32>,
     ) -> Result<Mesh, GemError> {
         let relief = self.relief_from(positions, triangles, warm)?;
-        let mesh = self.mesh(&relief);
+        let mesh = self.mesh_of(&relief);
         *warm = relief.relative;
         Ok(mesh)
     }
 
     /// The cameo mesh of a relief: the stone's top as planned, the bezel and the back.
-    fn mesh(&self, relief: &Relief) -> Mesh {
+    pub fn mesh_of(&self, relief: &Relief) -> Mesh {
         let mut mesh = Mesh::default();
         let plan = plan_surface(relief, &self.inside);
         add_relief_surface(&mut mesh, relief, &plan);
@@ -639,4 +660,34 @@ struct Template {
     height: Vec<f32>,
     hair: Vec<f32>,
     coverage: Vec<f32>,
+}
+
+/// The photo's detail per face node (canonical mm): the photo point each node shows, from its
+/// vertices' photo positions interpolated over the face, faded where the photo sees the face
+/// edge-on; 0 off the face.
+fn photo_detail(
+    detail: &FaceDetail,
+    points: &[Option<[f32; 3]>],
+    triangles: &[[u32; 3]],
+    face: &[bool],
+    cols: usize,
+    rows: usize,
+) -> Vec<f32> {
+    let seen = detail.seen();
+    let channel = |f: fn(&[f32; 3]) -> f32| -> Vec<f32> {
+        let a: Vec<f32> = seen.iter().map(f).collect();
+        relief::rasterise_attribute(points, triangles, &a, cols, rows).1
+    };
+    let w = channel(|s| s[2]);
+    let x = channel(|s| s[0] * s[2]);
+    let y = channel(|s| s[1] * s[2]);
+    (0..cols * rows)
+        .map(|i| {
+            if face[i] && w[i] > 0.05 {
+                template::smoothstep(0.2, 0.8, w[i]) * detail.at(x[i] / w[i], y[i] / w[i])
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }

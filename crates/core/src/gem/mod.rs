@@ -22,6 +22,7 @@
 pub mod basrelief;
 mod blur;
 mod builder;
+pub mod detail;
 pub mod face;
 pub mod gltf;
 pub mod measure;
@@ -36,6 +37,7 @@ mod tessellate;
 use crate::scene::Mesh;
 pub use basrelief::Compression;
 pub use builder::CameoBuilder;
+pub use detail::{DetailParams, FaceDetail};
 pub use face::Placement;
 pub use obj::{ObjError, mesh_to_obj, parse_obj, to_obj};
 pub use template::{HairStyle, View};
@@ -291,6 +293,17 @@ pub fn build_cameo(
     p: &CameoParams,
 ) -> Result<Mesh, GemError> {
     CameoBuilder::new(p)?.build(positions, triangles)
+}
+
+/// [`build_cameo`] with the photo's own detail carved into the face ([`FaceDetail`]).
+pub fn build_cameo_detailed(
+    positions: &[f32],
+    triangles: &[[u32; 3]],
+    p: &CameoParams,
+    detail: Option<&FaceDetail>,
+) -> Result<Mesh, GemError> {
+    let builder = CameoBuilder::new(p)?;
+    Ok(builder.mesh_of(&builder.relief_detailed(positions, triangles, &[], detail)?))
 }
 
 #[cfg(test)]

@@ -1,0 +1,561 @@
+//! The photo's own detail, carved as a cameo cutter reads a sitter: what 63 shape components
+//! cannot say (the brows' line and weight, where the iris sits and how dark it is, the mouth's
+//! line, the folds and lines of a face) read from the photo and carried onto the face through
+//! the fitted camera.
+//!
+//! Dark is not deep: a carver raises brows (hair), drills the iris and pupil, cuts the line
+//! between the lips, and incises folds and lines; a mole, a freckle or a shadow on the cheek is
+//! left alone. So the photo is not turned into height as it is; it is read per region (from
+//! the 68 landmarks):
+//! * **brows**: along each brow's five points, darker than the skin around = raised;
+//! * **eyes**: inside each eye's opening, darker than the eye around = incised (the iris and
+//!   pupil, as real cameos drill them);
+//! * **mouth**: inside the lips' outline, darker = incised (the line between the lips, the
+//!   corners);
+//! * **skin** (the rest of the face inside its outline): only *lines* are carved, valleys of
+//!   the brightness whose one curvature is much larger than the other (a fold, a wrinkle), as
+//!   an incision; round dark spots (moles, pores, nostrils' shadows) have two equal curvatures
+//!   and are left out, and so is everything brighter than its surroundings.
+//!
+//! Every response is a band-pass of the brightness (what changes over a few hundredths of the
+//! eyes' distance, not the light across the face) scaled by the face's own contrast (its
+//! median absolute deviation), so a dim or low-contrast photo carves as deep as a bright one.
+//!
+//! Units: photo pixels (x right, y down, whole numbers at pixel centres) in; the map's cells
+//! are [`CELLS_PER_IOD`] to the distance between the eyes' centres; heights in canonical
+//! millimetres (the frame of [`super::face::Eye::carve`], added to the face before the relief
+//! is compressed). Pure computation.
+
+use image::GrayImage;
+
+use super::blur::blur;
+use crate::fit::Pose;
+
+/// Map cells per inter-ocular distance (eye centre to eye centre).
+pub const CELLS_PER_IOD: f32 = 64.0;
+
+/// How deep each region is carved at full strength (canonical mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DetailParams {
+    /// Brows raised.
+    pub brow_mm: f32,
+    /// Iris and pupil incised.
+    pub iris_mm: f32,
+    /// The line between the lips incised.
+    pub mouth_mm: f32,
+    /// Folds and lines incised.
+    pub line_mm: f32,
+}
+
+impl Default for DetailParams {
+    /// The scale of the carved eye's lids (3 mm, [`super::face::Eye::carve`]): brows and iris
+    /// about half of it, lines a quarter.
+    fn default() -> Self {
+        DetailParams {
+            brow_mm: 1.6,
+            iris_mm: 1.6,
+            mouth_mm: 1.0,
+            line_mm: 0.8,
+        }
+    }
+}
+
+impl DetailParams {
+    /// Every depth times `k`.
+    pub fn scaled(self, k: f32) -> Self {
+        DetailParams {
+            brow_mm: self.brow_mm * k,
+            iris_mm: self.iris_mm * k,
+            mouth_mm: self.mouth_mm * k,
+            line_mm: self.line_mm * k,
+        }
+    }
+}
+
+/// The detail read from one photo: a height map over a window of the photo, and where each
+/// vertex of the fitted face lies in it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FaceDetail {
+    /// Photo position of cell (0, 0), pixels; photo pixels per cell.
+    origin: [f32; 2],
+    step: f32,
+    cols: usize,
+    rows: usize,
+    /// Canonical mm per cell, row-major.
+    height: Vec<f32>,
+    /// Per vertex of the face mesh: photo x, y (pixels) and how squarely the photo sees it
+    /// (0: turned away or hidden, 1: facing the camera).
+    seen: Vec<[f32; 3]>,
+}
+
+/// Why no detail was read.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum DetailError {
+    #[error("expected 68 finite landmarks")]
+    Landmarks,
+    #[error("the eyes are too close together ({0:.1} px) to read the face's detail")]
+    TooSmall(f32),
+    #[error("the photo is empty")]
+    EmptyPhoto,
+}
+
+impl FaceDetail {
+    /// Reads the detail of the face with these 68 landmarks from `photo` (brightness), with
+    /// `seen` from [`seen_vertices`].
+    pub fn read(
+        photo: &GrayImage,
+        landmarks: &[[f32; 2]],
+        seen: Vec<[f32; 3]>,
+        params: &DetailParams,
+    ) -> Result<Self, DetailError> {
+        if landmarks.len() != 68 || landmarks.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(DetailError::Landmarks);
+        }
+        if photo.width() == 0 || photo.height() == 0 {
+            return Err(DetailError::EmptyPhoto);
+        }
+        let centre_of = |r: std::ops::Range<usize>| {
+            let n = r.len() as f32;
+            let s = landmarks[r]
+                .iter()
+                .fold([0.0f32; 2], |a, p| [a[0] + p[0], a[1] + p[1]]);
+            [s[0] / n, s[1] / n]
+        };
+        let (re, le) = (centre_of(36..42), centre_of(42..48));
+        let iod = (le[0] - re[0]).hypot(le[1] - re[1]);
+        if iod < 8.0 {
+            return Err(DetailError::TooSmall(iod));
+        }
+        let step = iod / CELLS_PER_IOD;
+        // The window: the landmarks' box grown by half the eyes' distance (the forehead's
+        // lines above the brows, the folds beside the mouth).
+        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
+        for p in landmarks {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let origin = [lo[0] - 0.5 * iod, lo[1] - 0.7 * iod];
+        let cols = ((hi[0] + 0.5 * iod - origin[0]) / step).ceil() as usize + 1;
+        let rows = ((hi[1] + 0.5 * iod - origin[1]) / step).ceil() as usize + 1;
+        let cell = |c: usize, r: usize| [origin[0] + c as f32 * step, origin[1] + r as f32 * step];
+        let to_cell = |p: [f32; 2]| [(p[0] - origin[0]) / step, (p[1] - origin[1]) / step];
+
+        let mut lum = vec![0f32; cols * rows];
+        for r in 0..rows {
+            for c in 0..cols {
+                let [x, y] = cell(c, r);
+                lum[r * cols + c] = bilinear_grey(photo, x, y);
+            }
+        }
+        // Band-pass: what changes over about 1-8 % of the eyes' distance, never finer than the
+        // photo's own pixels (a small face's cells are smaller than its pixels: finer than
+        // that is interpolation and compression noise).
+        let fine = blur(&lum, cols, rows, 0.8f32.max(1.0 / step));
+        let coarse = blur(&lum, cols, rows, 5.0);
+        let band: Vec<f32> = fine.iter().zip(&coarse).map(|(f, c)| f - c).collect();
+        // The iris against the whole eye: a wider band.
+        let wide = blur(&lum, cols, rows, 9.0);
+        let eye_band: Vec<f32> = fine.iter().zip(&wide).map(|(f, c)| f - c).collect();
+        // Lines: valleys of the brightness, blurred a little (a fold is 2-4 % of the eyes'
+        // distance wide).
+        let valley = valleys(&blur(&lum, cols, rows, 1.5), cols, rows);
+
+        // Regions, in cells.
+        let lm: Vec<[f32; 2]> = landmarks.iter().map(|&p| to_cell(p)).collect();
+        let iod_c = CELLS_PER_IOD;
+        let jaw: Vec<[f32; 2]> = lm[0..17].to_vec();
+        // The face's outline: the jaw, then up over the brows lifted by a third of the eyes'
+        // distance (the forehead's lower part).
+        let mut outline = jaw.clone();
+        for k in (17..27).rev() {
+            outline.push([lm[k][0], lm[k][1] - 0.35 * iod_c]);
+        }
+        let grow = |poly: &[[f32; 2]], by: f32| -> Vec<[f32; 2]> {
+            let n = poly.len() as f32;
+            let c = poly
+                .iter()
+                .fold([0.0f32; 2], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+            poly.iter()
+                .map(|p| {
+                    let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+                    let l = dx.hypot(dy).max(1e-3);
+                    [p[0] + by * dx / l, p[1] + by * dy / l]
+                })
+                .collect()
+        };
+        let eyes = [
+            grow(&lm[36..42], 0.03 * iod_c),
+            grow(&lm[42..48], 0.03 * iod_c),
+        ];
+        let mouth = grow(&lm[48..60], 0.04 * iod_c);
+        let brows = [&lm[17..22], &lm[22..27]];
+
+        // Contrast scales over the face: the median absolute band-pass and valley.
+        let face_cells: Vec<usize> = (0..cols * rows)
+            .filter(|&i| inside(&outline, [(i % cols) as f32, (i / cols) as f32]))
+            .collect();
+        // Floors: a face without texture (a flat drawing, a blown-out photo) is not made to
+        // carve its last grey level; 2 % of the brightness range at least.
+        let mad = |v: &[f32]| {
+            let mut a: Vec<f32> = face_cells.iter().map(|&i| v[i].abs()).collect();
+            median(&mut a).max(0.02 / 1.4826 / 3.0)
+        };
+        let (band_s, eye_s) = (1.4826 * mad(&band), 1.4826 * mad(&eye_band));
+        let valley_s = {
+            let mut a: Vec<f32> = face_cells.iter().map(|&i| valley[i]).collect();
+            let k = (a.len() as f32 * 0.9) as usize;
+            if a.is_empty() {
+                1.0
+            } else {
+                let k = k.min(a.len() - 1);
+                // A fold 2 % darker than its sides and a few cells wide at least.
+                a.select_nth_unstable_by(k, f32::total_cmp).1.max(0.004)
+            }
+        };
+
+        // Lines: valleys strong against the face's own, in runs long enough to be a fold or a
+        // wrinkle (a mole's rim is a short closed loop: dropped).
+        let mut line = vec![0f32; cols * rows];
+        for &i in &face_cells {
+            line[i] = smoothstep(1.0, 2.5, valley[i] / valley_s);
+        }
+        drop_short_runs(&mut line, cols, rows, 0.15 * iod_c);
+
+        let mut height = vec![0f32; cols * rows];
+        for &i in &face_cells {
+            let p = [(i % cols) as f32, (i / cols) as f32];
+            let dark = (-band[i] / band_s / 3.0).clamp(0.0, 1.0);
+            // Brows: within a band about each brow's line, fading at its ends.
+            let brow_w = brows
+                .iter()
+                .map(|b| {
+                    let d = polyline_distance(b, p);
+                    smoothstep(0.13 * iod_c, 0.06 * iod_c, d)
+                })
+                .fold(0.0f32, f32::max);
+            let eye_w = eyes.iter().any(|e| inside(e, p));
+            let mouth_w = inside(&mouth, p);
+            let h = if eye_w {
+                -params.iris_mm * (-eye_band[i] / eye_s / 3.0).clamp(0.0, 1.0)
+            } else if mouth_w {
+                -params.mouth_mm * dark
+            } else {
+                brow_w * params.brow_mm * dark - (1.0 - brow_w) * params.line_mm * line[i]
+            };
+            height[i] = h;
+        }
+        // Soften the regions' borders by a cell.
+        let height = blur(&height, cols, rows, 0.7);
+        Ok(FaceDetail {
+            origin,
+            step,
+            cols,
+            rows,
+            height,
+            seen,
+        })
+    }
+
+    /// The carved height (canonical mm) at photo point (x, y): bilinear, 0 outside the map.
+    pub fn at(&self, x: f32, y: f32) -> f32 {
+        let (u, v) = (
+            (x - self.origin[0]) / self.step,
+            (y - self.origin[1]) / self.step,
+        );
+        if !(u >= 0.0 && v >= 0.0 && u <= (self.cols - 1) as f32 && v <= (self.rows - 1) as f32) {
+            return 0.0;
+        }
+        let (c0, r0) = (u as usize, v as usize);
+        let (c1, r1) = ((c0 + 1).min(self.cols - 1), (r0 + 1).min(self.rows - 1));
+        let (fx, fy) = (u - c0 as f32, v - r0 as f32);
+        let h = |c: usize, r: usize| self.height[r * self.cols + c];
+        (h(c0, r0) * (1.0 - fx) + h(c1, r0) * fx) * (1.0 - fy)
+            + (h(c0, r1) * (1.0 - fx) + h(c1, r1) * fx) * fy
+    }
+
+    /// Per vertex: photo x, y and how squarely the photo sees it.
+    pub fn seen(&self) -> &[[f32; 3]] {
+        &self.seen
+    }
+
+    /// The map's size in cells, and its heights (for tests and pictures).
+    pub fn map(&self) -> (usize, usize, &[f32]) {
+        (self.cols, self.rows, &self.height)
+    }
+}
+
+/// Where each vertex of `mesh` (model mm, the fitted face with its expression) lies in the
+/// photo under the fit's `pose`, and how squarely the photo sees it: its normal turned towards
+/// the camera, 0 below 0.1 (seen edge-on or from behind) to 1 above 0.4.
+pub fn seen_vertices(mesh: &[f32], triangles: &[[u32; 3]], pose: &Pose) -> Vec<[f32; 3]> {
+    let normals = crate::raster::vertex_normals(mesh, triangles);
+    mesh.chunks_exact(3)
+        .zip(&normals)
+        .map(|(v, n)| {
+            let p = pose.project(&nalgebra::Vector3::new(
+                f64::from(v[0]),
+                f64::from(v[1]),
+                f64::from(v[2]),
+            ));
+            let nz = (pose.rotation.row(2)[0] * f64::from(n[0])
+                + pose.rotation.row(2)[1] * f64::from(n[1])
+                + pose.rotation.row(2)[2] * f64::from(n[2])) as f32;
+            let (x, y) = (p.x as f32, p.y as f32);
+            if x.is_finite() && y.is_finite() && nz.is_finite() {
+                [x, y, smoothstep(0.1, 0.4, nz)]
+            } else {
+                [0.0, 0.0, 0.0]
+            }
+        })
+        .collect()
+}
+
+/// Valley strength of a brightness field: where the larger curvature is positive (darker
+/// than both sides across) and much larger than the other (a line, not a spot), the
+/// difference of the two, else 0.
+fn valleys(f: &[f32], cols: usize, rows: usize) -> Vec<f32> {
+    let mut out = vec![0f32; cols * rows];
+    for r in 1..rows.saturating_sub(1) {
+        for c in 1..cols.saturating_sub(1) {
+            let i = r * cols + c;
+            let fxx = f[i - 1] - 2.0 * f[i] + f[i + 1];
+            let fyy = f[i - cols] - 2.0 * f[i] + f[i + cols];
+            let fxy =
+                0.25 * (f[i + cols + 1] - f[i + cols - 1] - f[i - cols + 1] + f[i - cols - 1]);
+            let m = 0.5 * (fxx + fyy);
+            let d = (0.25 * (fxx - fyy) * (fxx - fyy) + fxy * fxy).sqrt();
+            let (l1, l2) = (m + d, m - d);
+            out[i] = (l1 - l2.abs()).max(0.0);
+        }
+    }
+    out
+}
+
+/// Zeroes the connected runs (4-neighbours, values over 0.2) of `f` whose bounding box's
+/// diagonal is shorter than `min_len` cells.
+fn drop_short_runs(f: &mut [f32], cols: usize, rows: usize, min_len: f32) {
+    let mut seen = vec![false; cols * rows];
+    let mut stack = Vec::new();
+    let mut members = Vec::new();
+    for start in 0..cols * rows {
+        if seen[start] || f[start] <= 0.2 {
+            continue;
+        }
+        seen[start] = true;
+        stack.push(start);
+        members.clear();
+        let (mut lo, mut hi) = ([usize::MAX; 2], [0usize; 2]);
+        while let Some(i) = stack.pop() {
+            members.push(i);
+            let (x, y) = (i % cols, i / cols);
+            lo = [lo[0].min(x), lo[1].min(y)];
+            hi = [hi[0].max(x), hi[1].max(y)];
+            let mut visit = |j: usize| {
+                if !seen[j] && f[j] > 0.2 {
+                    seen[j] = true;
+                    stack.push(j);
+                }
+            };
+            if x > 0 {
+                visit(i - 1);
+            }
+            if x + 1 < cols {
+                visit(i + 1);
+            }
+            if y > 0 {
+                visit(i - cols);
+            }
+            if y + 1 < rows {
+                visit(i + cols);
+            }
+        }
+        let diag = ((hi[0] - lo[0]) as f32).hypot((hi[1] - lo[1]) as f32);
+        if diag < min_len {
+            for &i in &members {
+                f[i] = 0.0;
+            }
+        }
+    }
+}
+
+fn bilinear_grey(img: &GrayImage, x: f32, y: f32) -> f32 {
+    let (w, h) = img.dimensions();
+    let (x, y) = (x.clamp(0.0, (w - 1) as f32), y.clamp(0.0, (h - 1) as f32));
+    let (x0, y0) = (x as u32, y as u32);
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+    let px = |x: u32, y: u32| f32::from(img.get_pixel(x, y).0[0]) / 255.0;
+    (px(x0, y0) * (1.0 - fx) + px(x1, y0) * fx) * (1.0 - fy)
+        + (px(x0, y1) * (1.0 - fx) + px(x1, y1) * fx) * fy
+}
+
+/// Even-odd point-in-polygon.
+fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
+    let mut c = false;
+    let mut j = poly.len() - 1;
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[j]);
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
+        {
+            c = !c;
+        }
+        j = i;
+    }
+    c
+}
+
+fn polyline_distance(line: &[[f32; 2]], p: [f32; 2]) -> f32 {
+    line.windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let l2 = (dx * dx + dy * dy).max(1e-9);
+            let t = (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0);
+            (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
+        })
+        .fold(f32::INFINITY, f32::min)
+}
+
+fn median(v: &mut [f32]) -> f32 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let k = v.len() / 2;
+    *v.select_nth_unstable_by(k, f32::total_cmp).1
+}
+
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 68 landmarks of a face 200 px between the eyes' centres, centred in a 800 x 800 photo.
+    fn face() -> Vec<[f32; 2]> {
+        let mut lm = vec![[0f32; 2]; 68];
+        for (k, p) in lm.iter_mut().enumerate().take(17) {
+            let t = k as f32 / 16.0 * std::f32::consts::PI;
+            *p = [400.0 - 240.0 * t.cos(), 380.0 + 260.0 * t.sin()];
+        }
+        for k in 0..5 {
+            lm[17 + k] = [
+                220.0 + 35.0 * k as f32,
+                300.0 - 8.0 * (k as f32 - 2.0).abs(),
+            ];
+            lm[22 + k] = [
+                440.0 + 35.0 * k as f32,
+                300.0 - 8.0 * (k as f32 - 2.0).abs(),
+            ];
+        }
+        for (k, p) in lm.iter_mut().enumerate().take(36).skip(27) {
+            *p = [400.0, 340.0 + 10.0 * (k - 27) as f32];
+        }
+        let eye = |cx: f32| {
+            [
+                [cx - 45.0, 360.0],
+                [cx - 15.0, 345.0],
+                [cx + 15.0, 345.0],
+                [cx + 45.0, 360.0],
+                [cx + 15.0, 372.0],
+                [cx - 15.0, 372.0],
+            ]
+        };
+        lm[36..42].copy_from_slice(&eye(300.0));
+        lm[42..48].copy_from_slice(&eye(500.0));
+        for k in 0..12 {
+            let t = k as f32 / 12.0 * std::f32::consts::TAU;
+            lm[48 + k] = [400.0 - 80.0 * t.cos(), 520.0 - 25.0 * t.sin()];
+        }
+        for k in 0..8 {
+            let t = k as f32 / 8.0 * std::f32::consts::TAU;
+            lm[60 + k] = [400.0 - 60.0 * t.cos(), 520.0 - 5.0 * t.sin()];
+        }
+        lm
+    }
+
+    fn draw(img: &mut GrayImage, f: impl Fn(f32, f32) -> Option<u8>) {
+        for (x, y, p) in img.enumerate_pixels_mut() {
+            if let Some(v) = f(x as f32, y as f32) {
+                p.0[0] = v;
+            }
+        }
+    }
+
+    #[test]
+    fn dark_brows_rise_irises_sink_lines_are_cut_and_moles_are_left() {
+        let lm = face();
+        let mut img = GrayImage::from_pixel(800, 800, image::Luma([180]));
+        // Dark brows along the brow points, dark irises in the eyes, a dark fold line on the
+        // cheek, a dark round mole on the other cheek.
+        draw(&mut img, |x, y| {
+            let brow =
+                (x > 215.0 && x < 365.0 || x > 435.0 && x < 585.0) && (y - 298.0).abs() < 7.0;
+            let iris = (x - 300.0).hypot(y - 360.0) < 10.0 || (x - 500.0).hypot(y - 360.0) < 10.0;
+            let fold = (y - (430.0 + 0.9 * (x - 250.0))).abs() < 2.5 && x > 250.0 && x < 310.0;
+            let mole = (x - 560.0).hypot(y - 450.0) < 6.0;
+            (brow || iris || fold || mole).then_some(60)
+        });
+        let d = FaceDetail::read(&img, &lm, Vec::new(), &DetailParams::default()).expect("detail");
+        let brow = d.at(290.0, 298.0);
+        let iris = d.at(300.0, 360.0);
+        let fold = d.at(280.0, 457.0);
+        let mole = d.at(560.0, 450.0);
+        let skin = d.at(480.0, 470.0);
+        assert!(brow > 0.8, "brow {brow}");
+        assert!(iris < -0.8, "iris {iris}");
+        assert!(fold < -0.3, "fold {fold}");
+        assert!(
+            mole.abs() < 0.5 * fold.abs(),
+            "mole {mole} against the fold {fold}"
+        );
+        assert!(skin.abs() < 0.05, "plain skin {skin}");
+        assert_eq!(d.at(-500.0, 10.0), 0.0);
+    }
+
+    #[test]
+    fn a_dim_photo_carves_as_deep_as_a_bright_one() {
+        let lm = face();
+        let make = |bg: u8, fg: u8| {
+            let mut img = GrayImage::from_pixel(800, 800, image::Luma([bg]));
+            draw(&mut img, |x, y| {
+                ((x > 215.0 && x < 365.0) && (y - 298.0).abs() < 7.0).then_some(fg)
+            });
+            // Some texture so the face's contrast scale is not the brow alone.
+            draw(&mut img, |x, y| {
+                (((x * 0.37).sin() * (y * 0.29).cos()) > 0.95).then_some(bg.saturating_sub(bg / 8))
+            });
+            FaceDetail::read(&img, &lm, Vec::new(), &DetailParams::default()).expect("detail")
+        };
+        let (bright, dim) = (make(200, 80), make(60, 24));
+        let (b, d) = (bright.at(290.0, 298.0), dim.at(290.0, 298.0));
+        assert!(b > 0.5 && (b - d).abs() < 0.25 * b, "bright {b}, dim {d}");
+    }
+
+    #[test]
+    fn bad_landmarks_and_tiny_faces_are_refused() {
+        let img = GrayImage::from_pixel(100, 100, image::Luma([128]));
+        let mut lm = face();
+        lm[5][0] = f32::NAN;
+        let p = DetailParams::default();
+        assert_eq!(
+            FaceDetail::read(&img, &lm, Vec::new(), &p),
+            Err(DetailError::Landmarks)
+        );
+        let tiny: Vec<[f32; 2]> = face().iter().map(|q| [q[0] * 0.01, q[1] * 0.01]).collect();
+        assert!(matches!(
+            FaceDetail::read(&img, &tiny, Vec::new(), &p),
+            Err(DetailError::TooSmall(_))
+        ));
+        let empty = GrayImage::new(0, 0);
+        assert_eq!(
+            FaceDetail::read(&empty, &face(), Vec::new(), &p),
+            Err(DetailError::EmptyPhoto)
+        );
+    }
+}
