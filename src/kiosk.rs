@@ -95,6 +95,10 @@ pub struct KioskConfig {
     pub visitor_hair: bool,
     /// With `visitor_hair`: glasses found on the visitor are carved (off: left out).
     pub glasses: bool,
+    /// Faces the likeness search draws for each visitor, once their identity holds (the
+    /// portrait's identity steered towards their face by the recognition network, on the
+    /// person thread: about 1.3 s of one core for 53); 0: the landmark fit's identity.
+    pub likeness_search: u32,
     /// Window size when not full-screen, logical pixels.
     pub width: u32,
     pub height: u32,
@@ -109,7 +113,7 @@ impl Default for KioskConfig {
             camera: 0,
             video: None,
             material: Material::Marble,
-            portrait: View::Profile,
+            portrait: View::Frontal,
             sss: true,
             sss_strength: DEFAULT_SSS_STRENGTH,
             idle_seconds: 8.0,
@@ -126,6 +130,7 @@ impl Default for KioskConfig {
             hair_layer: true,
             visitor_hair: true,
             glasses: true,
+            likeness_search: 53,
             width: 800,
             height: 1000,
             render_scale: 1.0,
@@ -194,6 +199,12 @@ impl KioskConfig {
                 key: "labels",
                 problem: format!("{key} {problem}"),
             });
+        }
+        if self.likeness_search > 2000 {
+            return invalid(
+                "likeness_search",
+                format!("is {}, not within 0..=2000 faces", self.likeness_search),
+            );
         }
         for (key, v) in [("width", self.width), ("height", self.height)] {
             if !(64..=8192).contains(&v) {

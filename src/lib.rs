@@ -5,7 +5,9 @@
 //! the binary. Pure computation (landmark regression, fitting, relief geometry) does
 //! no I/O and no GPU work; [`shapemodel`] and [`assets`] are where files are read.
 
-pub use glyptic_core::{files, fit, gem, landmarks, person, scene, shapemodel, smooth};
+pub use glyptic_core::{
+    files, fit, gem, identity, landmarks, person, raster, scene, shapemodel, smooth,
+};
 pub use glyptic_render as render;
 pub use glyptic_render::{sss, styles};
 

@@ -168,35 +168,90 @@ pub struct StreamOptions {
     /// Where the person thread loads the person segmentation from (`segmenter`, `onnxruntime`);
     /// without it, or when it does not load, hair is read from colour alone.
     pub models: Option<crate::assets::ModelPaths>,
+    /// Steer each visitor's portrait identity towards their face with the recognition network
+    /// ([`crate::identity`]), once their identity is held, on the person thread (the face
+    /// thread and the window never wait for it); `None`: the landmark fit's identity. Needs
+    /// `models` (the network).
+    pub likeness: Option<crate::identity::SearchOptions>,
 }
 
-/// The person thread: reads hair from frames handed to it one at a time.
+/// A job for the identity search: one frame of a held track.
+struct IdentityJob {
+    track: u64,
+    fit: crate::fit::Fit,
+    start: Vec<f32>,
+}
+
+/// What the person thread read from one frame.
+#[derive(Default)]
+struct PersonReading {
+    hair: Option<HairStyle>,
+    /// The track and the identity the search found for it.
+    steered: Option<(u64, Vec<f32>)>,
+}
+
+/// The person thread: reads hair from frames handed to it one at a time, and steers a held
+/// track's identity when asked.
 struct PersonWorker {
-    jobs: crate::capture::LatestSender<(Arc<RgbImage>, Vec<[f32; 2]>)>,
-    results: LatestReceiver<Option<HairStyle>>,
+    jobs: crate::capture::LatestSender<PersonJob>,
+    results: LatestReceiver<PersonReading>,
     busy: bool,
 }
 
+type PersonJob = (Arc<RgbImage>, Vec<[f32; 2]>, Option<IdentityJob>);
+
 impl PersonWorker {
-    fn spawn(models: Option<crate::assets::ModelPaths>) -> Option<Self> {
-        let (jobs, inbox) = latest::<(Arc<RgbImage>, Vec<[f32; 2]>)>();
+    fn spawn(
+        models: Option<crate::assets::ModelPaths>,
+        hair: bool,
+        likeness: Option<(
+            crate::identity::SearchOptions,
+            Arc<crate::shapemodel::SurreyModel>,
+        )>,
+    ) -> Option<Self> {
+        let (jobs, inbox) = latest::<PersonJob>();
         let (send, results) = latest();
         std::thread::Builder::new()
             .name("person".into())
             .spawn(move || {
                 // The person segmentation, when it loads (else colour alone).
-                let mut segmenter = models.and_then(|m| {
+                let mut segmenter = models.as_ref().filter(|_| hair).and_then(|m| {
                     crate::detect::PersonSegmenter::load(&m.segmenter, &m.onnxruntime).ok()
                 });
-                while let Ok((image, landmarks)) = inbox.recv() {
-                    let mask = segmenter
-                        .as_mut()
-                        .and_then(|s| s.segment(&image, &landmarks).ok());
-                    // A frame the person cannot be read from is no reading.
-                    let style = crate::person::analyse_with(&image, &landmarks, mask.as_ref())
-                        .ok()
-                        .map(|p| crate::gem::hair_style(&p));
-                    if send.send(style).is_err() {
+                // The recognition network, on this thread's one core.
+                let mut net = models
+                    .as_ref()
+                    .filter(|_| likeness.is_some())
+                    .and_then(|m| {
+                        crate::detect::FaceEmbedder::load(&m.recogniser, &m.onnxruntime, 1)
+                            .map_err(|e| {
+                                tracing::warn!(
+                                    "{e}; the portrait keeps the landmark fit's identity"
+                                )
+                            })
+                            .ok()
+                    });
+                while let Ok((image, landmarks, identity)) = inbox.recv() {
+                    let mut reading = PersonReading::default();
+                    if hair {
+                        let mask = segmenter
+                            .as_mut()
+                            .and_then(|s| s.segment(&image, &landmarks).ok());
+                        // A frame the person cannot be read from is no reading.
+                        reading.hair =
+                            crate::person::analyse_with(&image, &landmarks, mask.as_ref())
+                                .ok()
+                                .map(|p| crate::gem::hair_style(&p));
+                    }
+                    if let (Some(job), Some(net), Some((opts, model))) =
+                        (identity, net.as_mut(), likeness.as_ref())
+                    {
+                        reading.steered = steer(net, model, opts, &image, &landmarks, &job)
+                            .map_err(|e| tracing::warn!("cannot steer the visitor's identity: {e}"))
+                            .ok()
+                            .map(|shape| (job.track, shape));
+                    }
+                    if send.send(reading).is_err() {
                         return;
                     }
                 }
@@ -208,6 +263,55 @@ impl PersonWorker {
             busy: false,
         })
     }
+}
+
+/// The identity search on one frame (stage `identity` on the person thread's log).
+fn steer(
+    net: &mut crate::detect::FaceEmbedder,
+    model: &crate::shapemodel::SurreyModel,
+    opts: &crate::identity::SearchOptions,
+    image: &RgbImage,
+    landmarks: &[[f32; 2]],
+    job: &IdentityJob,
+) -> Result<Vec<f32>, String> {
+    let target = net.embed(image, landmarks).map_err(|e| e.to_string())?;
+    let grey = image::DynamicImage::ImageRgb8(image.clone()).into_luma8();
+    let mesh = model.instance(&job.fit.shape, &job.fit.expression);
+    let scene = crate::identity::Scene::of_photo(
+        &grey,
+        landmarks,
+        &mesh,
+        &model.shape.triangles,
+        &job.fit.pose,
+    )
+    .map_err(|e| e.to_string())?;
+    let found = crate::stage::timed(
+        "identity",
+        || {
+            crate::identity::search(
+                model,
+                &scene,
+                &job.start,
+                &job.fit.expression,
+                &target.0,
+                |crops, n| {
+                    net.embed_aligned(crops, n)
+                        .map_err(|e| tracing::warn!("{e}"))
+                        .ok()
+                        .map(|v| v.into_iter().map(|e| e.0.to_vec()).collect())
+                },
+                opts,
+            )
+        },
+        |s| {
+            format!(
+                "recognition distance {:.3} -> {:.3} in {} faces",
+                s.before, s.after, s.evaluations
+            )
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(found.shape)
 }
 
 impl FaceUpdate {
@@ -316,6 +420,7 @@ impl FaceStream {
                 builder,
                 hair: false,
                 models: None,
+                likeness: None,
             },
         )
     }
@@ -326,7 +431,12 @@ impl FaceStream {
             mut builder,
             hair,
             models,
+            likeness,
         } = options;
+        let likeness = likeness
+            .filter(|_| models.is_some())
+            .map(|o| (o, tracker.pipeline.model.clone()));
+        let steering = likeness.is_some();
         let (tx, updates) = latest();
         let (etx, events) = crossbeam_channel::bounded(256);
         let stop = Arc::new(AtomicBool::new(false));
@@ -338,11 +448,13 @@ impl FaceStream {
                 let mut summary = StreamSummary::default();
                 let mut warm = Vec::new();
                 let detections_before = tracker.detections();
-                let mut person = if hair {
-                    PersonWorker::spawn(models)
+                let mut person = if hair || steering {
+                    PersonWorker::spawn(models, hair, likeness)
                 } else {
                     None
                 };
+                // The track whose identity was sent to be steered (once per track).
+                let mut asked: Option<u64> = None;
                 let mut smoother = HairSmoother::default();
                 let mut had_face = false;
                 while !flag.load(Ordering::Relaxed) {
@@ -368,7 +480,11 @@ impl FaceStream {
                                 }
                                 if let Ok(Some(reading)) = worker.results.try_recv() {
                                     worker.busy = false;
-                                    let changed = reading.and_then(|s| smoother.push(s));
+                                    if let Some((track, shape)) = reading.steered {
+                                        // A track lost meanwhile keeps its own.
+                                        tracker.steer(track, shape);
+                                    }
+                                    let changed = reading.hair.and_then(|s| smoother.push(s));
                                     if let (Some(style), Some(b)) = (changed, &builder) {
                                         let params = CameoParams {
                                             hair: style,
@@ -380,12 +496,28 @@ impl FaceStream {
                                     }
                                 }
                                 if !worker.busy {
+                                    // Once the identity holds, one frame of the track goes to
+                                    // the identity search.
+                                    let held = face.identity_frames
+                                        >= tracker.options.identity_frames.max(1);
+                                    let job = (steering && held && asked != Some(face.track)).then(
+                                        || IdentityJob {
+                                            track: face.track,
+                                            fit: face.raw.clone(),
+                                            start: face.portrait_shape.clone(),
+                                        },
+                                    );
+                                    if job.is_some() {
+                                        asked = Some(face.track);
+                                    }
                                     worker.busy = worker
                                         .jobs
-                                        .send((frame.image.clone(), face.landmarks.clone()))
+                                        .send((frame.image.clone(), face.landmarks.clone(), job))
                                         .is_ok();
                                 }
-                                update.hair = smoother.settled();
+                                if hair {
+                                    update.hair = smoother.settled();
+                                }
                             }
                             had_face = found;
                             if let Some(b) = &builder {

@@ -96,9 +96,16 @@ pub struct TrackedFace {
     /// Face mesh from `shape` and `expression`, model mm, pose removed.
     pub mesh: Vec<f32>,
     /// The face the gem carves: the mean of the learning frames' portrait identities
-    /// ([`FacePipeline::portrait_coefficients`]) with `expression`, caricatured (see
-    /// [`FacePipeline::portrait`]).
+    /// ([`FacePipeline::portrait_coefficients`]), or the identity steered towards the visitor
+    /// ([`Tracker::steer`]), with `expression`, caricatured (see [`FacePipeline::portrait`]).
     pub portrait: Vec<f32>,
+    /// That identity before the caricature, standard deviations.
+    pub portrait_shape: Vec<f32>,
+    /// Which track this face belongs to (a new number each time the detector starts one), so
+    /// work done on one visitor's frames is not given to the next.
+    pub track: u64,
+    /// The portrait's identity was steered by the recognition network ([`Tracker::steer`]).
+    pub steered: bool,
 }
 
 /// A frame's outcome: a face, or why there is none.
@@ -111,6 +118,9 @@ pub struct TrackStep {
 }
 
 struct TrackState {
+    track: u64,
+    /// The portrait's identity as the recognition network steered it.
+    steered: Option<Vec<f32>>,
     landmarks: Vec<[f32; 2]>,
     fit: Fit,
     identity_sum: Vec<f64>,
@@ -130,6 +140,7 @@ pub struct Tracker {
     pub options: TrackOptions,
     state: Option<TrackState>,
     detections: u64,
+    tracks: u64,
 }
 
 impl Tracker {
@@ -144,6 +155,20 @@ impl Tracker {
             options,
             state: None,
             detections: 0,
+            tracks: 0,
+        }
+    }
+
+    /// Carves `shape` (identity, standard deviations) as the portrait of track `track` from
+    /// now on, if that track is still the one followed; `false` (and nothing changes) when it
+    /// was lost meanwhile.
+    pub fn steer(&mut self, track: u64, shape: Vec<f32>) -> bool {
+        match &mut self.state {
+            Some(s) if s.track == track && shape.len() == s.fit.shape.len() => {
+                s.steered = Some(shape);
+                true
+            }
+            _ => false,
         }
     }
 
@@ -187,7 +212,10 @@ impl Tracker {
             return Ok((None, lost));
         };
         let o = &self.options;
+        self.tracks += 1;
         let state = TrackState {
+            track: self.tracks,
+            steered: None,
             landmarks: Vec::new(),
             fit: fit.clone(),
             identity_sum: vec![0.0; fit.shape.len()],
@@ -347,7 +375,10 @@ impl Tracker {
             }
         }
         let shape = mean_identity(&state, &state.identity_sum);
-        let portrait_shape = mean_identity(&state, &state.portrait_sum);
+        let portrait_shape = state
+            .steered
+            .clone()
+            .unwrap_or_else(|| mean_identity(&state, &state.portrait_sum));
         let (pose, expression) = if o.smoothing {
             let angles = state.angles.filter(time_s, &fit.pose.yaw_pitch_roll_deg());
             let t = fit.pose.translation;
@@ -369,6 +400,7 @@ impl Tracker {
         let mesh = self.pipeline.model.instance(&shape, &expression);
         let portrait = self.pipeline.portrait(&portrait_shape, &expression);
         let identity_frames = state.identity_n;
+        let (track, steered) = (state.track, state.steered.is_some());
         state.landmarks = landmarks.clone();
         state.fit = fit.clone();
         self.state = Some(state);
@@ -382,6 +414,9 @@ impl Tracker {
             identity_frames,
             mesh,
             portrait,
+            portrait_shape,
+            track,
+            steered,
         }
     }
 }

@@ -144,7 +144,7 @@ pub fn similarity(src: &[[f32; 2]], dst: &[[f32; 2]]) -> Option<[f64; 4]> {
         sxy += sx * dy - sy * dx;
         var += sx * sx + sy * sy;
     }
-    if !(var > 1e-9) || !var.is_finite() {
+    if !var.is_finite() || var <= 1e-9 {
         return None;
     }
     let (a, b) = (sxx / var, sxy / var);
@@ -232,7 +232,11 @@ impl FaceEmbedder {
         let config = SessionConfig {
             intra_threads: threads.max(1),
         };
+        // Its threads sleep between runs instead of spinning: the search calls it a few times
+        // a photo, between which the other stages want the cores.
         let session = super::centerface::session_builder(&env, &config)
+            .and_then(|b| b.with_prepacking(false).map_err(|e| e.to_string()))
+            .and_then(|b| b.with_memory_pattern(false).map_err(|e| e.to_string()))
             .and_then(|mut b| b.commit_from_memory(&bytes).map_err(|e| e.to_string()))
             .map_err(model_err)?;
         let names = |v: Vec<&str>| v.into_iter().map(str::to_owned).collect::<Vec<_>>();

@@ -13,7 +13,7 @@ use std::path::Path;
 use crate::assets::ModelPaths;
 use crate::capture::CaptureError;
 #[cfg(feature = "face")]
-use crate::detect::{PersonSegmenter, SegmentError};
+use crate::detect::{FaceEmbedder, PersonSegmenter, SegmentError};
 use crate::gem::{self, CameoParams, GemError};
 use crate::render::{Mesh, RenderError, RenderParams, Renderer};
 use crate::stage::timed;
@@ -61,6 +61,9 @@ pub struct PhotoGem {
     pub face: FaceResult,
     /// The cameo cut for this person (their hair, beard and glasses).
     pub cameo: CameoParams,
+    /// The photo's own detail carved into the face (brows, irises, the mouth's line, folds);
+    /// `None` when it is off or could not be read.
+    pub detail: Option<gem::FaceDetail>,
     /// The whole cameo, gem mm.
     pub mesh: Mesh,
 }
@@ -76,6 +79,14 @@ pub struct GemPipeline {
     pub hair: Hair,
     /// Carve glasses found on the photo (the rims and temples as ridges on the face).
     pub carve_glasses: bool,
+    /// Carve the photo's own detail into the face ([`gem::FaceDetail`]); `None`: only the
+    /// fitted shape.
+    pub detail: Option<gem::DetailParams>,
+    /// The recognition network that steers the portrait's identity towards the photo
+    /// ([`crate::identity`]); [`Recogniser::Off`]: the landmark fit's identity.
+    pub recogniser: Recogniser,
+    /// The identity search's size and prior.
+    pub identity: crate::identity::SearchOptions,
 }
 
 #[cfg(feature = "face")]
@@ -87,14 +98,35 @@ impl GemPipeline {
         cameo: CameoParams,
         hair: Hair,
     ) -> Result<Self, PipelineError> {
+        Self::load_with(models, cameo, hair, true)
+    }
+
+    /// [`GemPipeline::load`], with the recognition network (the identity search) or without
+    /// (`recognise` false: it is not even loaded).
+    pub fn load_with(
+        models: &ModelPaths,
+        cameo: CameoParams,
+        hair: Hair,
+        recognise: bool,
+    ) -> Result<Self, PipelineError> {
         let face = FacePipeline::load(models)?;
         let segmenter = load_segmenter(models, hair);
+        // Started last: it loads while the photo is decoded and its face found (the GPU's
+        // start-up, on another thread, is over by then: started first it slowed both).
+        let recogniser = if recognise {
+            Recogniser::load(models, 2)
+        } else {
+            Recogniser::Off
+        };
         Ok(GemPipeline {
             face,
             segmenter,
             cameo,
             hair,
             carve_glasses: true,
+            detail: Some(gem::DetailParams::default()),
+            recogniser,
+            identity: crate::identity::SearchOptions::default(),
         })
     }
 
@@ -111,6 +143,14 @@ impl GemPipeline {
             cameo: self.cameo.clone(),
             hair: self.hair,
             carve_glasses: self.carve_glasses,
+            detail: self.detail,
+            // One thread each: a batch's workers share the cores.
+            recogniser: if self.recogniser.is_off() {
+                Recogniser::Off
+            } else {
+                Recogniser::load(models, 1)
+            },
+            identity: self.identity,
         })
     }
 
@@ -130,11 +170,95 @@ impl GemPipeline {
     fn gem_for(
         &mut self,
         img: &image::RgbImage,
-        face: FaceResult,
+        mut face: FaceResult,
     ) -> Result<PhotoGem, GemPipelineError> {
+        if let Some(portrait) = self.steered_portrait(img, &face) {
+            face.portrait = portrait;
+        }
         let cameo = self.person_cameo(img, &face.landmarks);
-        let mesh = build_gem(&face.portrait, &self.face.model.shape.triangles, &cameo)?;
-        Ok(PhotoGem { face, cameo, mesh })
+        let detail = self.detail.as_ref().and_then(|params| {
+            let triangles = &self.face.model.shape.triangles;
+            timed(
+                "detail",
+                || {
+                    let seen = gem::detail::seen_vertices(&face.mesh, triangles, &face.fit.pose);
+                    let grey = image::DynamicImage::ImageRgb8(img.clone()).into_luma8();
+                    gem::FaceDetail::read(&grey, &face.landmarks, seen, params)
+                },
+                |_| "brows, irises, mouth, lines".into(),
+            )
+            .map_err(|e| tracing::warn!("cannot read the face's detail ({e}); the shape alone"))
+            .ok()
+        });
+        let mesh = build_gem_detailed(
+            &face.portrait,
+            &self.face.model.shape.triangles,
+            &cameo,
+            detail.as_ref(),
+        )?;
+        Ok(PhotoGem {
+            face,
+            cameo,
+            detail,
+            mesh,
+        })
+    }
+
+    /// The portrait with its identity steered towards the photo by the recognition network
+    /// (stage `identity`); `None` without a network, or when the search cannot start (a
+    /// warning: the landmark fit's portrait stays).
+    pub fn steered_portrait(
+        &mut self,
+        img: &image::RgbImage,
+        face: &FaceResult,
+    ) -> Option<Vec<f32>> {
+        let net = self.recogniser.get()?;
+        let (shape, expression) = self.face.portrait_coefficients(&face.landmarks, &face.fit);
+        let model = &self.face.model;
+        let opts = self.identity;
+        let found = timed(
+            "identity",
+            || -> Result<crate::identity::Searched, String> {
+                let target = net.embed(img, &face.landmarks).map_err(|e| e.to_string())?;
+                let grey = image::DynamicImage::ImageRgb8(img.clone()).into_luma8();
+                let scene = crate::identity::Scene::of_photo(
+                    &grey,
+                    &face.landmarks,
+                    &face.mesh,
+                    &model.shape.triangles,
+                    &face.fit.pose,
+                )
+                .map_err(|e| e.to_string())?;
+                crate::identity::search(
+                    model,
+                    &scene,
+                    &shape,
+                    &face.fit.expression,
+                    &target.0,
+                    |crops, n| {
+                        net.embed_aligned(crops, n)
+                            .map(|v| v.into_iter().map(|e| e.0.to_vec()).collect())
+                            .map_err(|e| tracing::warn!("{e}"))
+                            .ok()
+                    },
+                    &opts,
+                )
+                .map_err(|e| e.to_string())
+            },
+            |s| {
+                format!(
+                    "recognition distance {:.3} -> {:.3} in {} faces (drawing {:.0} ms, network {:.0} ms)",
+                    s.before, s.after, s.evaluations, s.draw_ms, s.network_ms
+                )
+            },
+        );
+        match found {
+            Ok(s) => Some(self.face.portrait(&s.shape, &expression)),
+            Err(e) => {
+                tracing::warn!("cannot steer the identity by the photo ({e}); the landmark fit's");
+                None
+            }
+        }
     }
 
     /// The cameo with the subject's own hair, beard and glasses (stage `person`, the
@@ -170,6 +294,84 @@ impl GemPipeline {
                 tracing::warn!("cannot read the hair from the photo ({e}); classical hair");
                 self.cameo.clone()
             }
+        }
+    }
+}
+
+#[cfg(feature = "face")]
+/// The recognition network of a [`GemPipeline`]: loaded on a thread of its own (about 150 ms:
+/// reading and verifying 38 MB, ONNX Runtime's session) while the photo is decoded and its
+/// face found, so the photo path does not wait for it.
+pub enum Recogniser {
+    /// No identity search.
+    Off,
+    Loading(std::thread::JoinHandle<Option<FaceEmbedder>>),
+    /// Loaded (`None`: it could not be, said on the log once).
+    Ready(Option<FaceEmbedder>),
+}
+
+#[cfg(feature = "face")]
+impl std::fmt::Debug for Recogniser {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Recogniser::Off => "Off",
+            Recogniser::Loading(_) => "Loading",
+            Recogniser::Ready(Some(_)) => "Ready",
+            Recogniser::Ready(None) => "Ready(failed)",
+        })
+    }
+}
+
+#[cfg(feature = "face")]
+impl Recogniser {
+    /// Starts loading SFace ([`ModelPaths::recogniser`]) with `threads` threads per operator;
+    /// a failure (no model: run scripts/setup.sh) is a warning, and the portrait keeps the
+    /// landmark fit's identity.
+    pub fn load(models: &ModelPaths, threads: usize) -> Self {
+        let (model, ort) = (models.recogniser.clone(), models.onnxruntime.clone());
+        let load = move || {
+            timed(
+                "load recogniser",
+                || FaceEmbedder::load(&model, &ort, threads),
+                |_| format!("{}", model.display()),
+            )
+            .map_err(|e| {
+                tracing::warn!(
+                    "{e}; the portrait keeps the landmark fit's identity (run scripts/setup.sh)"
+                )
+            })
+            .ok()
+        };
+        match std::thread::Builder::new()
+            .name("load recogniser".into())
+            .spawn(load.clone())
+        {
+            Ok(handle) => Recogniser::Loading(handle),
+            Err(_) => Recogniser::Ready(load()),
+        }
+    }
+
+    /// No identity search was asked for.
+    pub fn is_off(&self) -> bool {
+        matches!(self, Recogniser::Off)
+    }
+
+    /// The network, once loaded (waits for the loading thread the first time); `None` when
+    /// off or it could not be loaded.
+    pub fn get(&mut self) -> Option<&mut FaceEmbedder> {
+        if matches!(self, Recogniser::Loading(_))
+            && let Recogniser::Loading(handle) = std::mem::replace(self, Recogniser::Ready(None))
+        {
+            *self = Recogniser::Ready(handle.join().unwrap_or_else(|_| {
+                tracing::warn!(
+                    "loading the recognition network failed; the landmark fit's identity"
+                );
+                None
+            }));
+        }
+        match self {
+            Recogniser::Ready(net) => net.as_mut(),
+            _ => None,
         }
     }
 }
@@ -217,6 +419,26 @@ pub fn build_gem(
     timed(
         "gem",
         || gem::build_cameo(face, triangles, cameo),
+        |m| {
+            format!(
+                "{} vertices, {} triangles",
+                m.vertices.len(),
+                m.indices.len() / 3
+            )
+        },
+    )
+}
+
+/// [`build_gem`] with the photo's own detail carved into the face.
+pub fn build_gem_detailed(
+    face: &[f32],
+    triangles: &[[u32; 3]],
+    cameo: &CameoParams,
+    detail: Option<&gem::FaceDetail>,
+) -> Result<Mesh, GemError> {
+    timed(
+        "gem",
+        || gem::build_cameo_detailed(face, triangles, cameo, detail),
         |m| {
             format!(
                 "{} vertices, {} triangles",

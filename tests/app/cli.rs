@@ -637,7 +637,16 @@ fn render_takes_a_face_obj_and_writes_the_gem_obj() {
     let (png, gem_obj) = (d.join("gem.png"), d.join("gem.obj"));
     succeeds(
         glyptic()
-            .args(["render", "--size", "160x200", "--sss", "off", "--face"])
+            .args([
+                "render",
+                "--size",
+                "160x200",
+                "--sss",
+                "off",
+                "--portrait",
+                "profile",
+                "--face",
+            ])
             .arg(&face)
             .arg("--gem-obj")
             .arg(&gem_obj)

@@ -10,5 +10,6 @@ mod cli;
 mod corpus;
 mod detect;
 mod kiosk;
+mod likeness;
 mod pipeline;
 mod track;

@@ -308,6 +308,7 @@ fn the_face_thread_reads_the_visitors_beard_without_waiting() {
             builder: Some(builder),
             hair: true,
             models: Some(glyptic::assets::ModelPaths::locate()),
+            likeness: None,
         },
     );
     let (mut before_hair, mut hair) = (0, None);
@@ -338,4 +339,83 @@ fn the_face_thread_reads_the_visitors_beard_without_waiting() {
         "the first face came with its hair already read"
     );
     assert!(hair.beard > 0.0, "{hair:?}");
+}
+
+/// The kiosk's likeness search: with `StreamOptions::likeness` the person thread steers the
+/// visitor's portrait identity once it holds, without the face thread waiting; the steered
+/// portrait then stays for the rest of the track, and differs from the landmark fit's.
+#[test]
+fn the_face_thread_steers_the_visitors_identity_without_waiting() {
+    use glyptic::capture::{Capture, CaptureOptions, MemorySource};
+    use glyptic::stream::{FaceStream, StreamOptions};
+    // breakingbad tracks steadily at this size (as the hair test above finds).
+    let (still, _, _) = common::framed("breakingbad.jpg", 640, 480);
+    let frames: Vec<image::RgbImage> = (0..150).map(|_| still.clone()).collect();
+    let tracker = tracker(TrackOptions {
+        identity_frames: 5,
+        ..TrackOptions::default()
+    });
+    let capture = Capture::spawn(
+        move || Box::new(MemorySource::new("breakingbad", frames, FPS)),
+        CaptureOptions::default(),
+    );
+    let stream = FaceStream::spawn_with(
+        capture,
+        tracker,
+        StreamOptions {
+            builder: None,
+            hair: false,
+            models: Some(glyptic::assets::ModelPaths::locate()),
+            likeness: Some(glyptic::identity::SearchOptions::with_faces(8)),
+        },
+    );
+    let (mut plain, mut steered) = (Vec::new(), Vec::new());
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(90);
+    while std::time::Instant::now() < deadline && steered.len() < 3 {
+        match stream
+            .updates()
+            .recv_timeout(std::time::Duration::from_millis(200))
+        {
+            Ok(Some(u)) => {
+                if let Some(f) = u.face {
+                    if f.steered {
+                        steered.push(f);
+                    } else {
+                        assert!(
+                            steered.is_empty(),
+                            "an update after the steered one was not"
+                        );
+                        plain.push(f);
+                    }
+                }
+            }
+            Ok(None) => {}
+            Err(_) => break,
+        }
+    }
+    println!(
+        "{} updates before the identity was steered, {} after",
+        plain.len(),
+        steered.len()
+    );
+    assert!(plain.len() >= 5, "the face thread waited for the search");
+    assert!(steered.len() >= 3, "the identity was never steered");
+    let (a, b) = (plain.last().expect("plain"), &steered[0]);
+    assert_eq!(a.track, b.track);
+    let moved: f32 = a
+        .portrait_shape
+        .iter()
+        .zip(&b.portrait_shape)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f32>()
+        .sqrt();
+    assert!(
+        moved > 0.05,
+        "the steered identity is the landmark fit's ({moved})"
+    );
+    assert!(b.portrait_shape.iter().all(|c| c.abs() <= 2.5 + 1e-6));
+    assert_eq!(
+        steered[1].portrait_shape, b.portrait_shape,
+        "the steered identity holds"
+    );
 }

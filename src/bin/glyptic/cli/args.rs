@@ -25,8 +25,10 @@ pub struct ViewArgs {
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true,
           value_parser = finite_in::<f32>(-360.0, 360.0))]
     pub pitch: f32,
-    /// How the portrait is carved: in profile (the classic cameo) or facing the viewer.
-    #[arg(long, value_enum, default_value_t = gem::View::Profile)]
+    /// How the portrait is carved: facing the viewer (the default: a face-recognition network,
+    /// and a friend, know the sitter best this way; BENCHMARKS.md, issue #37) or in profile
+    /// (the classic cameo).
+    #[arg(long, value_enum, default_value_t = gem::View::Frontal)]
     pub portrait: gem::View,
     #[command(flatten)]
     pub sss: SssArgs,
@@ -168,6 +170,27 @@ pub struct ChoiceArgs {
     /// the face), or left out.
     #[arg(long, value_enum, default_value_t = GlassesArg::Carve)]
     pub glasses: GlassesArg,
+    /// How strongly the photo's own detail is carved into the face (the brows raised, the
+    /// irises drilled, the mouth's line and the face's folds cut), 0..3: 0 carves the fitted
+    /// shape alone, 1 as a cutter would.
+    #[arg(long, value_parser = parse_detail, default_value = "1")]
+    pub detail: f32,
+    /// How many faces the likeness search draws and judges with the face-recognition network
+    /// (the portrait's identity steered towards the photo, within the face model's prior);
+    /// 0 keeps the landmark fit's identity. About 13 ms a face on two CPU cores (the default
+    /// adds about 270 ms to a photo).
+    #[arg(long, value_name = "FACES", default_value_t = 11,
+          value_parser = clap::value_parser!(u32).range(0..=2000))]
+    pub likeness_search: u32,
+}
+
+#[cfg(feature = "face")]
+fn parse_detail(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if (0.0..=3.0).contains(&v) => Ok(v),
+        Ok(v) => Err(format!("{v}: the detail's strength must be 0..3")),
+        Err(e) => Err(format!("{s:?} is not a number ({e})")),
+    }
 }
 
 #[cfg(feature = "face")]
@@ -222,13 +245,20 @@ impl ChoiceArgs {
 
     /// The photo -> gem pipeline with these choices and `view`'s portrait.
     pub fn gem_pipeline(&self, view: &ViewArgs) -> Result<glyptic::pipeline::GemPipeline> {
-        let mut p = glyptic::pipeline::GemPipeline::load(
+        let mut p = glyptic::pipeline::GemPipeline::load_with(
             &glyptic::assets::ModelPaths::locate(),
             view.portrait.cameo(),
             self.hair,
+            self.likeness_search > 0,
         )?;
         self.apply_face(&mut p.face);
         p.carve_glasses = self.glasses == GlassesArg::Carve;
+        p.detail =
+            (self.detail > 0.0).then(|| glyptic::gem::DetailParams::default().scaled(self.detail));
+        if self.likeness_search > 0 {
+            p.identity =
+                glyptic::identity::SearchOptions::with_faces(self.likeness_search as usize);
+        }
         Ok(p)
     }
 }

@@ -321,6 +321,8 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 caricature: glyptic::shapemodel::Caricature::default(),
                 expression: glyptic::pipeline::PORTRAIT_EXPRESSION,
                 glasses: GlassesArg::Carve,
+                detail: 1.0,
+                likeness_search: 11,
             },
             landmarks_out: None,
             obj: None,

@@ -241,6 +241,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
                 builder,
                 hair,
                 models: Some(glyptic::assets::ModelPaths::locate()),
+                likeness: None,
             },
         );
         while processed < limit {

@@ -118,6 +118,11 @@ impl Live {
                     )?;
                     let tracker = Tracker::new(pipeline, TrackOptions::default());
                     let hair = config.visitor_hair;
+                    let likeness = (config.likeness_search > 0).then(|| {
+                        glyptic::identity::SearchOptions::with_faces(
+                            config.likeness_search as usize,
+                        )
+                    });
                     let capture = Capture::spawn(
                         move || match fault {
                             Some(at) => Box::new(Faulty {
@@ -136,6 +141,7 @@ impl Live {
                             builder: None,
                             hair,
                             models: Some(glyptic::assets::ModelPaths::locate()),
+                            likeness,
                         },
                     ))
                 })();
