@@ -1,0 +1,480 @@
+//! Issue #37's likeness test: does a face-recognition network take a person's gem for that
+//! person? Every photo of a data set (deepface's `tests/unit/dataset`, or one folder per
+//! person as LFW's; measurement only, never committed) is made into a gem, rendered as
+//! `glyptic photo` renders it, and the gem is judged against every photo by SFace's embedding
+//! (the face found on the gem by the same detector and landmarks as on a photo). Also judged:
+//! the fitted face alone (the mesh, and the portrait the gem carves), rendered grey on the CPU
+//! and looking out, aligned by its own projected eyes, nose and mouth.
+//!
+//! Printed per view: faces found, the share of pictures whose nearest photo is their own
+//! person's (of all photos, and of the photos other than the one it was made from), the share
+//! whose mean distance to their person's photos is under SFace's same-person threshold (0.637
+//! as `1 - cos`), mean distances to the source photo, the person's other photos and strangers'
+//! photos, and between pictures of different people. The photos against each other give the
+//! ceiling.
+//!
+//! `--out DIR` keeps every picture (`DIR/VIEW/NNN.png`), a manifest (`DIR/manifest.tsv`: kind,
+//! person, photo, path) and `DIR/judge-input.txt`: per photo and picture its path and the 68
+//! landmarks found on it, for another recognition network. `--score DIR --judge FILE
+//! --judge-threshold T` then scores that run by the other network's descriptors (`PATH d1 ...
+//! dn` per line, Euclidean distance, e.g. dlib's 128-d descriptors with 0.6), so the pictures
+//! are also judged by a network glyptic never runs.
+//!
+//! `cargo run --release --example likeness_embed -- DATASET_DIR [--views profile,frontal]
+//! [--size 480x600] [--limit N] [--out DIR] [--no-detail]`, then
+//! `likeness_embed --score DIR --judge FILE [--judge-threshold 0.6]`
+//! (`--no-detail`: the fitted shape alone, without the photo's detail carved into the face;
+//! `--no-identity`: the landmark fit's identity, not steered by the recognition network;
+//! `--identity-steps N`, `--identity-pairs K`: the search's size; `--identity-components K`:
+//! search the first K coefficients only; `--detail-maps DIR`: each photo's detail map as
+//! carved, mid-grey 0, lighter raised, darker incised)
+
+use std::collections::HashMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use glyptic::assets::ModelPaths;
+use glyptic::detect::embed::{self, Embedding, FaceEmbedder};
+use glyptic::gem::{CameoParams, View};
+use glyptic::pipeline::gem::{GemPipeline, Hair, Recogniser, build_gem_detailed, render};
+use glyptic::raster;
+use glyptic::render::{RenderParams, Renderer};
+
+#[path = "common/identities.rs"]
+mod identities;
+#[path = "common/judge.rs"]
+mod judge;
+
+/// What a picture is, for the tables.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Kind {
+    Gem(View),
+    FittedMesh,
+    Portrait,
+}
+
+impl Kind {
+    fn label(self) -> &'static str {
+        match self {
+            Kind::Gem(View::Profile) => "gem, profile",
+            Kind::Gem(View::Frontal) => "gem, frontal",
+            Kind::FittedMesh => "fitted face alone (grey)",
+            Kind::Portrait => "portrait face alone (grey, caricatured)",
+        }
+    }
+    fn folder(self) -> &'static str {
+        match self {
+            Kind::Gem(View::Profile) => "profile",
+            Kind::Gem(View::Frontal) => "frontal",
+            Kind::FittedMesh => "fitted",
+            Kind::Portrait => "portrait",
+        }
+    }
+}
+
+/// A photo: whose, its path, its 68 landmarks and its embedding (`None`: no face found).
+type PhotoRow = (usize, PathBuf, Option<Vec<[f32; 2]>>, Option<Embedding>);
+
+/// A picture and where the judge finds its face.
+struct Picture {
+    kind: Kind,
+    person: usize,
+    photo: usize,
+    path: PathBuf,
+    landmarks: Option<Vec<[f32; 2]>>,
+    embedding: Option<Embedding>,
+}
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut dir = None;
+    let mut views = vec![View::Profile, View::Frontal];
+    let (mut width, mut height) = (480u32, 600u32);
+    let mut limit = usize::MAX;
+    let mut out: Option<PathBuf> = None;
+    let mut judge_file: Option<PathBuf> = None;
+    let mut judge_threshold = 0.6f64;
+    let mut detail = true;
+    let mut identity = true;
+    let mut steps: Option<usize> = None;
+    let mut pairs: Option<usize> = None;
+    let mut components: Option<usize> = None;
+    let mut score: Option<PathBuf> = None;
+    let mut maps: Option<PathBuf> = None;
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        let mut value = || it.next().context("a value after the option");
+        match a.as_str() {
+            "--views" => {
+                views = value()?
+                    .split(',')
+                    .map(|v| match v {
+                        "profile" => Ok(View::Profile),
+                        "frontal" => Ok(View::Frontal),
+                        other => bail!("unknown view {other}"),
+                    })
+                    .collect::<Result<_>>()?
+            }
+            "--size" => {
+                let v = value()?;
+                let (w, h) = v.split_once('x').context("--size WxH")?;
+                (width, height) = (w.parse()?, h.parse()?);
+            }
+            "--limit" => limit = value()?.parse()?,
+            "--out" => out = Some(PathBuf::from(value()?)),
+            "--judge" => judge_file = Some(PathBuf::from(value()?)),
+            "--judge-threshold" => judge_threshold = value()?.parse()?,
+            "--no-detail" => detail = false,
+            "--no-identity" => identity = false,
+            "--identity-steps" => steps = Some(value()?.parse()?),
+            "--identity-pairs" => pairs = Some(value()?.parse()?),
+            "--identity-components" => components = Some(value()?.parse()?),
+            "--score" => score = Some(PathBuf::from(value()?)),
+            "--detail-maps" => maps = Some(PathBuf::from(value()?)),
+            other if dir.is_none() && !other.starts_with("--") => dir = Some(PathBuf::from(other)),
+            other => bail!("unknown argument {other}"),
+        }
+    }
+    if let Some(scored) = score {
+        let file = judge_file.context("--score DIR needs --judge FILE")?;
+        return score_with_judge(&scored, &file, judge_threshold);
+    }
+    let dir = dir.context("usage: likeness_embed DATASET_DIR [options]")?;
+    let ids = identities::identities(&dir)?;
+    let mut photos: Vec<(String, usize)> = ids.into_iter().collect();
+    photos.truncate(limit);
+    let people = photos.iter().map(|p| p.1).max().map_or(0, |m| m + 1);
+    eprintln!("{} photos of {people} people", photos.len());
+
+    let models = ModelPaths::locate();
+    let mut pipeline = GemPipeline::load(&models, CameoParams::default(), Hair::Photo)?;
+    if !detail {
+        pipeline.detail = None;
+    }
+    if !identity {
+        pipeline.recogniser = Recogniser::Off;
+    }
+    if let Some(n) = steps {
+        pipeline.identity.steps = n;
+    }
+    if let Some(n) = pairs {
+        pipeline.identity.pairs = n;
+    }
+    if let Some(n) = components {
+        pipeline.identity.components = n;
+    }
+    let mut gem_ms: Vec<f64> = Vec::new();
+    let mut embedder = FaceEmbedder::load(&models.recogniser, &models.onnxruntime, 2)?;
+    let mut renderer = Renderer::new_headless()?;
+    let triangles = pipeline.face.model.shape.triangles.clone();
+    if let Some(o) = &out {
+        for k in views
+            .iter()
+            .map(|v| Kind::Gem(*v))
+            .chain([Kind::FittedMesh, Kind::Portrait])
+        {
+            std::fs::create_dir_all(o.join(k.folder()))?;
+        }
+    }
+
+    if let Some(d) = &maps {
+        std::fs::create_dir_all(d)?;
+    }
+    let mut photo_rows: Vec<PhotoRow> = Vec::new();
+    let mut pictures: Vec<Picture> = Vec::new();
+    let started = std::time::Instant::now();
+    for (j, (name, person)) in photos.iter().enumerate() {
+        let path = dir.join(name);
+        let t0 = std::time::Instant::now();
+        let gem = match glyptic::pipeline::gem::decode(&path)
+            .map_err(anyhow::Error::from)
+            .and_then(|img| Ok((pipeline.image(&img)?, img)))
+        {
+            Ok(g) => g,
+            Err(e) => {
+                eprintln!("{name}: {e:#}");
+                photo_rows.push((*person, path, None, None));
+                continue;
+            }
+        };
+        let (pg, img) = gem;
+        gem_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+        if let (Some(dir), Some(d)) = (&maps, &pg.detail) {
+            // The detail map as carved: mid-grey 0, lighter raised, darker incised.
+            let (c, r, h) = d.map();
+            let img = image::GrayImage::from_fn(c as u32, r as u32, |x, y| {
+                let v = 128.0 + 60.0 * h[y as usize * c + x as usize];
+                image::Luma([v.clamp(0.0, 255.0) as u8])
+            });
+            img.save(dir.join(format!("{j:03}-detail.png")))?;
+        }
+        let photo_emb = embedder.embed(&img, &pg.face.landmarks).ok();
+        photo_rows.push((
+            *person,
+            path.clone(),
+            Some(pg.face.landmarks.clone()),
+            photo_emb,
+        ));
+        for &view in &views {
+            let cameo = CameoParams {
+                view,
+                ..pg.cameo.clone()
+            };
+            let mesh =
+                build_gem_detailed(&pg.face.portrait, &triangles, &cameo, pg.detail.as_ref())?;
+            let params = RenderParams {
+                width,
+                height,
+                ..RenderParams::default()
+            };
+            let rgba = render(&mut renderer, &mesh, &params)?;
+            let rgb = image::DynamicImage::ImageRgba8(rgba).into_rgb8();
+            let kind = Kind::Gem(view);
+            let file = save(&out, kind, j, &rgb)?;
+            let landmarks = find_face(&mut pipeline, &rgb);
+            let embedding = landmarks
+                .as_ref()
+                .and_then(|l| embedder.embed(&rgb, l).ok());
+            pictures.push(Picture {
+                kind,
+                person: *person,
+                photo: j,
+                path: file,
+                landmarks,
+                embedding,
+            });
+        }
+        for (kind, mesh) in [
+            (Kind::FittedMesh, &pg.face.mesh),
+            (Kind::Portrait, &pg.face.portrait),
+        ] {
+            let (rgb, five) = grey_face(mesh, &triangles, 256);
+            let file = save(&out, kind, j, &rgb)?;
+            let embedding = five.and_then(|f| {
+                let mut buf = vec![0.0; 3 * embed::SIDE * embed::SIDE];
+                embed::aligned_by_five(&rgb, &f, &mut buf).ok()?;
+                embedder.embed_aligned(&buf, 1).ok()?.pop()
+            });
+            // For another judge: the 68 landmarks its own pipeline finds on the render.
+            let landmarks = find_face(&mut pipeline, &rgb);
+            pictures.push(Picture {
+                kind,
+                person: *person,
+                photo: j,
+                path: file,
+                landmarks,
+                embedding,
+            });
+        }
+        if (j + 1) % 10 == 0 {
+            eprintln!(
+                "{} of {} photos, {:.1} s",
+                j + 1,
+                photos.len(),
+                started.elapsed().as_secs_f64()
+            );
+        }
+    }
+
+    if let Some(o) = &out {
+        let mut m = std::fs::File::create(o.join("manifest.tsv"))?;
+        for (j, r) in photo_rows.iter().enumerate() {
+            writeln!(m, "photo\t{}\t{j}\t{}", r.0, r.1.display())?;
+        }
+        for p in &pictures {
+            writeln!(
+                m,
+                "{}\t{}\t{}\t{}",
+                p.kind.folder(),
+                p.person,
+                p.photo,
+                p.path.display()
+            )?;
+        }
+        let mut f = std::fs::File::create(o.join("judge-input.txt"))?;
+        let rows = photo_rows
+            .iter()
+            .map(|r| (&r.1, &r.2))
+            .chain(pictures.iter().map(|p| (&p.path, &p.landmarks)));
+        for (path, lm) in rows {
+            if let Some(lm) = lm {
+                write!(f, "{}", path.display())?;
+                for p in lm {
+                    write!(f, " {:.2} {:.2}", p[0], p[1])?;
+                }
+                writeln!(f)?;
+            }
+        }
+    }
+
+    let mut kinds: Vec<Kind> = views.iter().map(|v| Kind::Gem(*v)).collect();
+    kinds.extend([Kind::FittedMesh, Kind::Portrait]);
+    println!("{}", judge::HEADER);
+    let photos: Vec<(usize, Option<Embedding>)> =
+        photo_rows.iter().map(|r| (r.0, r.3.clone())).collect();
+    let dist = |a: &Embedding, b: &Embedding| f64::from(embed::distance(a, b));
+    let t = f64::from(embed::SAME_PERSON_DISTANCE);
+    println!(
+        "{}",
+        judge::row("photos (SFace)", &judge::photos_alone(&photos, dist, t))
+    );
+    for k in kinds {
+        let made: Vec<judge::Made<Embedding>> = pictures
+            .iter()
+            .filter(|p| p.kind == k)
+            .map(|p| judge::Made {
+                person: p.person,
+                photo: p.photo,
+                embedding: p.embedding.clone(),
+            })
+            .collect();
+        println!(
+            "{}",
+            judge::row(k.label(), &judge::judge(&photos, &made, dist, t))
+        );
+    }
+    gem_ms.sort_by(f64::total_cmp);
+    if let Some(m) = gem_ms.get(gem_ms.len() / 2) {
+        eprintln!(
+            "photo -> cameo mesh (decode, face, identity, person, detail, relief): median {m:.0} ms"
+        );
+    }
+    eprintln!("{:.1} s in all", started.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// Scores a run kept with `--out DIR` by another network's descriptors (`PATH d1 ... dn` per
+/// line; Euclidean distance, same person under `threshold`).
+fn score_with_judge(dir: &Path, file: &Path, threshold: f64) -> Result<()> {
+    let desc = read_descriptors(file)?;
+    let manifest = std::fs::read_to_string(dir.join("manifest.tsv"))
+        .with_context(|| format!("{}/manifest.tsv", dir.display()))?;
+    let mut photos: Vec<(usize, Option<Vec<f64>>)> = Vec::new();
+    let mut made: Vec<(String, judge::Made<Vec<f64>>)> = Vec::new();
+    for line in manifest.lines() {
+        let f: Vec<&str> = line.split('\t').collect();
+        let [kind, person, photo, path] = f[..] else {
+            bail!("manifest line {line:?}")
+        };
+        let (person, photo): (usize, usize) = (person.parse()?, photo.parse()?);
+        let e = desc.get(path).cloned();
+        if kind == "photo" {
+            photos.push((person, e));
+        } else {
+            made.push((
+                kind.to_string(),
+                judge::Made {
+                    person,
+                    photo,
+                    embedding: e,
+                },
+            ));
+        }
+    }
+    let dist = |a: &Vec<f64>, b: &Vec<f64>| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y) * (x - y))
+            .sum::<f64>()
+            .sqrt()
+    };
+    println!("{}", judge::HEADER);
+    println!(
+        "{}",
+        judge::row(
+            "photos (judge)",
+            &judge::photos_alone(&photos, dist, threshold)
+        )
+    );
+    let mut kinds: Vec<String> = made.iter().map(|m| m.0.clone()).collect();
+    kinds.dedup();
+    kinds.sort();
+    kinds.dedup();
+    for k in kinds {
+        let these: Vec<judge::Made<Vec<f64>>> = made
+            .iter()
+            .filter(|m| m.0 == k)
+            .map(|m| judge::Made {
+                person: m.1.person,
+                photo: m.1.photo,
+                embedding: m.1.embedding.clone(),
+            })
+            .collect();
+        println!(
+            "{}",
+            judge::row(&k, &judge::judge(&photos, &these, dist, threshold))
+        );
+    }
+    Ok(())
+}
+
+/// The subject's 68 landmarks on a picture, as on a photo; `None` without a face.
+fn find_face(pipeline: &mut GemPipeline, rgb: &image::RgbImage) -> Option<Vec<[f32; 2]>> {
+    let faces = pipeline.face.faces.detect(rgb).ok()?;
+    let first = faces.first()?;
+    let mut found = pipeline
+        .face
+        .faces
+        .landmarks(rgb, std::slice::from_ref(first))
+        .ok()?;
+    found.pop().map(|f| f.points)
+}
+
+/// The face mesh looking out, grey on mid-grey, `side` pixels square, its face filling about
+/// half the width; and its five alignment points.
+fn grey_face(
+    mesh: &[f32],
+    triangles: &[[u32; 3]],
+    side: u32,
+) -> (image::RgbImage, Option<[[f32; 2]; 5]>) {
+    let s = side as f32 / 300.0;
+    let view = raster::View::turned(0.0, 0.0, s, side as f32 / 2.0, side as f32 * 0.45);
+    let normals = raster::vertex_normals(mesh, triangles);
+    let grey = raster::shade(
+        mesh,
+        triangles,
+        &normals,
+        &view,
+        &raster::Light::default(),
+        side as usize,
+        side as usize,
+    );
+    let img = image::RgbImage::from_fn(side, side, |x, y| {
+        let v = grey[(y * side + x) as usize];
+        let g = if v.is_finite() {
+            (v * 235.0).round() as u8
+        } else {
+            110
+        };
+        image::Rgb([g, g, g])
+    });
+    (img, raster::sfm_five_points(mesh, &view))
+}
+
+fn save(out: &Option<PathBuf>, kind: Kind, j: usize, rgb: &image::RgbImage) -> Result<PathBuf> {
+    let Some(o) = out else {
+        return Ok(PathBuf::from(format!("{}/{j:03}.png", kind.folder())));
+    };
+    let path = o.join(kind.folder()).join(format!("{j:03}.png"));
+    rgb.save(&path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(path)
+}
+
+/// `PATH d1 ... dn` per line (a line with `ERROR` is a face the judge could not read).
+fn read_descriptors(file: &Path) -> Result<HashMap<String, Vec<f64>>> {
+    let text = std::fs::read_to_string(file).with_context(|| format!("{}", file.display()))?;
+    let mut out = HashMap::new();
+    for line in text.lines() {
+        let mut f = line.split_whitespace();
+        let Some(path) = f.next() else { continue };
+        let v: Result<Vec<f64>, _> = f.map(str::parse::<f64>).collect();
+        if let Ok(v) = v
+            && !v.is_empty()
+        {
+            out.insert(path.to_string(), v);
+        }
+    }
+    Ok(out)
+}

