@@ -97,7 +97,9 @@ pub struct KioskConfig {
     pub glasses: bool,
     /// Faces the likeness search draws for each visitor, once their identity holds (the
     /// portrait's identity steered towards their face by the recognition network, on the
-    /// person thread: about 1.3 s of one core for 53); 0: the landmark fit's identity.
+    /// person thread: about half a second of one core for 22); 0: the landmark fit's identity.
+    /// Longer searches fit the network's own quirks more than the visitor (BENCHMARKS.md,
+    /// issue #37).
     pub likeness_search: u32,
     /// Window size when not full-screen, logical pixels.
     pub width: u32,
@@ -130,7 +132,7 @@ impl Default for KioskConfig {
             hair_layer: true,
             visitor_hair: true,
             glasses: true,
-            likeness_search: 53,
+            likeness_search: 22,
             width: 800,
             height: 1000,
             render_scale: 1.0,

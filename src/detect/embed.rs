@@ -18,8 +18,8 @@
 //!   identical and 2 opposite. OpenCV's same-person threshold is cos >= 0.363, a distance of
 //!   [`SAME_PERSON_DISTANCE`].
 //!
-//! The alignment ([`five_points`], [`similarity`], [`aligned_input`]) is pure; the session is
-//! the only I/O.
+//! The alignment ([`aligned_input`], on [`crate::identity`]'s template, five points and
+//! similarity) is pure; the session is the only I/O.
 
 use std::path::{Path, PathBuf};
 
@@ -40,16 +40,7 @@ pub const DIM: usize = 128;
 /// OpenCV's same-person threshold for SFace (cosine similarity 0.363) as a [`distance`].
 pub const SAME_PERSON_DISTANCE: f32 = 1.0 - 0.363;
 
-/// ArcFace's five points in the 112 x 112 crop (pixel units, as OpenCV's `alignCrop`): the
-/// image-left eye, the image-right eye, the nose tip, the image-left and image-right mouth
-/// corners.
-pub const TEMPLATE: [[f32; 2]; 5] = [
-    [38.2946, 51.6963],
-    [73.5318, 51.5014],
-    [56.0252, 71.7366],
-    [41.5493, 92.3655],
-    [70.7299, 92.2041],
-];
+pub use crate::identity::{TEMPLATE, five_points, similarity};
 
 /// Why a face could not be embedded.
 #[derive(Debug, thiserror::Error)]
@@ -98,64 +89,6 @@ pub fn distance(a: &Embedding, b: &Embedding) -> f32 {
     1.0 - a.cosine(b)
 }
 
-/// The five alignment points from the 68 iBUG landmarks (image pixels): the centres of the
-/// eyes' six points each, the nose tip (point 31, 1-based), the mouth's corners (49, 55).
-/// `None` unless there are 68 finite points.
-pub fn five_points(landmarks: &[[f32; 2]]) -> Option<[[f32; 2]; 5]> {
-    if landmarks.len() != 68 || landmarks.iter().flatten().any(|v| !v.is_finite()) {
-        return None;
-    }
-    let centre = |r: std::ops::Range<usize>| {
-        let n = r.len() as f32;
-        let (sx, sy) = landmarks[r]
-            .iter()
-            .fold((0.0, 0.0), |(x, y), p| (x + p[0], y + p[1]));
-        [sx / n, sy / n]
-    };
-    Some([
-        centre(36..42),
-        centre(42..48),
-        landmarks[30],
-        landmarks[48],
-        landmarks[54],
-    ])
-}
-
-/// The similarity transform (no reflection) that best takes `src` to `dst` in least squares
-/// (Umeyama 1991): `[a, -b, tx; b, a, ty]` as `[a, b, tx, ty]`, `dst ~ [a -b; b a] src + t`.
-/// `None` when `src` has no spread.
-pub fn similarity(src: &[[f32; 2]], dst: &[[f32; 2]]) -> Option<[f64; 4]> {
-    let n = src.len().min(dst.len());
-    if n < 2 {
-        return None;
-    }
-    let mean = |p: &[[f32; 2]]| {
-        let (x, y) = p[..n].iter().fold((0.0f64, 0.0f64), |(x, y), q| {
-            (x + f64::from(q[0]), y + f64::from(q[1]))
-        });
-        [x / n as f64, y / n as f64]
-    };
-    let (ms, md) = (mean(src), mean(dst));
-    let (mut sxx, mut sxy, mut var) = (0.0, 0.0, 0.0);
-    for (s, d) in src[..n].iter().zip(&dst[..n]) {
-        let (sx, sy) = (f64::from(s[0]) - ms[0], f64::from(s[1]) - ms[1]);
-        let (dx, dy) = (f64::from(d[0]) - md[0], f64::from(d[1]) - md[1]);
-        sxx += sx * dx + sy * dy;
-        sxy += sx * dy - sy * dx;
-        var += sx * sx + sy * sy;
-    }
-    if !var.is_finite() || var <= 1e-9 {
-        return None;
-    }
-    let (a, b) = (sxx / var, sxy / var);
-    let tx = md[0] - (a * ms[0] - b * ms[1]);
-    let ty = md[1] - (b * ms[0] + a * ms[1]);
-    [a, b, tx, ty]
-        .iter()
-        .all(|v| v.is_finite())
-        .then_some([a, b, tx, ty])
-}
-
 /// The network's input for a face with these 68 landmarks: the 112 x 112 aligned crop
 /// (bilinear, edge pixels repeated beyond the image), RGB 0..255, written into `out` (3 x 112
 /// x 112, channel-major).
@@ -192,6 +125,7 @@ pub fn aligned_by_five(
     // Pixel centres at whole numbers in the crop, the template and the image, as OpenCV's
     // `alignCrop` warps (and as the 68 landmarks are given).
     let [a, b, tx, ty] = similarity(&TEMPLATE, five)
+        .map(|t| t.map(f64::from))
         .ok_or_else(|| EmbedError::Align("the landmarks have no spread".into()))?;
     let plane = SIDE * SIDE;
     for r in 0..SIDE {
@@ -271,8 +205,9 @@ impl FaceEmbedder {
     /// The embeddings of `n` aligned crops laid one after another in `input` (each 3 x 112 x
     /// 112, RGB 0..255, as [`aligned_input`] writes them), in one run.
     pub fn embed_aligned(&mut self, input: &[f32], n: usize) -> Result<Vec<Embedding>, EmbedError> {
+        let path = self.model.path.clone();
         let infer_err = |reason: String| EmbedError::Inference {
-            path: self.model.path.clone(),
+            path: path.clone(),
             reason,
         };
         if n == 0 || input.len() != n * 3 * SIDE * SIDE {
@@ -284,24 +219,10 @@ impl FaceEmbedder {
         }
         let tensor = TensorRef::from_array_view(([n, 3, SIDE, SIDE], input))
             .map_err(|e| infer_err(e.to_string()))?;
-        let outputs = self
+        let flat = self
             .model
-            .session
-            .run(ort::inputs![INPUT => tensor])
-            .map_err(|e| infer_err(e.to_string()))?;
-        let out = outputs
-            .get(OUTPUT)
-            .ok_or_else(|| infer_err(format!("no output `{OUTPUT}`")))?
-            .try_extract_array::<f32>()
-            .map_err(|e| infer_err(e.to_string()))?;
-        if out.len() != n * DIM {
-            return Err(infer_err(format!(
-                "output has {} values, expected {}",
-                out.len(),
-                n * DIM
-            )));
-        }
-        let flat: Vec<f32> = out.iter().copied().collect();
+            .run_one(INPUT, tensor, OUTPUT, n * DIM)
+            .map_err(infer_err)?;
         flat.chunks(DIM)
             .map(|v| {
                 Embedding::new(v).ok_or_else(|| infer_err("a non-finite or zero embedding".into()))
@@ -313,23 +234,6 @@ impl FaceEmbedder {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_similarity_recovers_a_known_transform_and_refuses_a_point() {
-        let (a, b, tx, ty) = (0.8f64, -0.35f64, 12.0f64, -7.5f64);
-        let dst: Vec<[f32; 2]> = TEMPLATE
-            .iter()
-            .map(|p| {
-                let (x, y) = (f64::from(p[0]), f64::from(p[1]));
-                [(a * x - b * y + tx) as f32, (b * x + a * y + ty) as f32]
-            })
-            .collect();
-        let got = similarity(&TEMPLATE, &dst).expect("a transform");
-        for (g, w) in got.iter().zip([a, b, tx, ty]) {
-            assert!((g - w).abs() < 1e-4, "{got:?}");
-        }
-        assert!(similarity(&[[1.0, 1.0]; 5], &TEMPLATE).is_none());
-    }
 
     #[test]
     fn five_points_refuse_nan_and_short_lists() {
@@ -370,24 +274,24 @@ mod tests {
         lm[54] = t(TEMPLATE[4]);
         let mut buf = vec![0.0; 3 * SIDE * SIDE];
         aligned_input(&img, &lm, &mut buf).expect("aligned");
-        let darkest_near = |p: [f32; 2]| {
-            let (mut best, mut at) = (f32::MAX, (0, 0));
-            for r in 30..75 {
-                for c in 20..95 {
-                    let d = (c as f32 - p[0]).abs().max((r as f32 - p[1]).abs());
-                    if d < 8.0 && buf[r * SIDE + c] < best {
-                        (best, at) = (buf[r * SIDE + c], (c, r));
+        // The centre of the dark pixels near each template eye.
+        let dark_centre = |p: [f32; 2]| {
+            let (mut sx, mut sy, mut n) = (0.0f32, 0.0f32, 0);
+            for r in 0..SIDE {
+                for c in 0..SIDE {
+                    let near = (c as f32 - p[0]).abs().max((r as f32 - p[1]).abs()) < 8.0;
+                    if near && buf[r * SIDE + c] < 100.0 {
+                        (sx, sy, n) = (sx + c as f32, sy + r as f32, n + 1);
                     }
                 }
             }
-            (best, at)
+            (n > 0).then(|| [sx / n as f32, sy / n as f32])
         };
         for eye in [TEMPLATE[0], TEMPLATE[1]] {
-            let (v, (c, r)) = darkest_near(eye);
-            assert!(v < 60.0, "no dark dot near {eye:?}: {v}");
+            let got = dark_centre(eye).unwrap_or_else(|| panic!("no dark dot near {eye:?}"));
             assert!(
-                (c as f32 - eye[0]).abs() < 1.5 && (r as f32 - eye[1]).abs() < 1.5,
-                "dot at {c},{r}, template {eye:?}"
+                (got[0] - eye[0]).abs() < 0.75 && (got[1] - eye[1]).abs() < 0.75,
+                "dot at {got:?}, template {eye:?}"
             );
         }
         assert!(aligned_input(&img, &lm[..10], &mut buf).is_err());

@@ -215,6 +215,35 @@ pub(crate) struct OnnxModel {
     pub(crate) path: PathBuf,
 }
 
+impl OnnxModel {
+    /// Runs the session on one input tensor and returns the values of the output `output`,
+    /// which must number `expected`; `Err` says what went wrong, for the caller's error.
+    pub(crate) fn run_one(
+        &mut self,
+        input: &str,
+        tensor: TensorRef<'_, f32>,
+        output: &str,
+        expected: usize,
+    ) -> Result<Vec<f32>, String> {
+        let outputs = self
+            .session
+            .run(ort::inputs![input => tensor])
+            .map_err(|e| e.to_string())?;
+        let out = outputs
+            .get(output)
+            .ok_or_else(|| format!("no output `{output}`"))?
+            .try_extract_array::<f32>()
+            .map_err(|e| e.to_string())?;
+        if out.len() != expected {
+            return Err(format!(
+                "output has {} values, expected {expected}",
+                out.len()
+            ));
+        }
+        Ok(out.iter().copied().collect())
+    }
+}
+
 impl std::fmt::Debug for OnnxModel {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("OnnxModel")

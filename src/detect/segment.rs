@@ -96,28 +96,16 @@ impl PersonSegmenter {
             path: self.model.path.clone(),
             reason: format!("empty {}x{} image", img.width(), img.height()),
         })?;
+        let path = self.model.path.clone();
         let infer_err = |reason: String| SegmentError::Inference {
-            path: self.model.path.clone(),
+            path: path.clone(),
             reason,
         };
         let tensor = TensorRef::from_array_view(&input).map_err(|e| infer_err(e.to_string()))?;
-        let outputs = self
+        let out = self
             .model
-            .session
-            .run(ort::inputs![INPUT => tensor])
-            .map_err(|e| infer_err(e.to_string()))?;
-        let out = outputs
-            .get(OUTPUT)
-            .ok_or_else(|| infer_err(format!("no output `{OUTPUT}`")))?
-            .try_extract_array::<f32>()
-            .map_err(|e| infer_err(e.to_string()))?;
-        if out.len() != SIDE * SIDE {
-            return Err(infer_err(format!(
-                "output has {} values, expected {}",
-                out.len(),
-                SIDE * SIDE
-            )));
-        }
+            .run_one(INPUT, tensor, OUTPUT, SIDE * SIDE)
+            .map_err(infer_err)?;
         let prob: Vec<f32> = out
             .iter()
             .map(|v| {

@@ -160,8 +160,10 @@ pub fn five_points(landmarks: &[[f32; 2]]) -> Option<[[f32; 2]; 5]> {
     ])
 }
 
-/// Least-squares similarity taking `src` to `dst` (Umeyama), `[a, b, tx, ty]`.
-fn similarity(src: &[[f32; 2]; 5], dst: &[[f32; 2]; 5]) -> Option<[f32; 4]> {
+/// The similarity transform (rotation, uniform scale, translation; no reflection) that best
+/// takes `src` to `dst` in least squares (Umeyama 1991): `[a, b, tx, ty]` for
+/// `dst ~ [a -b; b a] src + t`. `None` when `src` has no spread.
+pub fn similarity(src: &[[f32; 2]; 5], dst: &[[f32; 2]; 5]) -> Option<[f32; 4]> {
     let n = 5.0;
     let ms = src
         .iter()
@@ -486,6 +488,18 @@ mod tests {
         assert!((distance(&[1.0, 0.0], &[0.0, 3.0]) - 1.0).abs() < 1e-6);
         assert_eq!(distance(&[f32::NAN, 0.0], &[1.0, 0.0]), 2.0);
         assert_eq!(distance(&[0.0, 0.0], &[1.0, 0.0]), 2.0);
+    }
+
+    #[test]
+    fn the_similarity_recovers_a_turned_scaled_shift_and_refuses_a_point() {
+        let (a, b, tx, ty) = (0.8f32, -0.35f32, 12.0f32, -7.5f32);
+        let dst: [[f32; 2]; 5] =
+            TEMPLATE.map(|p| [a * p[0] - b * p[1] + tx, b * p[0] + a * p[1] + ty]);
+        let got = similarity(&TEMPLATE, &dst).expect("a transform");
+        for (g, w) in got.iter().zip([a, b, tx, ty]) {
+            assert!((g - w).abs() < 1e-3, "{got:?}");
+        }
+        assert!(similarity(&[[1.0, 1.0]; 5], &TEMPLATE).is_none());
     }
 
     #[test]

@@ -30,6 +30,7 @@ use image::GrayImage;
 
 use super::blur::blur;
 use crate::fit::Pose;
+use crate::person::inside;
 
 /// Map cells per inter-ocular distance (eye centre to eye centre).
 pub const CELLS_PER_IOD: f32 = 64.0;
@@ -114,14 +115,7 @@ impl FaceDetail {
         if photo.width() == 0 || photo.height() == 0 {
             return Err(DetailError::EmptyPhoto);
         }
-        let centre_of = |r: std::ops::Range<usize>| {
-            let n = r.len() as f32;
-            let s = landmarks[r]
-                .iter()
-                .fold([0.0f32; 2], |a, p| [a[0] + p[0], a[1] + p[1]]);
-            [s[0] / n, s[1] / n]
-        };
-        let (re, le) = (centre_of(36..42), centre_of(42..48));
+        let [re, le, ..] = crate::identity::five_points(landmarks).ok_or(DetailError::Landmarks)?;
         let iod = (le[0] - re[0]).hypot(le[1] - re[1]);
         if iod < 8.0 {
             return Err(DetailError::TooSmall(iod));
@@ -389,22 +383,6 @@ fn bilinear_grey(img: &GrayImage, x: f32, y: f32) -> f32 {
     let px = |x: u32, y: u32| f32::from(img.get_pixel(x, y).0[0]) / 255.0;
     (px(x0, y0) * (1.0 - fx) + px(x1, y0) * fx) * (1.0 - fy)
         + (px(x0, y1) * (1.0 - fx) + px(x1, y1) * fx) * fy
-}
-
-/// Even-odd point-in-polygon.
-fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
-    let mut c = false;
-    let mut j = poly.len() - 1;
-    for i in 0..poly.len() {
-        let (a, b) = (poly[i], poly[j]);
-        if (a[1] > p[1]) != (b[1] > p[1])
-            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
-        {
-            c = !c;
-        }
-        j = i;
-    }
-    c
 }
 
 fn polyline_distance(line: &[[f32; 2]], p: [f32; 2]) -> f32 {

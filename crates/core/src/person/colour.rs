@@ -139,7 +139,7 @@ pub(super) fn mean_of(xs: &[Colour]) -> Colour {
 }
 
 /// Even-odd point-in-polygon.
-pub(super) fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
+pub(crate) fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
     let mut c = false;
     let mut j = poly.len() - 1;
     for i in 0..poly.len() {

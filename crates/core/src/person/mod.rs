@@ -23,6 +23,7 @@ mod traits;
 
 use image::RgbImage;
 
+pub(crate) use colour::inside;
 use colour::*;
 use traits::*;
 

@@ -94,6 +94,8 @@ pub(super) struct Made {
   glyptic photo portrait.jpg -o gem.png --stl gem.stl --heightmap gem-height.png
   glyptic photo portrait.jpg -o gem.png --gltf gem.glb      (binary glTF 2.0)
   glyptic photo portrait.jpg -o gem.png --antialias off     (faster without a GPU)
+  glyptic photo portrait.jpg -o gem.png --portrait profile  (the classic profile cameo)
+  glyptic photo portrait.jpg -o gem.png --likeness-search 22  (a longer likeness search)
 
 Exit codes: 0 the gem was written; 1 an error (named on stderr, nothing written); 2 a bad
 option.")]
