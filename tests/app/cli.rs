@@ -988,7 +988,8 @@ fn the_stone_exports_for_printing_and_milling() {
     let (stl, map) = (dir.join("gem.stl"), dir.join("gem-height.png"));
     let run = succeeds(
         glyptic()
-            .args(["render", "--size", "32x40", "--sss", "off", "-o"])
+            .args(["render", "--size", "32x40", "--sss", "off"])
+            .args(["--portrait", "profile", "-o"])
             .arg(dir.join("gem.png"))
             .arg("--stl")
             .arg(&stl)
