@@ -265,7 +265,7 @@ impl PersonWorker {
     }
 }
 
-/// The identity search on one frame (stage `identity` on the person thread's log).
+/// The identity search on one frame of a held track ([`crate::pipeline::gem::steer_identity`]).
 fn steer(
     net: &mut crate::detect::FaceEmbedder,
     model: &crate::shapemodel::SurreyModel,
@@ -274,44 +274,12 @@ fn steer(
     landmarks: &[[f32; 2]],
     job: &IdentityJob,
 ) -> Result<Vec<f32>, String> {
-    let target = net.embed(image, landmarks).map_err(|e| e.to_string())?;
-    let grey = image::DynamicImage::ImageRgb8(image.clone()).into_luma8();
+    let grey = image::imageops::grayscale(image);
     let mesh = model.instance(&job.fit.shape, &job.fit.expression);
-    let scene = crate::identity::Scene::of_photo(
-        &grey,
-        landmarks,
-        &mesh,
-        &model.shape.triangles,
-        &job.fit.pose,
+    crate::pipeline::gem::steer_identity(
+        net, model, image, &grey, landmarks, &job.fit, &mesh, &job.start, opts,
     )
-    .map_err(|e| e.to_string())?;
-    let found = crate::stage::timed(
-        "identity",
-        || {
-            crate::identity::search(
-                model,
-                &scene,
-                &job.start,
-                &job.fit.expression,
-                &target.0,
-                |crops, n| {
-                    net.embed_aligned(crops, n)
-                        .map_err(|e| tracing::warn!("{e}"))
-                        .ok()
-                        .map(|v| v.into_iter().map(|e| e.0.to_vec()).collect())
-                },
-                opts,
-            )
-        },
-        |s| {
-            format!(
-                "recognition distance {:.3} -> {:.3} in {} faces",
-                s.before, s.after, s.evaluations
-            )
-        },
-    )
-    .map_err(|e| e.to_string())?;
-    Ok(found.shape)
+    .map(|s| s.shape)
 }
 
 impl FaceUpdate {

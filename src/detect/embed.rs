@@ -166,8 +166,8 @@ impl FaceEmbedder {
         let config = SessionConfig {
             intra_threads: threads.max(1),
         };
-        // Its threads sleep between runs instead of spinning: the search calls it a few times
-        // a photo, between which the other stages want the cores.
+        // No prepacked copy of the weights and no memory patterns: 25 MB less at a photo's
+        // peak and no slower (measured for issue #37).
         let session = super::centerface::session_builder(&env, &config)
             .and_then(|b| b.with_prepacking(false).map_err(|e| e.to_string()))
             .and_then(|b| b.with_memory_pattern(false).map_err(|e| e.to_string()))

@@ -48,6 +48,9 @@ pub struct FaceResult {
     /// The face the gem carves: `mesh` with [`FacePipeline::caricature`] applied to the
     /// identity (same layout and units).
     pub portrait: Vec<f32>,
+    /// The portrait's identity and expressions before the caricature
+    /// ([`FacePipeline::portrait_coefficients`]): where the identity search starts.
+    pub portrait_coefficients: (Vec<f32>, Vec<f32>),
 }
 
 /// Detector and landmark predictor: faces and their 68 landmarks, without the face model
@@ -272,7 +275,8 @@ impl FacePipeline {
     pub fn process(&mut self, img: &image::RgbImage) -> Result<FaceResult, PipelineError> {
         let (found, fit, faces_found) = self.fit_subject(img)?.ok_or(PipelineError::NoFace)?;
         let mesh = self.model.instance(&fit.shape, &fit.expression);
-        let portrait = self.portrait_fit(&found.points, &fit);
+        let (shape, expression) = self.portrait_coefficients(&found.points, &fit);
+        let portrait = self.portrait(&shape, &expression);
         Ok(FaceResult {
             detection: found.detection,
             faces_found,
@@ -280,13 +284,8 @@ impl FacePipeline {
             fit,
             mesh,
             portrait,
+            portrait_coefficients: (shape, expression),
         })
-    }
-
-    /// The portrait of a photo's face: [`FacePipeline::portrait_coefficients`], caricatured.
-    pub fn portrait_fit(&self, landmarks: &[[f32; 2]], fit: &Fit) -> Vec<f32> {
-        let (shape, expression) = self.portrait_coefficients(landmarks, fit);
-        self.portrait(&shape, &expression)
     }
 
     /// The identity and expressions the portrait carves: the landmarks fitted again under

@@ -172,7 +172,9 @@ impl GemPipeline {
         img: &image::RgbImage,
         mut face: FaceResult,
     ) -> Result<PhotoGem, GemPipelineError> {
-        if let Some(portrait) = self.steered_portrait(img, &face) {
+        // The photo's brightness, for the identity search's light and the detail (once).
+        let grey = image::imageops::grayscale(img);
+        if let Some(portrait) = self.steered_portrait(img, &grey, &face) {
             face.portrait = portrait;
         }
         let cameo = self.person_cameo(img, &face.landmarks);
@@ -182,7 +184,6 @@ impl GemPipeline {
                 "detail",
                 || {
                     let seen = gem::detail::seen_vertices(&face.mesh, triangles, &face.fit.pose);
-                    let grey = image::DynamicImage::ImageRgb8(img.clone()).into_luma8();
                     gem::FaceDetail::read(&grey, &face.landmarks, seen, params)
                 },
                 |_| "brows, irises, mouth, lines".into(),
@@ -205,55 +206,29 @@ impl GemPipeline {
     }
 
     /// The portrait with its identity steered towards the photo by the recognition network
-    /// (stage `identity`); `None` without a network, or when the search cannot start (a
-    /// warning: the landmark fit's portrait stays).
+    /// ([`steer_identity`], from the portrait's own coefficients); `None` without a network,
+    /// or when the search cannot start (a warning: the landmark fit's portrait stays).
     pub fn steered_portrait(
         &mut self,
         img: &image::RgbImage,
+        grey: &image::GrayImage,
         face: &FaceResult,
     ) -> Option<Vec<f32>> {
         let net = self.recogniser.get()?;
-        let (shape, expression) = self.face.portrait_coefficients(&face.landmarks, &face.fit);
+        let (shape, expression) = &face.portrait_coefficients;
         let model = &self.face.model;
-        let opts = self.identity;
-        let found = timed(
-            "identity",
-            || -> Result<crate::identity::Searched, String> {
-                let target = net.embed(img, &face.landmarks).map_err(|e| e.to_string())?;
-                let grey = image::DynamicImage::ImageRgb8(img.clone()).into_luma8();
-                let scene = crate::identity::Scene::of_photo(
-                    &grey,
-                    &face.landmarks,
-                    &face.mesh,
-                    &model.shape.triangles,
-                    &face.fit.pose,
-                )
-                .map_err(|e| e.to_string())?;
-                crate::identity::search(
-                    model,
-                    &scene,
-                    &shape,
-                    &face.fit.expression,
-                    &target.0,
-                    |crops, n| {
-                        net.embed_aligned(crops, n)
-                            .map(|v| v.into_iter().map(|e| e.0.to_vec()).collect())
-                            .map_err(|e| tracing::warn!("{e}"))
-                            .ok()
-                    },
-                    &opts,
-                )
-                .map_err(|e| e.to_string())
-            },
-            |s| {
-                format!(
-                    "recognition distance {:.3} -> {:.3} in {} faces (drawing {:.0} ms, network {:.0} ms)",
-                    s.before, s.after, s.evaluations, s.draw_ms, s.network_ms
-                )
-            },
-        );
-        match found {
-            Ok(s) => Some(self.face.portrait(&s.shape, &expression)),
+        match steer_identity(
+            net,
+            model,
+            img,
+            grey,
+            &face.landmarks,
+            &face.fit,
+            &face.mesh,
+            shape,
+            &self.identity,
+        ) {
+            Ok(s) => Some(self.face.portrait(&s.shape, expression)),
             Err(e) => {
                 tracing::warn!("cannot steer the identity by the photo ({e}); the landmark fit's");
                 None
@@ -296,6 +271,60 @@ impl GemPipeline {
             }
         }
     }
+}
+
+#[cfg(feature = "face")]
+/// The identity search on one photo or frame (stage `identity`): the photo's embedding by
+/// `net`, the scene (the `fit`'s pose, the light fitted on its `mesh` to `grey`), and the
+/// search from `start` with the fit's expression ([`crate::identity::search`]). The photo
+/// path and the kiosk's person thread both steer with it.
+#[allow(clippy::too_many_arguments)]
+pub fn steer_identity(
+    net: &mut FaceEmbedder,
+    model: &crate::shapemodel::SurreyModel,
+    img: &image::RgbImage,
+    grey: &image::GrayImage,
+    landmarks: &[[f32; 2]],
+    fit: &crate::fit::Fit,
+    mesh: &[f32],
+    start: &[f32],
+    opts: &crate::identity::SearchOptions,
+) -> Result<crate::identity::Searched, String> {
+    timed(
+        "identity",
+        || {
+            let target = net.embed(img, landmarks).map_err(|e| e.to_string())?;
+            let scene = crate::identity::Scene::of_photo(
+                grey,
+                landmarks,
+                mesh,
+                &model.shape.triangles,
+                &fit.pose,
+            )
+            .map_err(|e| e.to_string())?;
+            crate::identity::search(
+                model,
+                &scene,
+                start,
+                &fit.expression,
+                &target.0,
+                |crops, n| {
+                    net.embed_aligned(crops, n)
+                        .map(|v| v.into_iter().map(|e| e.0.to_vec()).collect())
+                        .map_err(|e| tracing::warn!("{e}"))
+                        .ok()
+                },
+                opts,
+            )
+            .map_err(|e| e.to_string())
+        },
+        |s| {
+            format!(
+                "recognition distance {:.3} -> {:.3} in {} faces (drawing {:.0} ms, network {:.0} ms)",
+                s.before, s.after, s.evaluations, s.draw_ms, s.network_ms
+            )
+        },
+    )
 }
 
 #[cfg(feature = "face")]

@@ -9,7 +9,7 @@ use glyptic::assets::ModelPaths;
 use glyptic::detect::embed::{self, Embedding, FaceEmbedder};
 use glyptic::gem::{CameoParams, View};
 use glyptic::identity::{self, Scene, SearchOptions};
-use glyptic::pipeline::gem::{GemPipeline, Hair, Recogniser};
+use glyptic::pipeline::gem::{GemPipeline, Hair, Recogniser, steer_identity};
 use glyptic::render::{RenderParams, Renderer};
 
 use crate::common;
@@ -83,34 +83,21 @@ fn the_identity_search_nears_the_photo_within_the_prior_and_repeats_itself() {
     pipeline.recogniser = Recogniser::Off;
     let img = photo("einstein.jpg");
     let face = pipeline.face.process(&img).expect("a face");
-    let (shape, _) = pipeline
-        .face
-        .portrait_coefficients(&face.landmarks, &face.fit);
-    let grey = image::DynamicImage::ImageRgb8(img.clone()).into_luma8();
+    let (shape, _) = &face.portrait_coefficients;
+    let grey = image::imageops::grayscale(&img);
     let model = pipeline.face.model.clone();
-    let scene = Scene::of_photo(
-        &grey,
-        &face.landmarks,
-        &face.mesh,
-        &model.shape.triangles,
-        &face.fit.pose,
-    )
-    .expect("scene");
     let mut net = embedder();
-    let target = net.embed(&img, &face.landmarks).expect("embedding");
     let opts = SearchOptions::default();
     let mut run = || {
-        identity::search(
+        steer_identity(
+            &mut net,
             &model,
-            &scene,
-            &shape,
-            &face.fit.expression,
-            &target.0,
-            |crops, n| {
-                net.embed_aligned(crops, n)
-                    .ok()
-                    .map(|v| v.into_iter().map(|e| e.0.to_vec()).collect())
-            },
+            &img,
+            &grey,
+            &face.landmarks,
+            &face.fit,
+            &face.mesh,
+            shape,
             &opts,
         )
         .expect("search")
@@ -125,10 +112,19 @@ fn the_identity_search_nears_the_photo_within_the_prior_and_repeats_itself() {
     assert!(a.shape.iter().all(|c| c.abs() <= opts.limit_sd + 1e-6));
     assert_eq!(a.shape, b.shape, "the same photo gives the same face");
     // A network that answers nothing stops the search with an error, not a panic.
+    let scene = Scene::of_photo(
+        &grey,
+        &face.landmarks,
+        &face.mesh,
+        &model.shape.triangles,
+        &face.fit.pose,
+    )
+    .expect("scene");
+    let target = net.embed(&img, &face.landmarks).expect("embedding");
     let none = identity::search(
         &model,
         &scene,
-        &shape,
+        shape,
         &face.fit.expression,
         &target.0,
         |_, _| None,

@@ -77,7 +77,9 @@ impl Default for Light {
     }
 }
 
-/// Per-vertex unit normals (area-weighted face normals), for [`shade`].
+/// Unit vertex normals, the area-weighted mean of the normals of the triangles around each
+/// vertex (counter-clockwise seen from outside: outward). Zero where none is defined; triangles
+/// past the vertex list or with a non-finite corner are skipped.
 pub fn vertex_normals(positions: &[f32], triangles: &[[u32; 3]]) -> Vec<[f32; 3]> {
     let n = positions.len() / 3;
     let mut normals = vec![[0f32; 3]; n];

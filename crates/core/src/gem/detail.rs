@@ -29,8 +29,9 @@
 use image::GrayImage;
 
 use super::blur::blur;
+use super::template::smoothstep;
 use crate::fit::Pose;
-use crate::person::inside;
+use crate::person::{inside, median};
 
 /// Map cells per inter-ocular distance (eye centre to eye centre).
 pub const CELLS_PER_IOD: f32 = 64.0;
@@ -193,8 +194,8 @@ impl FaceDetail {
         // Floors: a face without texture (a flat drawing, a blown-out photo) is not made to
         // carve its last grey level; 2 % of the brightness range at least.
         let mad = |v: &[f32]| {
-            let mut a: Vec<f32> = face_cells.iter().map(|&i| v[i].abs()).collect();
-            median(&mut a).max(0.02 / 1.4826 / 3.0)
+            let a: Vec<f32> = face_cells.iter().map(|&i| v[i].abs()).collect();
+            median(a).unwrap_or(0.0).max(0.02 / 1.4826 / 3.0)
         };
         let (band_s, eye_s) = (1.4826 * mad(&band), 1.4826 * mad(&eye_band));
         let valley_s = {
@@ -395,19 +396,6 @@ fn polyline_distance(line: &[[f32; 2]], p: [f32; 2]) -> f32 {
             (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
         })
         .fold(f32::INFINITY, f32::min)
-}
-
-fn median(v: &mut [f32]) -> f32 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let k = v.len() / 2;
-    *v.select_nth_unstable_by(k, f32::total_cmp).1
-}
-
-fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
 }
 
 #[cfg(test)]

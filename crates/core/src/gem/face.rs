@@ -334,46 +334,7 @@ pub fn facial_hair(
     })
 }
 
-/// Unit vertex normals, the area-weighted mean of the normals of the triangles around each
-/// vertex (counter-clockwise seen from outside: outward). Zero where none is defined.
-pub fn vertex_normals(positions: &[f32], triangles: &[[u32; 3]]) -> Vec<[f32; 3]> {
-    let n = positions.len() / 3;
-    let mut acc = vec![[0f32; 3]; n];
-    for t in triangles {
-        let ids = t.map(|i| i as usize);
-        if ids.iter().any(|&i| i >= n) {
-            continue;
-        }
-        let p = ids.map(|i| [positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]]);
-        let (a, b) = (
-            [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]],
-            [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]],
-        );
-        let c = [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ];
-        if !c.iter().all(|v| v.is_finite()) {
-            continue;
-        }
-        for &i in &ids {
-            for k in 0..3 {
-                acc[i][k] += c[k];
-            }
-        }
-    }
-    acc.into_iter()
-        .map(|c| {
-            let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-            if l > 1e-12 {
-                c.map(|v| v / l)
-            } else {
-                [0.0; 3]
-            }
-        })
-        .collect()
-}
+pub use crate::raster::vertex_normals;
 
 /// An eye as the cutter shapes it, in the canonical plane: an almond from `front` to `back`
 /// (u), centred at height `centre` (v), opening `upper` above and `lower` below, with `mirror`

@@ -25,6 +25,7 @@ use image::RgbImage;
 
 pub(crate) use colour::inside;
 use colour::*;
+pub(crate) use traits::median;
 use traits::*;
 
 /// Head-frame extent of the analysis canvas, IOD.

@@ -5,9 +5,12 @@
 use super::*;
 
 /// The middle value (the upper of the two for an even count); `None` when empty.
-pub(super) fn median(mut v: Vec<f32>) -> Option<f32> {
-    v.sort_by(f32::total_cmp);
-    v.get(v.len() / 2).copied()
+pub(crate) fn median(mut v: Vec<f32>) -> Option<f32> {
+    if v.is_empty() {
+        return None;
+    }
+    let k = v.len() / 2;
+    Some(*v.select_nth_unstable_by(k, f32::total_cmp).1)
 }
 
 /// The hair's traits from its labelled pixels.
