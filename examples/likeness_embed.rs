@@ -26,7 +26,10 @@
 //! (`--no-detail`: the fitted shape alone, without the photo's detail carved into the face;
 //! `--no-identity`: the landmark fit's identity, not steered by the recognition network;
 //! `--identity-steps N`, `--identity-pairs K`: the search's size; `--identity-components K`:
-//! search the first K coefficients only; `--detail-maps DIR`: each photo's detail map as
+//! search the first K coefficients only; `--no-shading`, `--shading-strength K`,
+//! `--shading-band SHORTEST,LONGEST` (inter-ocular distances): the shape read from the
+//! photo's shading off, or scaled, or over another band; `--face-yaw DEG`: the grey faces
+//! drawn turned by DEG (a three-quarter view at 20-35); `--detail-maps DIR`: each photo's detail map as
 //! carved, mid-grey 0, lighter raised, darker incised)
 
 use std::collections::HashMap;
@@ -100,6 +103,9 @@ fn main() -> Result<()> {
     let mut steps: Option<usize> = None;
     let mut pairs: Option<usize> = None;
     let mut components: Option<usize> = None;
+    let mut shading: Option<f32> = None;
+    let mut face_yaw = 0f32;
+    let mut shading_band: Option<(f32, f32)> = None;
     let mut score: Option<PathBuf> = None;
     let mut maps: Option<PathBuf> = None;
     let mut it = args.iter();
@@ -130,6 +136,16 @@ fn main() -> Result<()> {
             "--identity-steps" => steps = Some(value()?.parse()?),
             "--identity-pairs" => pairs = Some(value()?.parse()?),
             "--identity-components" => components = Some(value()?.parse()?),
+            "--no-shading" => shading = Some(0.0),
+            "--face-yaw" => face_yaw = value()?.parse::<f32>()?.to_radians(),
+            "--shading-strength" => shading = Some(value()?.parse()?),
+            "--shading-band" => {
+                let v = value()?;
+                let (a, b) = v
+                    .split_once(',')
+                    .context("--shading-band SHORTEST,LONGEST")?;
+                shading_band = Some((a.parse()?, b.parse()?));
+            }
             "--score" => score = Some(PathBuf::from(value()?)),
             "--detail-maps" => maps = Some(PathBuf::from(value()?)),
             other if dir.is_none() && !other.starts_with("--") => dir = Some(PathBuf::from(other)),
@@ -163,6 +179,19 @@ fn main() -> Result<()> {
     }
     if let Some(n) = components {
         pipeline.identity.components = n;
+    }
+    match shading {
+        Some(k) if k <= 0.0 => pipeline.shading = None,
+        Some(k) => {
+            if let Some(p) = pipeline.shading.as_mut() {
+                p.strength = k;
+            }
+        }
+        None => {}
+    }
+    if let (Some((a, b)), Some(p)) = (shading_band, pipeline.shading.as_mut()) {
+        p.shortest_iod = a;
+        p.longest_iod = b;
     }
     let mut gem_ms: Vec<f64> = Vec::new();
     let mut embedder = FaceEmbedder::load(&models.recogniser, &models.onnxruntime, 2)?;
@@ -249,7 +278,7 @@ fn main() -> Result<()> {
             (Kind::FittedMesh, &pg.face.mesh),
             (Kind::Portrait, &pg.face.portrait),
         ] {
-            let (rgb, five) = grey_face(mesh, &triangles, 256);
+            let (rgb, five) = grey_face(mesh, &triangles, 256, face_yaw);
             let file = save(&out, kind, j, &rgb)?;
             let embedding = five.and_then(|f| {
                 let mut buf = vec![0.0; 3 * embed::SIDE * embed::SIDE];
@@ -427,9 +456,10 @@ fn grey_face(
     mesh: &[f32],
     triangles: &[[u32; 3]],
     side: u32,
+    yaw: f32,
 ) -> (image::RgbImage, Option<[[f32; 2]; 5]>) {
     let s = side as f32 / 300.0;
-    let view = raster::View::turned(0.0, 0.0, s, side as f32 / 2.0, side as f32 * 0.45);
+    let view = raster::View::turned(yaw, 0.0, s, side as f32 / 2.0, side as f32 * 0.45);
     let normals = raster::vertex_normals(mesh, triangles);
     let grey = raster::shade(
         mesh,

@@ -186,8 +186,9 @@ struct IdentityJob {
 #[derive(Default)]
 struct PersonReading {
     hair: Option<HairStyle>,
-    /// The track and the identity the search found for it.
-    steered: Option<(u64, Vec<f32>)>,
+    /// The track, the identity the search found for it, and the shape its shading added
+    /// ([`crate::photometric::displacement`]; `None` when the frame could not say).
+    steered: Option<(u64, Vec<f32>, Option<Vec<f32>>)>,
 }
 
 /// The person thread: reads hair from frames handed to it one at a time, and steers a held
@@ -249,7 +250,7 @@ impl PersonWorker {
                         reading.steered = steer(net, model, opts, &image, &landmarks, &job)
                             .map_err(|e| tracing::warn!("cannot steer the visitor's identity: {e}"))
                             .ok()
-                            .map(|shape| (job.track, shape));
+                            .map(|(shape, relief)| (job.track, shape, relief));
                     }
                     if send.send(reading).is_err() {
                         return;
@@ -265,7 +266,9 @@ impl PersonWorker {
     }
 }
 
-/// The identity search on one frame of a held track ([`crate::pipeline::gem::steer_identity`]).
+/// The identity search on one frame of a held track ([`crate::pipeline::gem::steer_identity`]),
+/// then the face's shape read from that frame's shading
+/// ([`crate::pipeline::gem::shading_offsets`]) as a model-frame displacement.
 fn steer(
     net: &mut crate::detect::FaceEmbedder,
     model: &crate::shapemodel::SurreyModel,
@@ -273,13 +276,23 @@ fn steer(
     image: &RgbImage,
     landmarks: &[[f32; 2]],
     job: &IdentityJob,
-) -> Result<Vec<f32>, String> {
+) -> Result<(Vec<f32>, Option<Vec<f32>>), String> {
     let grey = image::imageops::grayscale(image);
     let mesh = model.instance(&job.fit.shape, &job.fit.expression);
-    crate::pipeline::gem::steer_identity(
+    let shape = crate::pipeline::gem::steer_identity(
         net, model, image, &grey, landmarks, &job.fit, &mesh, &job.start, opts,
+    )?
+    .shape;
+    let relief = crate::pipeline::gem::shading_offsets(
+        model,
+        &grey,
+        landmarks,
+        &job.fit,
+        &shape,
+        &crate::photometric::ShadingParams::default(),
     )
-    .map(|s| s.shape)
+    .map(|o| crate::photometric::displacement(&o, &job.fit.pose));
+    Ok((shape, relief))
 }
 
 impl FaceUpdate {
@@ -448,9 +461,9 @@ impl FaceStream {
                                 }
                                 if let Ok(Some(reading)) = worker.results.try_recv() {
                                     worker.busy = false;
-                                    if let Some((track, shape)) = reading.steered {
+                                    if let Some((track, shape, relief)) = reading.steered {
                                         // A track lost meanwhile keeps its own.
-                                        tracker.steer(track, shape);
+                                        tracker.steer(track, shape, relief);
                                     }
                                     let changed = reading.hair.and_then(|s| smoother.push(s));
                                     if let (Some(style), Some(b)) = (changed, &builder) {

@@ -121,6 +121,8 @@ struct TrackState {
     track: u64,
     /// The portrait's identity as the recognition network steered it.
     steered: Option<Vec<f32>>,
+    /// The shape read from the visitor's shading, added to the steered portrait.
+    relief: Option<Vec<f32>>,
     landmarks: Vec<[f32; 2]>,
     fit: Fit,
     identity_sum: Vec<f64>,
@@ -160,12 +162,14 @@ impl Tracker {
     }
 
     /// Carves `shape` (identity, standard deviations) as the portrait of track `track` from
-    /// now on, if that track is still the one followed; `false` (and nothing changes) when it
-    /// was lost meanwhile.
-    pub fn steer(&mut self, track: u64, shape: Vec<f32>) -> bool {
+    /// now on, with `relief` (the shape read from the visitor's shading, a model-frame
+    /// displacement per vertex, [`crate::photometric::displacement`]) added, if that track is
+    /// still the one followed; `false` (and nothing changes) when it was lost meanwhile.
+    pub fn steer(&mut self, track: u64, shape: Vec<f32>, relief: Option<Vec<f32>>) -> bool {
         match &mut self.state {
             Some(s) if s.track == track && shape.len() == s.fit.shape.len() => {
                 s.steered = Some(shape);
+                s.relief = relief;
                 true
             }
             _ => false,
@@ -216,6 +220,7 @@ impl Tracker {
         let state = TrackState {
             track: self.tracks,
             steered: None,
+            relief: None,
             landmarks: Vec::new(),
             fit: fit.clone(),
             identity_sum: vec![0.0; fit.shape.len()],
@@ -398,7 +403,10 @@ impl Tracker {
             (fit.pose, fit.expression.clone())
         };
         let mesh = self.pipeline.model.instance(&shape, &expression);
-        let portrait = self.pipeline.portrait(&portrait_shape, &expression);
+        let mut portrait = self.pipeline.portrait(&portrait_shape, &expression);
+        if let (Some(relief), Some(_)) = (&state.relief, &state.steered) {
+            crate::photometric::add(&mut portrait, relief);
+        }
         let identity_frames = state.identity_n;
         let (track, steered) = (state.track, state.steered.is_some());
         state.landmarks = landmarks.clone();

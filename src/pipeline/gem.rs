@@ -87,6 +87,9 @@ pub struct GemPipeline {
     pub recogniser: Recogniser,
     /// The identity search's size and prior.
     pub identity: crate::identity::SearchOptions,
+    /// Read the face's shape from the photo's shading ([`crate::photometric`]); `None`: the
+    /// shape model's face alone.
+    pub shading: Option<crate::photometric::ShadingParams>,
 }
 
 #[cfg(feature = "face")]
@@ -127,6 +130,7 @@ impl GemPipeline {
             detail: Some(gem::DetailParams::default()),
             recogniser,
             identity: crate::identity::SearchOptions::default(),
+            shading: Some(crate::photometric::ShadingParams::default()),
         })
     }
 
@@ -151,6 +155,7 @@ impl GemPipeline {
                 Recogniser::load(models, 1)
             },
             identity: self.identity,
+            shading: self.shading,
         })
     }
 
@@ -174,8 +179,18 @@ impl GemPipeline {
     ) -> Result<PhotoGem, GemPipelineError> {
         // The photo's brightness, for the identity search's light and the detail (once).
         let grey = image::imageops::grayscale(img);
-        if let Some(portrait) = self.steered_portrait(img, &grey, &face) {
-            face.portrait = portrait;
+        let steered = self.steered_shape(img, &grey, &face);
+        if let Some(shape) = &steered {
+            face.portrait = self.face.portrait(shape, &face.portrait_coefficients.1);
+        }
+        if let Some(params) = &self.shading {
+            let shape = steered.as_ref().unwrap_or(&face.portrait_coefficients.0);
+            let model = &self.face.model;
+            if let Some(offsets) =
+                shading_offsets(model, &grey, &face.landmarks, &face.fit, shape, params)
+            {
+                crate::photometric::displace(&mut face.portrait, &offsets, &face.fit.pose);
+            }
         }
         let cameo = self.person_cameo(img, &face.landmarks);
         let detail = self.detail.as_ref().and_then(|params| {
@@ -205,17 +220,18 @@ impl GemPipeline {
         })
     }
 
-    /// The portrait with its identity steered towards the photo by the recognition network
-    /// ([`steer_identity`], from the portrait's own coefficients); `None` without a network,
-    /// or when the search cannot start (a warning: the landmark fit's portrait stays).
-    pub fn steered_portrait(
+    /// The portrait's identity steered towards the photo by the recognition network
+    /// ([`steer_identity`], from the portrait's own coefficients; standard deviations);
+    /// `None` without a network, or when the search cannot start (a warning: the landmark
+    /// fit's identity stays).
+    pub fn steered_shape(
         &mut self,
         img: &image::RgbImage,
         grey: &image::GrayImage,
         face: &FaceResult,
     ) -> Option<Vec<f32>> {
         let net = self.recogniser.get()?;
-        let (shape, expression) = &face.portrait_coefficients;
+        let shape = &face.portrait_coefficients.0;
         let model = &self.face.model;
         match steer_identity(
             net,
@@ -228,7 +244,7 @@ impl GemPipeline {
             shape,
             &self.identity,
         ) {
-            Ok(s) => Some(self.face.portrait(&s.shape, expression)),
+            Ok(s) => Some(s.shape),
             Err(e) => {
                 tracing::warn!("cannot steer the identity by the photo ({e}); the landmark fit's");
                 None
@@ -271,6 +287,44 @@ impl GemPipeline {
             }
         }
     }
+}
+
+#[cfg(feature = "face")]
+/// The face's depth offsets read from the photo's shading (stage `shading`,
+/// [`crate::photometric::fit`]) around the face with identity `shape` (standard deviations)
+/// and the `fit`'s expression and pose; `None` (a warning) when the photo cannot say (a flat
+/// light, a tiny face). The photo path and the kiosk's person thread both use it.
+pub fn shading_offsets(
+    model: &crate::shapemodel::SurreyModel,
+    grey: &image::GrayImage,
+    landmarks: &[[f32; 2]],
+    fit: &crate::fit::Fit,
+    shape: &[f32],
+    params: &crate::photometric::ShadingParams,
+) -> Option<Vec<f32>> {
+    let mesh = model.instance(shape, &fit.expression);
+    timed(
+        "shading",
+        || {
+            crate::photometric::fit(
+                grey,
+                landmarks,
+                &mesh,
+                &model.shape.triangles,
+                &fit.pose,
+                params,
+            )
+        },
+        |f| {
+            format!(
+                "skin's shading error {:.3} -> {:.3} over {} cells",
+                f.residual_before, f.residual_after, f.cells
+            )
+        },
+    )
+    .map_err(|e| tracing::warn!("cannot read the face's shape from its shading ({e})"))
+    .ok()
+    .map(|f| f.offsets)
 }
 
 #[cfg(feature = "face")]

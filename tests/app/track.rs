@@ -355,6 +355,12 @@ fn the_face_thread_steers_the_visitors_identity_without_waiting() {
         identity_frames: 5,
         ..TrackOptions::default()
     });
+    // What the tracker carves from an identity, without the shading's relief.
+    let (model, caricature, keep) = (
+        tracker.pipeline.model.clone(),
+        tracker.pipeline.caricature,
+        tracker.pipeline.portrait_expression,
+    );
     let capture = Capture::spawn(
         move || Box::new(MemorySource::new("breakingbad", frames, FPS)),
         CaptureOptions::default(),
@@ -417,5 +423,23 @@ fn the_face_thread_steers_the_visitors_identity_without_waiting() {
     assert_eq!(
         steered[1].portrait_shape, b.portrait_shape,
         "the steered identity holds"
+    );
+    // The steered portrait also carries the shape read from the visitor's shading.
+    let expression: Vec<f32> = b.expression.iter().map(|e| e * keep).collect();
+    let bare = model.instance(
+        &model.shape.caricature(&b.portrait_shape, caricature),
+        &expression,
+    );
+    let relief = (bare
+        .iter()
+        .zip(&b.portrait)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f32>()
+        / (bare.len() / 3) as f32)
+        .sqrt();
+    println!("the shading's relief: RMS {relief:.2} mm");
+    assert!(
+        relief > 0.1 && relief < 4.0,
+        "the shading's relief moved the portrait {relief} mm"
     );
 }

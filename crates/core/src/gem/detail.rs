@@ -375,7 +375,7 @@ fn drop_short_runs(f: &mut [f32], cols: usize, rows: usize, min_len: f32) {
     }
 }
 
-fn bilinear_grey(img: &GrayImage, x: f32, y: f32) -> f32 {
+pub(crate) fn bilinear_grey(img: &GrayImage, x: f32, y: f32) -> f32 {
     let (w, h) = img.dimensions();
     let (x, y) = (x.clamp(0.0, (w - 1) as f32), y.clamp(0.0, (h - 1) as f32));
     let (x0, y0) = (x as u32, y as u32);
@@ -386,7 +386,7 @@ fn bilinear_grey(img: &GrayImage, x: f32, y: f32) -> f32 {
         + (px(x0, y1) * (1.0 - fx) + px(x1, y1) * fx) * fy
 }
 
-fn polyline_distance(line: &[[f32; 2]], p: [f32; 2]) -> f32 {
+pub(crate) fn polyline_distance(line: &[[f32; 2]], p: [f32; 2]) -> f32 {
     line.windows(2)
         .map(|w| {
             let (a, b) = (w[0], w[1]);
@@ -399,11 +399,11 @@ fn polyline_distance(line: &[[f32; 2]], p: [f32; 2]) -> f32 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// 68 landmarks of a face 200 px between the eyes' centres, centred in a 800 x 800 photo.
-    fn face() -> Vec<[f32; 2]> {
+    pub(crate) fn face() -> Vec<[f32; 2]> {
         let mut lm = vec![[0f32; 2]; 68];
         for (k, p) in lm.iter_mut().enumerate().take(17) {
             let t = k as f32 / 16.0 * std::f32::consts::PI;

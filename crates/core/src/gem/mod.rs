@@ -20,7 +20,7 @@
 //! Everything here is pure computation: no files, no GPU.
 
 pub mod basrelief;
-mod blur;
+pub(crate) mod blur;
 mod builder;
 pub mod detail;
 pub mod face;

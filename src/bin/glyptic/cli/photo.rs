@@ -325,6 +325,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 glasses: GlassesArg::Carve,
                 detail: 1.0,
                 likeness_search: 11,
+                shading: 1.0,
             },
             landmarks_out: None,
             obj: None,
