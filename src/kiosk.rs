@@ -97,7 +97,9 @@ pub struct KioskConfig {
     pub glasses: bool,
     /// Faces the likeness search draws for each visitor, once their identity holds (the
     /// portrait's identity steered towards their face by the recognition network, on the
-    /// person thread: about half a second of one core for 22); 0: the landmark fit's identity.
+    /// person thread: about half a second of one core for 22), then the face's shape read from
+    /// the same frame's shading ([`crate::photometric`]); 0: the landmark fit's identity and
+    /// shape.
     /// Longer searches fit the network's own quirks more than the visitor (BENCHMARKS.md,
     /// issue #37).
     pub likeness_search: u32,

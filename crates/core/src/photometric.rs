@@ -9,10 +9,10 @@
 //! The model: brightness = `a + b . n` (one directional light and an ambient term, the same
 //! light as [`crate::identity::Scene`]; albedo constant over the skin, folded into `a` and
 //! `b`). The unknown is a depth offset `d` on a grid over the face (linearised around the
-//! fitted normals, two Gauss-Newton rounds); its regularisers keep it a band of the face's
-//! shape: a thin-plate term removes what is finer than a few hundredths of the face
-//! (pores, noise), a pull towards zero removes what is broader than about the eyes' distance
-//! (that is the shape model's, and the light's errors live there). Only skin cells vote: the
+//! fitted normals, one Gauss-Newton step: the offsets are small); its regularisers keep it a
+//! band of the face's shape: a thin-plate term removes what is finer than a fifth of the
+//! eyes' distance (pores, noise), a pull towards zero what is broader than three of them
+//! (that is the shape model's, and the light's own errors live there). Only skin cells vote: the
 //! eyes, brows, nostrils and lips (dark by colour, not by shape) are left out by their
 //! landmarks, and cells whose brightness the light cannot explain (a mole, stubble, a highlight,
 //! a cast shadow) are weighted down (Cauchy weights on the light fit's residual).
@@ -27,6 +27,11 @@ use nalgebra::{Matrix4, Vector3, Vector4};
 use crate::fit::Pose;
 use crate::gem::detail::{bilinear_grey, polyline_distance};
 use crate::raster;
+
+/// Gauss-Newton rounds of the depth solve: offsets of a few millimetres turn the normals a
+/// few degrees, where the linearised shading is close (a second round moved the synthetic
+/// faces' normals by hundredths of a degree and cost 60 % more).
+const ROUNDS: usize = 1;
 
 /// How strongly and over which band the shading moves the face.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -43,8 +48,9 @@ pub struct ShadingParams {
 }
 
 impl Default for ShadingParams {
-    /// Features from a fifth of the eyes' distance (a fold, the eyelid's crease) to a little
-    /// more than it (a cheekbone, the brow ridge); offsets up to 4 mm (a deep-set eye).
+    /// Features from a fifth of the eyes' distance (a fold, the eyelid's crease) to three of
+    /// them (a cheekbone, the brow ridge, the jowls: a narrower band lost most of a cheek's
+    /// rise in the synthetic test); offsets up to 4 mm (a deep-set eye).
     fn default() -> Self {
         ShadingParams {
             strength: 1.0,
@@ -266,7 +272,7 @@ pub fn fit(
     let lambda_s = 1.0 / (k_hi * k_hi);
 
     let mut d = vec![0f32; n];
-    for _ in 0..2 {
+    for _ in 0..ROUNDS {
         // Linearise around the current depth.
         let mut sx = vec![0f32; n];
         let mut sy = vec![0f32; n];
