@@ -117,7 +117,8 @@ pub fn fit(
     }
     let cells_per_iod = params.cells_per_iod.clamp(8.0, 64.0);
     let step = iod / cells_per_iod;
-    let grid = Grid::around(landmarks, iod, step);
+    // The landmarks' box, with the forehead above the brows.
+    let grid = Grid::around(landmarks, step, 0.3 * iod, 0.9 * iod, 0.3 * iod);
     let (cols, rows) = (grid.cols, grid.rows);
     let n = cols * rows;
 
@@ -368,18 +369,24 @@ pub fn add(mesh: &mut [f32], displacement: &[f32]) {
     }
 }
 
-/// The grid over the face: cell (c, r)'s centre is photo point `origin + (c, r) step`.
-struct Grid {
-    origin: [f32; 2],
-    step: f32,
-    cols: usize,
-    rows: usize,
+/// A grid over the face: cell (c, r)'s centre is photo point `origin + (c, r) step`.
+pub(crate) struct Grid {
+    pub(crate) origin: [f32; 2],
+    pub(crate) step: f32,
+    pub(crate) cols: usize,
+    pub(crate) rows: usize,
 }
 
 impl Grid {
-    /// The landmarks' box, grown by half the eyes' distance to the sides and below and by
-    /// most of it above (the forehead).
-    fn around(landmarks: &[[f32; 2]], iod: f32, step: f32) -> Self {
+    /// The landmarks' box grown by `side` to the left and right, `above` and `below`
+    /// (pixels), in cells of `step` pixels.
+    pub(crate) fn around(
+        landmarks: &[[f32; 2]],
+        step: f32,
+        side: f32,
+        above: f32,
+        below: f32,
+    ) -> Self {
         let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
         for p in landmarks {
             for k in 0..2 {
@@ -387,9 +394,9 @@ impl Grid {
                 hi[k] = hi[k].max(p[k]);
             }
         }
-        let origin = [lo[0] - 0.3 * iod, lo[1] - 0.9 * iod];
-        let cols = ((hi[0] + 0.3 * iod - origin[0]) / step).ceil() as usize + 1;
-        let rows = ((hi[1] + 0.3 * iod - origin[1]) / step).ceil() as usize + 1;
+        let origin = [lo[0] - side, lo[1] - above];
+        let cols = ((hi[0] + side - origin[0]) / step).ceil() as usize + 1;
+        let rows = ((hi[1] + below - origin[1]) / step).ceil() as usize + 1;
         Grid {
             origin,
             step,

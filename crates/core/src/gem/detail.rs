@@ -124,16 +124,9 @@ impl FaceDetail {
         let step = iod / CELLS_PER_IOD;
         // The window: the landmarks' box grown by half the eyes' distance (the forehead's
         // lines above the brows, the folds beside the mouth).
-        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-        for p in landmarks {
-            for k in 0..2 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        let origin = [lo[0] - 0.5 * iod, lo[1] - 0.7 * iod];
-        let cols = ((hi[0] + 0.5 * iod - origin[0]) / step).ceil() as usize + 1;
-        let rows = ((hi[1] + 0.5 * iod - origin[1]) / step).ceil() as usize + 1;
+        let grid =
+            crate::photometric::Grid::around(landmarks, step, 0.5 * iod, 0.7 * iod, 0.5 * iod);
+        let (origin, cols, rows) = (grid.origin, grid.cols, grid.rows);
         let cell = |c: usize, r: usize| [origin[0] + c as f32 * step, origin[1] + r as f32 * step];
         let to_cell = |p: [f32; 2]| [(p[0] - origin[0]) / step, (p[1] - origin[1]) / step];
 

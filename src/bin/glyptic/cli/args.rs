@@ -191,18 +191,20 @@ pub struct ChoiceArgs {
 
 #[cfg(feature = "face")]
 fn parse_detail(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(v) if (0.0..=3.0).contains(&v) => Ok(v),
-        Ok(v) => Err(format!("{v}: the detail's strength must be 0..3")),
-        Err(e) => Err(format!("{s:?} is not a number ({e})")),
-    }
+    strength_0_to_3(s, "detail")
 }
 
 #[cfg(feature = "face")]
 fn parse_shading(s: &str) -> Result<f32, String> {
+    strength_0_to_3(s, "shading")
+}
+
+/// A strength of 0..3 (0: off, 1: as read), named in the error.
+#[cfg(feature = "face")]
+fn strength_0_to_3(s: &str, what: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
         Ok(v) if (0.0..=3.0).contains(&v) => Ok(v),
-        Ok(v) => Err(format!("{v}: the shading's strength must be 0..3")),
+        Ok(v) => Err(format!("{v}: the {what}'s strength must be 0..3")),
         Err(e) => Err(format!("{s:?} is not a number ({e})")),
     }
 }
