@@ -6,7 +6,8 @@
 //! OUT_DIR/NAME.png (360 pixels high) and prints a Markdown table.
 //!
 //! The person segmentation network helps (set-up installs it); `--colour-only` leaves it out,
-//! as before it was there.
+//! as before it was there. The light on the fitted face (`glyptic::photometric`) tells a
+//! shadowed jaw from a beard; `--unshaded` leaves it out.
 //!
 //! `--labels` draws the labels alone, without the photo's pixels (hair orange, skin beige,
 //! background slate, beyond the canvas dark; the 68 landmarks white), and puts them side by
@@ -38,8 +39,10 @@ fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
     let out = PathBuf::from(args.next().context("usage: person_view OUT_DIR PHOTO...")?);
     let (mut labels_only, mut colour_only, mut mask_only) = (false, false, false);
+    let mut unshaded = false;
     let photos: Vec<PathBuf> = args
         .filter(|a| {
+            unshaded |= a == "--unshaded";
             labels_only |= a == "--labels";
             mask_only |= a == "--mask";
             colour_only |= a == "--colour-only";
@@ -73,12 +76,37 @@ fn main() -> Result<()> {
                 continue;
             }
         };
+        // The light on the fitted face, as the photo path reads it (not timed here: the
+        // `shading` stage's).
+        let grey = image::imageops::grayscale(&img);
+        let shading = (!unshaded)
+            .then(|| {
+                glyptic::photometric::fit(
+                    &grey,
+                    &face.landmarks,
+                    &face.mesh,
+                    &pipeline.model.shape.triangles,
+                    &face.fit.pose,
+                    &glyptic::photometric::ShadingParams::default(),
+                )
+                .ok()
+            })
+            .flatten();
+        let expected = shading.as_ref().map(|f| &f.expected);
+        let light = |x: f32, y: f32| expected.map_or(f32::NAN, |m| m.at(x, y));
         let t = std::time::Instant::now();
         let mask = segmenter
             .as_mut()
             .map(|s| s.segment(&img, &face.landmarks))
             .transpose()?;
-        let p = person::analyse_with(&img, &face.landmarks, mask.as_ref())?;
+        let p = person::analyse_shaded(
+            &img,
+            &face.landmarks,
+            mask.as_ref(),
+            expected
+                .is_some()
+                .then_some(&light as &dyn Fn(f32, f32) -> f32),
+        )?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         if let (true, Some(m)) = (mask_only, &mask) {
             // The segmentation's verdict: the photo in grey, the person tinted green by its

@@ -199,12 +199,20 @@ struct PersonWorker {
     busy: bool,
 }
 
-type PersonJob = (Arc<RgbImage>, Vec<[f32; 2]>, Option<IdentityJob>);
+/// A frame, its landmarks, perhaps an identity search to run, and the frame's fitted face
+/// (model mm) with its pose: the light on it tells a shadowed jaw from a beard.
+type PersonJob = (
+    Arc<RgbImage>,
+    Vec<[f32; 2]>,
+    Option<IdentityJob>,
+    Option<(crate::fit::Pose, Vec<f32>)>,
+);
 
 impl PersonWorker {
     fn spawn(
         models: Option<crate::assets::ModelPaths>,
         hair: bool,
+        triangles: Vec<[u32; 3]>,
         likeness: Option<(
             crate::identity::SearchOptions,
             Arc<crate::shapemodel::SurreyModel>,
@@ -232,17 +240,39 @@ impl PersonWorker {
                             })
                             .ok()
                     });
-                while let Ok((image, landmarks, identity)) = inbox.recv() {
+                while let Ok((image, landmarks, identity, face)) = inbox.recv() {
                     let mut reading = PersonReading::default();
                     if hair {
                         let mask = segmenter
                             .as_mut()
                             .and_then(|s| s.segment(&image, &landmarks).ok());
+                        // The light on the fitted face (none: the darkness alone).
+                        let grey = image::imageops::grayscale(image.as_ref());
+                        let light = face.and_then(|(pose, mesh)| {
+                            crate::photometric::fit(
+                                &grey,
+                                &landmarks,
+                                &mesh,
+                                &triangles,
+                                &pose,
+                                &crate::photometric::ShadingParams::default(),
+                            )
+                            .ok()
+                        });
+                        let expected = |x: f32, y: f32| {
+                            light.as_ref().map_or(f32::NAN, |l| l.expected.at(x, y))
+                        };
                         // A frame the person cannot be read from is no reading.
-                        reading.hair =
-                            crate::person::analyse_with(&image, &landmarks, mask.as_ref())
-                                .ok()
-                                .map(|p| crate::gem::hair_style(&p));
+                        reading.hair = crate::person::analyse_shaded(
+                            &image,
+                            &landmarks,
+                            mask.as_ref(),
+                            light
+                                .is_some()
+                                .then_some(&expected as &dyn Fn(f32, f32) -> f32),
+                        )
+                        .ok()
+                        .map(|p| crate::gem::hair_style(&p));
                     }
                     if let (Some(job), Some(net), Some((opts, model))) =
                         (identity, net.as_mut(), likeness.as_ref())
@@ -268,7 +298,7 @@ impl PersonWorker {
 
 /// The identity search on one frame of a held track ([`crate::pipeline::gem::steer_identity`]),
 /// then the face's shape read from that frame's shading
-/// ([`crate::pipeline::gem::shading_offsets`]) as a model-frame displacement.
+/// ([`crate::pipeline::gem::read_shading`]) as a model-frame displacement.
 fn steer(
     net: &mut crate::detect::FaceEmbedder,
     model: &crate::shapemodel::SurreyModel,
@@ -283,7 +313,7 @@ fn steer(
         net, model, image, &grey, landmarks, &job.fit, &mesh, &job.start, opts,
     )?
     .shape;
-    let relief = crate::pipeline::gem::shading_offsets(
+    let relief = crate::pipeline::gem::read_shading(
         model,
         &grey,
         landmarks,
@@ -291,7 +321,7 @@ fn steer(
         &shape,
         &crate::photometric::ShadingParams::default(),
     )
-    .map(|o| crate::photometric::displacement(&o, &job.fit.pose));
+    .map(|f| crate::photometric::displacement(&f.offsets, &job.fit.pose));
     Ok((shape, relief))
 }
 
@@ -418,6 +448,7 @@ impl FaceStream {
             .filter(|_| models.is_some())
             .map(|o| (o, tracker.pipeline.model.clone()));
         let steering = likeness.is_some();
+        let triangles = tracker.triangles().to_vec();
         let (tx, updates) = latest();
         let (etx, events) = crossbeam_channel::bounded(256);
         let stop = Arc::new(AtomicBool::new(false));
@@ -430,7 +461,7 @@ impl FaceStream {
                 let mut warm = Vec::new();
                 let detections_before = tracker.detections();
                 let mut person = if hair || steering {
-                    PersonWorker::spawn(models, hair, likeness)
+                    PersonWorker::spawn(models, hair, triangles, likeness)
                 } else {
                     None
                 };
@@ -493,7 +524,12 @@ impl FaceStream {
                                     }
                                     worker.busy = worker
                                         .jobs
-                                        .send((frame.image.clone(), face.landmarks.clone(), job))
+                                        .send((
+                                            frame.image.clone(),
+                                            face.landmarks.clone(),
+                                            job,
+                                            hair.then(|| (face.raw.pose, face.mesh.clone())),
+                                        ))
                                         .is_ok();
                                 }
                                 if hair {

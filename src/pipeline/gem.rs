@@ -183,16 +183,22 @@ impl GemPipeline {
         if let Some(shape) = &steered {
             face.portrait = self.face.portrait(shape, &face.portrait_coefficients.1);
         }
-        if let Some(params) = &self.shading {
-            let shape = steered.as_ref().unwrap_or(&face.portrait_coefficients.0);
-            let model = &self.face.model;
-            if let Some(offsets) =
-                shading_offsets(model, &grey, &face.landmarks, &face.fit, shape, params)
-            {
-                crate::photometric::displace(&mut face.portrait, &offsets, &face.fit.pose);
-            }
+        // The photo's light on the face: its shape from the shading (unless off), and what the
+        // person pass expects of the jaw's brightness (always: a shadow is not a beard).
+        let shape = steered.as_ref().unwrap_or(&face.portrait_coefficients.0);
+        let params = self.shading.unwrap_or_default();
+        let shading = read_shading(
+            &self.face.model,
+            &grey,
+            &face.landmarks,
+            &face.fit,
+            shape,
+            &params,
+        );
+        if let (Some(fit), Some(_)) = (&shading, &self.shading) {
+            crate::photometric::displace(&mut face.portrait, &fit.offsets, &face.fit.pose);
         }
-        let cameo = self.person_cameo(img, &face.landmarks);
+        let cameo = self.person_cameo(img, &face.landmarks, shading.as_ref().map(|f| &f.expected));
         let detail = self.detail.as_ref().and_then(|params| {
             let triangles = &self.face.model.shape.triangles;
             timed(
@@ -255,7 +261,15 @@ impl GemPipeline {
     /// The cameo with the subject's own hair, beard and glasses (stage `person`, the
     /// segmentation's share as `segment`); [`Hair::Classical`], or a photo that cannot be
     /// read for it, keeps the classical hair.
-    pub fn person_cameo(&mut self, img: &image::RgbImage, landmarks: &[[f32; 2]]) -> CameoParams {
+    ///
+    /// `light`: the brightness the photo's light gives the fitted face
+    /// ([`crate::photometric::ShadingFit::expected`]), so a shadowed jaw is not a beard.
+    pub fn person_cameo(
+        &mut self,
+        img: &image::RgbImage,
+        landmarks: &[[f32; 2]],
+        light: Option<&crate::photometric::ShadingMap>,
+    ) -> CameoParams {
         if self.hair == Hair::Classical {
             return self.cameo.clone();
         }
@@ -270,7 +284,17 @@ impl GemPipeline {
         });
         let person = timed(
             "person",
-            || crate::person::analyse_with(img, landmarks, mask.as_ref()),
+            || {
+                let expected = |x: f32, y: f32| light.map_or(f32::NAN, |m| m.at(x, y));
+                crate::person::analyse_shaded(
+                    img,
+                    landmarks,
+                    mask.as_ref(),
+                    light
+                        .is_some()
+                        .then_some(&expected as &dyn Fn(f32, f32) -> f32),
+                )
+            },
             describe_person,
         );
         match person {
@@ -290,18 +314,18 @@ impl GemPipeline {
 }
 
 #[cfg(feature = "face")]
-/// The face's depth offsets read from the photo's shading (stage `shading`,
+/// The face's shape and light read from the photo's shading (stage `shading`,
 /// [`crate::photometric::fit`]) around the face with identity `shape` (standard deviations)
 /// and the `fit`'s expression and pose; `None` (a warning) when the photo cannot say (a flat
 /// light, a tiny face). The photo path and the kiosk's person thread both use it.
-pub fn shading_offsets(
+pub fn read_shading(
     model: &crate::shapemodel::SurreyModel,
     grey: &image::GrayImage,
     landmarks: &[[f32; 2]],
     fit: &crate::fit::Fit,
     shape: &[f32],
     params: &crate::photometric::ShadingParams,
-) -> Option<Vec<f32>> {
+) -> Option<crate::photometric::ShadingFit> {
     let mesh = model.instance(shape, &fit.expression);
     timed(
         "shading",
@@ -324,7 +348,6 @@ pub fn shading_offsets(
     )
     .map_err(|e| tracing::warn!("cannot read the face's shape from its shading ({e})"))
     .ok()
-    .map(|f| f.offsets)
 }
 
 #[cfg(feature = "face")]

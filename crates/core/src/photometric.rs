@@ -75,6 +75,56 @@ pub struct ShadingFit {
     /// and after the offsets.
     pub residual_before: f32,
     pub residual_after: f32,
+    /// The brightness the fitted light gives the fitted face, over the face: what its shading
+    /// alone makes of each place (a chin turned from the light is darker than the cheek
+    /// without being hair).
+    pub expected: ShadingMap,
+}
+
+/// The light's brightness on the fitted face per photo point ([`ShadingFit::expected`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShadingMap {
+    origin: [f32; 2],
+    step: f32,
+    cols: usize,
+    rows: usize,
+    /// 0..1 per cell, NaN where the face is not.
+    values: Vec<f32>,
+}
+
+impl ShadingMap {
+    /// The expected brightness at photo point (x, y) (pixels): bilinear over the cells the
+    /// face covers, NaN off it.
+    pub fn at(&self, x: f32, y: f32) -> f32 {
+        let (u, v) = (
+            (x - self.origin[0]) / self.step,
+            (y - self.origin[1]) / self.step,
+        );
+        if !(u >= 0.0 && v >= 0.0 && u <= (self.cols - 1) as f32 && v <= (self.rows - 1) as f32) {
+            return f32::NAN;
+        }
+        let (c0, r0) = (u as usize, v as usize);
+        let (c1, r1) = ((c0 + 1).min(self.cols - 1), (r0 + 1).min(self.rows - 1));
+        let (fx, fy) = (u - c0 as f32, v - r0 as f32);
+        let (mut sum, mut weight) = (0.0, 0.0);
+        for (c, r, w) in [
+            (c0, r0, (1.0 - fx) * (1.0 - fy)),
+            (c1, r0, fx * (1.0 - fy)),
+            (c0, r1, (1.0 - fx) * fy),
+            (c1, r1, fx * fy),
+        ] {
+            let value = self.values[r * self.cols + c];
+            if value.is_finite() {
+                sum += w * value;
+                weight += w;
+            }
+        }
+        if weight > 1e-3 {
+            sum / weight
+        } else {
+            f32::NAN
+        }
+    }
 }
 
 /// Why no shape was read from the shading.
@@ -335,6 +385,21 @@ pub fn fit(
         cells: voting,
         residual_before: before,
         residual_after: after,
+        expected: ShadingMap {
+            origin: grid.origin,
+            step: grid.step,
+            cols,
+            rows,
+            values: (0..n)
+                .map(|i| {
+                    if cell_normal[2][i].is_finite() {
+                        lambert(&light, normal[i]).clamp(0.0, 1.0)
+                    } else {
+                        f32::NAN
+                    }
+                })
+                .collect(),
+        },
     })
 }
 
@@ -848,6 +913,23 @@ mod tests {
         let fit = fit(&img, &lm, &mesh, &tris, &pose, &ShadingParams::default()).expect("fit");
         let worst = fit.offsets.iter().fold(0f32, |m, o| m.max(o.abs()));
         assert!(worst < 0.6, "{worst} mm");
+    }
+
+    #[test]
+    fn the_expected_shading_is_the_lights_on_the_face_and_unknown_off_it() {
+        let (mesh, tris, pose) = dome();
+        let lm = crate::gem::detail::tests::face();
+        let img = photo(base_depth, |_, _| 1.0);
+        let fit = fit(&img, &lm, &mesh, &tris, &pose, &ShadingParams::default()).expect("fit");
+        // On the cheek it is the photo's own brightness (the photo is the light on this face).
+        for (x, y) in [(540.0, 450.0), (260.0, 450.0), (400.0, 250.0)] {
+            let want = f32::from(img.get_pixel(x as u32, y as u32).0[0]) / 255.0;
+            let got = fit.expected.at(x, y);
+            assert!((got - want).abs() < 0.03, "({x}, {y}): {got} for {want}");
+        }
+        // Far outside the face's grid: unknown.
+        assert!(fit.expected.at(5.0, 5.0).is_nan());
+        assert!(fit.expected.at(f32::NAN, 400.0).is_nan());
     }
 
     #[test]

@@ -277,6 +277,20 @@ pub fn analyse_with(
     landmarks: &[[f32; 2]],
     mask: Option<&PersonMask>,
 ) -> Result<Person, PersonError> {
+    analyse_shaded(img, landmarks, mask, None)
+}
+
+/// [`analyse_with`], knowing how the light falls on the face: `shading` gives the brightness
+/// the face's own shape would have at a photo point under the photo's light (NaN where it
+/// does not know; e.g. [`crate::photometric::ShadingMap::at`]). A chin or jaw turned from the
+/// light is then expected darker than the cheeks, and only what is darker than that is
+/// facial hair: a shadow under the jaw is not a beard.
+pub fn analyse_shaded(
+    img: &RgbImage,
+    landmarks: &[[f32; 2]],
+    mask: Option<&PersonMask>,
+    shading: Option<&dyn Fn(f32, f32) -> f32>,
+) -> Result<Person, PersonError> {
     let frame = head_frame(landmarks)?;
     let head: Vec<[f32; 2]> = landmarks.iter().map(|p| frame.to_head(*p)).collect();
     // Where the chin is, and the face's length (eyes to chin) with the mouth closed, which
@@ -556,8 +570,55 @@ pub fn analyse_with(
     let chroma = |c: Colour| c[1].hypot(c[2]) / c[0].max(0.02);
     let skin_l = median(skin_seed.iter().map(|c| c[0]).collect()).unwrap_or(0.5);
     let skin_chroma = median(skin_seed.iter().map(|c| chroma(*c)).collect()).unwrap_or(0.1);
+    // The light's share per canvas pixel, relative to the skin's seed region (NaN where not
+    // known): a place the light is expected to leave at 0.6 of the cheeks' brightness is
+    // facial hair only below 0.6 of the darkness threshold.
+    let light: Vec<f32> = match shading {
+        Some(f) => {
+            let expected: Vec<f32> = (0..w * h)
+                .map(|i| {
+                    let [x, y] = frame.to_pixel(pos(i));
+                    f(x, y)
+                })
+                .collect();
+            let reference = median(
+                (0..w * h)
+                    .filter(|&i| {
+                        let p = pos(i);
+                        expected[i].is_finite()
+                            && in_face[i]
+                            && p[1] > 0.3
+                            && p[1] < nose_base
+                            && p[0].abs() < 0.6 * half
+                    })
+                    .map(|i| expected[i])
+                    .collect(),
+            );
+            match reference {
+                Some(r) if r > 0.05 => expected
+                    .iter()
+                    .map(|e| {
+                        if e.is_finite() {
+                            (e / r).clamp(0.4, 1.2)
+                        } else {
+                            f32::NAN
+                        }
+                    })
+                    .collect(),
+                _ => vec![f32::NAN; w * h],
+            }
+        }
+        None => vec![f32::NAN; w * h],
+    };
     let facial_hair = |i: usize| {
-        labels[i] == Label::Hair || col[i][0] < 0.72 * skin_l || chroma(col[i]) < 0.5 * skin_chroma
+        let known = light[i].is_finite();
+        let k = if known { light[i] } else { 1.0 };
+        // The colour models label by colour alone, so skin in shadow can look like dark
+        // hair: where the light is known, hair-coloured is facial hair only if it is also
+        // darker than the skin would be there.
+        (labels[i] == Label::Hair && (!known || col[i][0] < skin_l * k))
+            || col[i][0] < 0.72 * skin_l * k
+            || chroma(col[i]) < 0.5 * skin_chroma
     };
     let share = |poly: &[[f32; 2]]| {
         let (mut n, mut hair) = (0usize, 0usize);

@@ -361,3 +361,37 @@ fn bad_landmarks_are_named() {
     let edge: Vec<[f32; 2]> = landmarks().iter().map(|p| [p[0] - 230.0, p[1]]).collect();
     assert!(analyse(&img, &edge).is_ok());
 }
+
+/// A shadow under the jaw (the chin lit at 55 % of the cheeks, as a light from above leaves
+/// it) passes the darkness test for a beard; told how the light falls on the face
+/// ([`analyse_shaded`]) it is skin, while a real beard in the same shadow is still a beard.
+#[test]
+fn a_shadowed_chin_is_not_a_beard_when_the_light_is_known() {
+    let lm = landmarks();
+    let shade = |y: f32| if y > 288.0 { 0.55 } else { 1.0 };
+    let in_shadow = |img: RgbImage| {
+        RgbImage::from_fn(img.width(), img.height(), |x, y| {
+            let k = shade(y as f32);
+            let p = img.get_pixel(x, y).0;
+            image::Rgb(p.map(|v| (f32::from(v) * k).round() as u8))
+        })
+    };
+    let light = |_x: f32, y: f32| 0.8 * shade(y);
+    let shadowed = in_shadow(photo(hair_to(12.0, 0.0), BROWN, false));
+    let plain = analyse(&shadowed, &lm).unwrap();
+    let lit = analyse_shaded(&shadowed, &lm, None, Some(&light)).unwrap();
+    assert!(
+        plain.beard > lit.beard + 0.3,
+        "the shadow reads as beard {:.2} without the light, {:.2} with it",
+        plain.beard,
+        lit.beard
+    );
+    assert!(!lit.has_beard(), "beard {:.2}", lit.beard);
+    let bearded = in_shadow(photo(hair_to(12.0, 0.0), BROWN, true));
+    let still = analyse_shaded(&bearded, &lm, None, Some(&light)).unwrap();
+    assert!(still.has_beard(), "beard {:.2}", still.beard);
+    // A light that knows nothing (NaN everywhere) changes nothing.
+    let unknown = |_x: f32, _y: f32| f32::NAN;
+    let same = analyse_shaded(&shadowed, &lm, None, Some(&unknown)).unwrap();
+    assert_eq!(same.beard, plain.beard);
+}
