@@ -194,9 +194,23 @@ struct PersonReading {
 /// The person thread: reads hair from frames handed to it one at a time, and steers a held
 /// track's identity when asked.
 struct PersonWorker {
-    jobs: crate::capture::LatestSender<PersonJob>,
+    /// `None` once dropping: the thread sees the channel close and ends.
+    jobs: Option<crate::capture::LatestSender<PersonJob>>,
     results: LatestReceiver<PersonReading>,
     busy: bool,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Drop for PersonWorker {
+    /// Waits for the thread's current work (a model still loading, a search under way), so
+    /// nothing it logs comes after the stream has ended (nor ONNX Runtime's complaints about
+    /// a process ending under a session it is building).
+    fn drop(&mut self) {
+        self.jobs = None;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
 }
 
 /// A frame, its landmarks, perhaps an identity search to run, and the frame's fitted face
@@ -220,7 +234,7 @@ impl PersonWorker {
     ) -> Option<Self> {
         let (jobs, inbox) = latest::<PersonJob>();
         let (send, results) = latest();
-        std::thread::Builder::new()
+        let thread = std::thread::Builder::new()
             .name("person".into())
             .spawn(move || {
                 // The person segmentation, when it loads (else colour alone).
@@ -289,9 +303,10 @@ impl PersonWorker {
             })
             .ok()?;
         Some(PersonWorker {
-            jobs,
+            jobs: Some(jobs),
             results,
             busy: false,
+            thread: Some(thread),
         })
     }
 }
@@ -522,15 +537,15 @@ impl FaceStream {
                                     if job.is_some() {
                                         asked = Some(face.track);
                                     }
-                                    worker.busy = worker
-                                        .jobs
-                                        .send((
+                                    worker.busy = worker.jobs.as_ref().is_some_and(|j| {
+                                        j.send((
                                             frame.image.clone(),
                                             face.landmarks.clone(),
                                             job,
                                             hair.then(|| (face.raw.pose, face.mesh.clone())),
                                         ))
-                                        .is_ok();
+                                        .is_ok()
+                                    });
                                 }
                                 if hair {
                                     update.hair = smoother.settled();

@@ -411,7 +411,8 @@ pub fn steer_identity(
 pub enum Recogniser {
     /// No identity search.
     Off,
-    Loading(std::thread::JoinHandle<Option<FaceEmbedder>>),
+    /// Loading on its thread (`None` only while being taken).
+    Loading(Option<std::thread::JoinHandle<Option<FaceEmbedder>>>),
     /// Loaded (`None`: it could not be, said on the log once).
     Ready(Option<FaceEmbedder>),
 }
@@ -425,6 +426,20 @@ impl std::fmt::Debug for Recogniser {
             Recogniser::Ready(Some(_)) => "Ready",
             Recogniser::Ready(None) => "Ready(failed)",
         })
+    }
+}
+
+#[cfg(feature = "face")]
+impl Drop for Recogniser {
+    /// A load under way is waited for: a command that fails before it needs the network (a
+    /// missing photo) must not end under ONNX Runtime building a session (it logs errors after
+    /// the command's own last word, and a warning that the model is broken when it is not).
+    fn drop(&mut self) {
+        if let Recogniser::Loading(handle) = self
+            && let Some(h) = handle.take()
+        {
+            let _ = h.join();
+        }
     }
 }
 
@@ -452,7 +467,7 @@ impl Recogniser {
             .name("load recogniser".into())
             .spawn(load.clone())
         {
-            Ok(handle) => Recogniser::Loading(handle),
+            Ok(handle) => Recogniser::Loading(Some(handle)),
             Err(_) => Recogniser::Ready(load()),
         }
     }
@@ -465,15 +480,16 @@ impl Recogniser {
     /// The network, once loaded (waits for the loading thread the first time); `None` when
     /// off or it could not be loaded.
     pub fn get(&mut self) -> Option<&mut FaceEmbedder> {
-        if matches!(self, Recogniser::Loading(_))
-            && let Recogniser::Loading(handle) = std::mem::replace(self, Recogniser::Ready(None))
-        {
-            *self = Recogniser::Ready(handle.join().unwrap_or_else(|_| {
-                tracing::warn!(
-                    "loading the recognition network failed; the landmark fit's identity"
-                );
-                None
-            }));
+        if let Recogniser::Loading(handle) = self {
+            let net = handle.take().and_then(|h| {
+                h.join().unwrap_or_else(|_| {
+                    tracing::warn!(
+                        "loading the recognition network failed; the landmark fit's identity"
+                    );
+                    None
+                })
+            });
+            *self = Recogniser::Ready(net);
         }
         match self {
             Recogniser::Ready(net) => net.as_mut(),
