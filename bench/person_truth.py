@@ -1,0 +1,72 @@
+#!/usr/bin/env python3
+"""What `person_view` read against bench/labels/person.tsv (issue #38): for the beard, the
+moustache and the glasses, how many of the labelled photos it got right and how it went wrong;
+for the hair, short (ends above the chin) / long / bald against the label; and how often two
+photos of one person are read alike.
+
+Usage: bench/person_truth.py LABELS.tsv TABLE.md [TABLE.md ...]
+TABLE.md: what `cargo run --release --example person_view -- OUT PHOTO...` prints.
+The thresholds are glyptic's own: beard share above 0.55, moustache above 0.5, glasses dip above
+0.5 (crates/core/src/person/mod.rs); hair longer than one face length below the eyes is long.
+Standard library only."""
+import sys
+from collections import Counter, defaultdict
+
+
+def main():
+    if len(sys.argv) < 3:
+        sys.exit(__doc__)
+    labels = {}
+    for line in open(sys.argv[1]):
+        if line.startswith('#') or line.startswith('set\t') or not line.strip():
+            continue
+        s, photo, person, hair, beard, moustache, glasses = line.rstrip('\n').split('\t')
+        labels[photo] = dict(person=person, hair=hair, beard=beard, moustache=moustache,
+                             glasses=glasses)
+    read = {}
+    for table in sys.argv[2:]:
+        for line in open(table):
+            cells = [c.strip() for c in line.strip().strip('|').split('|')]
+            if len(cells) < 12 or cells[0] in ('photo', '---') or cells[0].startswith('-'):
+                continue
+            name = cells[0]
+            try:
+                length = float(cells[5]) if cells[1] != 'bald' else 0.0
+                beard, moustache, glasses = float(cells[8]), float(cells[10]), float(cells[11])
+            except ValueError:
+                continue
+            hair = 'bald' if cells[1] == 'bald' else ('long' if length > 1.0 else 'short')
+            read[name] = dict(hair=hair, beard='1' if beard > 0.55 else '0',
+                              moustache='1' if moustache > 0.5 else '0',
+                              glasses='1' if glasses > 0.5 else '0')
+    both = [p for p in labels if p in read]
+    print(f'{len(both)} labelled photos read ({len(labels)} labelled, '
+          f'{len({labels[p]["person"] for p in both})} people)')
+    print('| what | labelled | right | found where there is none | missed |')
+    print('|---|---|---|---|---|')
+    for what in ('beard', 'moustache', 'glasses'):
+        known = [p for p in both if labels[p][what] in '01' and labels[p][what] != '']
+        right = sum(read[p][what] == labels[p][what] for p in known)
+        false = sum(read[p][what] == '1' and labels[p][what] == '0' for p in known)
+        missed = sum(read[p][what] == '0' and labels[p][what] == '1' for p in known)
+        pos = sum(labels[p][what] == '1' for p in known)
+        print(f'| {what} | {len(known)} ({pos} with) | {right} | {false} | {missed} |')
+    known = [p for p in both if labels[p]['hair'] != '-']
+    conf = Counter((labels[p]['hair'], read[p]['hair']) for p in known)
+    right = sum(v for (a, b), v in conf.items() if a == b)
+    print(f'| hair short / long / bald | {len(known)} | {right} | '
+          + ', '.join(f'{a} read {b}: {v}' for (a, b), v in sorted(conf.items()) if a != b)
+          + ' | |')
+    # Two photos of one person read alike: the share of each person's photos whose four
+    # readings equal the person's commonest.
+    groups = defaultdict(list)
+    for p in both:
+        r = read[p]
+        groups[labels[p]['person']].append((r['hair'], r['beard'], r['moustache'], r['glasses']))
+    agree = sum(Counter(v).most_common(1)[0][1] for v in groups.values())
+    print(f'\nphotos read as their person\'s commonest reading (hair, beard, moustache, '
+          f'glasses): {agree} of {len(both)}')
+
+
+if __name__ == '__main__':
+    main()
