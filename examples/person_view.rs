@@ -62,9 +62,9 @@ fn main() -> Result<()> {
         )?)
     };
     println!(
-        "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | ms |"
+        "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for photo in &photos {
         let name = photo
             .file_stem()
@@ -189,7 +189,7 @@ fn main() -> Result<()> {
         let f = |v: Option<f32>| v.map_or("-".into(), |v| format!("{v:.2}"));
         let h = p.hair;
         println!(
-            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {ms:.0} |",
+            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {ms:.0} |",
             f(h.map(|h| h.crown)),
             f(h.map(|h| h.top)),
             f(h.map(|h| h.sides)),
@@ -199,7 +199,8 @@ fn main() -> Result<()> {
             p.beard,
             p.beard_jaw,
             p.moustache,
-            p.glasses
+            p.glasses,
+            f(h.map(|h| h.curtain))
         );
     }
     if !sheet.is_empty() {

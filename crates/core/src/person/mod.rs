@@ -25,6 +25,7 @@ use image::RgbImage;
 
 pub(crate) use colour::inside;
 use colour::*;
+pub use traits::CURTAIN;
 pub(crate) use traits::median;
 use traits::*;
 
@@ -60,6 +61,10 @@ pub struct Hair {
     /// Where it ends below the eyes, in face lengths: about 0.5 cropped at the ears, 1 at
     /// the chin, 1.8 at the shoulders, more when it falls over them.
     pub length: f32,
+    /// How much hair hangs beside the cheeks between the mouth and the chin, in face
+    /// half-widths (the wider side's median row): hair that falls past the jaw hangs there
+    /// as a curtain; short hair leaves at most a shadowed strip along the cheek.
+    pub curtain: f32,
     /// 0 straight .. 1 tight curls (from how little its strands agree in direction).
     pub curl: f32,
     /// Mean brightness 0..1 (grey and blond hair are light).

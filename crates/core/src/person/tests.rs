@@ -395,3 +395,40 @@ fn a_shadowed_chin_is_not_a_beard_when_the_light_is_known() {
     let same = analyse_shaded(&shadowed, &lm, None, Some(&unknown)).unwrap();
     assert_eq!(same.beard, plain.beard);
 }
+
+/// A suit the colour of the hair, joined to short hair by a dark collar round the neck (as on
+/// a tight crop: a suit, a shadowed neck): the colours alone label it hair down to the frame's
+/// edge; without hair hanging beside the cheeks (no curtain) the hair still ends about the
+/// ears. The same suit under a curtain of long hair stays long.
+#[test]
+fn hair_without_a_curtain_beside_the_cheeks_does_not_fall_past_the_jaw() {
+    let suit = |x: f32, y: f32| {
+        let dx = (x - 200.0).abs();
+        // The jacket, and the collar joining it to the hair behind the neck.
+        y > 400.0 || (y > 330.0 && dx < 110.0) || (y > 215.0 && dx > 72.0 && dx < 80.0)
+    };
+    let dressed = |hair: &dyn Fn(f32, f32) -> bool| {
+        let base = photo(hair, BROWN, false);
+        RgbImage::from_fn(base.width(), base.height(), |x, y| {
+            let (fx, fy) = (x as f32, y as f32);
+            let head = ((fx - 200.0) / 72.0).powi(2) + ((fy - 205.0) / 125.0).powi(2) < 1.0;
+            if suit(fx, fy) && !head && !hair(fx, fy) {
+                image::Rgb(BROWN)
+            } else {
+                *base.get_pixel(x, y)
+            }
+        })
+    };
+    let lm = landmarks();
+    let short = analyse(&dressed(&hair_to(12.0, 0.0)), &lm).unwrap();
+    let h = short.hair.expect("short hair found");
+    assert!(h.curtain < CURTAIN, "{h:?}");
+    assert!(
+        h.length <= 0.6 + 1e-6,
+        "the short hair ends about the ears: {h:?}"
+    );
+    let long = analyse(&dressed(&hair_to(12.0, 470.0)), &lm).unwrap();
+    let l = long.hair.expect("long hair found");
+    assert!(l.curtain >= CURTAIN, "{l:?}");
+    assert!(l.length > 1.6, "long hair over the suit: {l:?}");
+}
