@@ -65,6 +65,26 @@ fn photo(hair: impl Fn(f32, f32) -> bool, hair_colour: [u8; 3], beard: bool) -> 
     })
 }
 
+/// [`photo`] with `hair` of `hair_colour`, dressed in clothes of `colour` where `clothes(x, y)`
+/// (not over the head nor the hair).
+fn dressed(
+    hair: &dyn Fn(f32, f32) -> bool,
+    hair_colour: [u8; 3],
+    clothes: &dyn Fn(f32, f32) -> bool,
+    colour: [u8; 3],
+) -> RgbImage {
+    let base = photo(hair, hair_colour, false);
+    RgbImage::from_fn(base.width(), base.height(), |x, y| {
+        let (fx, fy) = (x as f32, y as f32);
+        let head = ((fx - 200.0) / 72.0).powi(2) + ((fy - 205.0) / 125.0).powi(2) < 1.0;
+        if clothes(fx, fy) && !head && !hair(fx, fy) {
+            image::Rgb(colour)
+        } else {
+            *base.get_pixel(x, y)
+        }
+    })
+}
+
 /// Hair over the crown above the forehead's hairline, standing `stand` px out, and down
 /// both sides to `end` (image y).
 fn hair_to(stand: f32, end: f32) -> impl Fn(f32, f32) -> bool {
@@ -242,18 +262,7 @@ fn a_suit_below_the_chin_is_not_long_hair() {
         let dx = (x - 200.0).abs();
         y > 400.0 || (y > 215.0 && dx > 45.0 && dx < 110.0)
     };
-    let dressed = |hair: &dyn Fn(f32, f32) -> bool| {
-        let base = photo(hair, GREY, false);
-        RgbImage::from_fn(base.width(), base.height(), |x, y| {
-            let (fx, fy) = (x as f32, y as f32);
-            let head = ((fx - 200.0) / 72.0).powi(2) + ((fy - 205.0) / 125.0).powi(2) < 1.0;
-            if suit(fx, fy) && !head && !hair(fx, fy) {
-                image::Rgb(SUIT)
-            } else {
-                *base.get_pixel(x, y)
-            }
-        })
-    };
+    let dressed = |hair: &dyn Fn(f32, f32) -> bool| dressed(hair, GREY, &suit, SUIT);
     let lm = landmarks();
     let short = analyse(&dressed(&hair_to(12.0, 0.0)), &lm).unwrap();
     // The suit's share labelled hair on the shoulders (well below the chin at y = 320).
@@ -407,18 +416,7 @@ fn hair_without_a_curtain_beside_the_cheeks_does_not_fall_past_the_jaw() {
         // The jacket, and the collar joining it to the hair behind the neck.
         y > 400.0 || (y > 330.0 && dx < 110.0) || (y > 215.0 && dx > 72.0 && dx < 80.0)
     };
-    let dressed = |hair: &dyn Fn(f32, f32) -> bool| {
-        let base = photo(hair, BROWN, false);
-        RgbImage::from_fn(base.width(), base.height(), |x, y| {
-            let (fx, fy) = (x as f32, y as f32);
-            let head = ((fx - 200.0) / 72.0).powi(2) + ((fy - 205.0) / 125.0).powi(2) < 1.0;
-            if suit(fx, fy) && !head && !hair(fx, fy) {
-                image::Rgb(BROWN)
-            } else {
-                *base.get_pixel(x, y)
-            }
-        })
-    };
+    let dressed = |hair: &dyn Fn(f32, f32) -> bool| dressed(hair, BROWN, &suit, BROWN);
     let lm = landmarks();
     let short = analyse(&dressed(&hair_to(12.0, 0.0)), &lm).unwrap();
     let h = short.hair.expect("short hair found");
