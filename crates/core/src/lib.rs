@@ -18,6 +18,7 @@ pub mod gem;
 pub mod identity;
 pub mod landmarks;
 pub mod person;
+mod photo_grid;
 pub mod photometric;
 pub mod raster;
 pub mod scene;

@@ -25,7 +25,7 @@ use image::GrayImage;
 use nalgebra::{Matrix4, Vector3, Vector4};
 
 use crate::fit::Pose;
-use crate::gem::detail::{bilinear_grey, polyline_distance};
+use crate::photo_grid::{Grid, bilinear_grey, polyline_distance};
 use crate::raster;
 
 /// Gauss-Newton rounds of the depth solve: offsets of a few millimetres turn the normals a
@@ -431,57 +431,6 @@ pub fn add(mesh: &mut [f32], displacement: &[f32]) {
     }
     for (v, d) in mesh.iter_mut().zip(displacement) {
         *v += d;
-    }
-}
-
-/// A grid over the face: cell (c, r)'s centre is photo point `origin + (c, r) step`.
-pub(crate) struct Grid {
-    pub(crate) origin: [f32; 2],
-    pub(crate) step: f32,
-    pub(crate) cols: usize,
-    pub(crate) rows: usize,
-}
-
-impl Grid {
-    /// The landmarks' box grown by `side` to the left and right, `above` and `below`
-    /// (pixels), in cells of `step` pixels.
-    pub(crate) fn around(
-        landmarks: &[[f32; 2]],
-        step: f32,
-        side: f32,
-        above: f32,
-        below: f32,
-    ) -> Self {
-        let (mut lo, mut hi) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-        for p in landmarks {
-            for k in 0..2 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        let origin = [lo[0] - side, lo[1] - above];
-        let cols = ((hi[0] + side - origin[0]) / step).ceil() as usize + 1;
-        let rows = ((hi[1] + below - origin[1]) / step).ceil() as usize + 1;
-        Grid {
-            origin,
-            step,
-            cols,
-            rows,
-        }
-    }
-
-    fn at(&self, i: usize) -> [f32; 2] {
-        [
-            self.origin[0] + (i % self.cols) as f32 * self.step,
-            self.origin[1] + (i / self.cols) as f32 * self.step,
-        ]
-    }
-
-    fn to_cell(&self, p: [f32; 2]) -> [f32; 2] {
-        [
-            (p[0] - self.origin[0]) / self.step,
-            (p[1] - self.origin[1]) / self.step,
-        ]
     }
 }
 

@@ -32,6 +32,7 @@ use super::blur::blur;
 use super::template::smoothstep;
 use crate::fit::Pose;
 use crate::person::{inside, median};
+use crate::photo_grid::{bilinear_grey, polyline_distance};
 
 /// Map cells per inter-ocular distance (eye centre to eye centre).
 pub const CELLS_PER_IOD: f32 = 64.0;
@@ -125,15 +126,13 @@ impl FaceDetail {
         // The window: the landmarks' box grown by half the eyes' distance (the forehead's
         // lines above the brows, the folds beside the mouth).
         let grid =
-            crate::photometric::Grid::around(landmarks, step, 0.5 * iod, 0.7 * iod, 0.5 * iod);
+            crate::photo_grid::Grid::around(landmarks, step, 0.5 * iod, 0.7 * iod, 0.5 * iod);
         let (origin, cols, rows) = (grid.origin, grid.cols, grid.rows);
-        let cell = |c: usize, r: usize| [origin[0] + c as f32 * step, origin[1] + r as f32 * step];
-        let to_cell = |p: [f32; 2]| [(p[0] - origin[0]) / step, (p[1] - origin[1]) / step];
 
         let mut lum = vec![0f32; cols * rows];
         for r in 0..rows {
             for c in 0..cols {
-                let [x, y] = cell(c, r);
+                let [x, y] = grid.centre(c, r);
                 lum[r * cols + c] = bilinear_grey(photo, x, y);
             }
         }
@@ -151,7 +150,7 @@ impl FaceDetail {
         let valley = valleys(&blur(&lum, cols, rows, 1.5), cols, rows);
 
         // Regions, in cells.
-        let lm: Vec<[f32; 2]> = landmarks.iter().map(|&p| to_cell(p)).collect();
+        let lm: Vec<[f32; 2]> = landmarks.iter().map(|&p| grid.to_cell(p)).collect();
         let iod_c = CELLS_PER_IOD;
         let jaw: Vec<[f32; 2]> = lm[0..17].to_vec();
         // The face's outline: the jaw, then up over the brows lifted by a third of the eyes'
@@ -366,29 +365,6 @@ fn drop_short_runs(f: &mut [f32], cols: usize, rows: usize, min_len: f32) {
             }
         }
     }
-}
-
-pub(crate) fn bilinear_grey(img: &GrayImage, x: f32, y: f32) -> f32 {
-    let (w, h) = img.dimensions();
-    let (x, y) = (x.clamp(0.0, (w - 1) as f32), y.clamp(0.0, (h - 1) as f32));
-    let (x0, y0) = (x as u32, y as u32);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-    let px = |x: u32, y: u32| f32::from(img.get_pixel(x, y).0[0]) / 255.0;
-    (px(x0, y0) * (1.0 - fx) + px(x1, y0) * fx) * (1.0 - fy)
-        + (px(x0, y1) * (1.0 - fx) + px(x1, y1) * fx) * fy
-}
-
-pub(crate) fn polyline_distance(line: &[[f32; 2]], p: [f32; 2]) -> f32 {
-    line.windows(2)
-        .map(|w| {
-            let (a, b) = (w[0], w[1]);
-            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-            let l2 = (dx * dx + dy * dy).max(1e-9);
-            let t = (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0);
-            (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
-        })
-        .fold(f32::INFINITY, f32::min)
 }
 
 #[cfg(test)]
