@@ -87,7 +87,7 @@ fn main() -> Result<()> {
                     &face.mesh,
                     &pipeline.model.shape.triangles,
                     &face.fit.pose,
-                    &glyptic::photometric::ShadingParams::default(),
+                    &glyptic::photometric::ShadingParams::light_only(),
                 )
                 .ok()
             })

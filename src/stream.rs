@@ -269,7 +269,7 @@ impl PersonWorker {
                                 &mesh,
                                 &triangles,
                                 &pose,
-                                &crate::photometric::ShadingParams::default(),
+                                &crate::photometric::ShadingParams::light_only(),
                             )
                             .ok()
                         });

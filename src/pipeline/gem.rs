@@ -186,7 +186,9 @@ impl GemPipeline {
         // The photo's light on the face: its shape from the shading (unless off), and what the
         // person pass expects of the jaw's brightness (always: a shadow is not a beard).
         let shape = steered.as_ref().unwrap_or(&face.portrait_coefficients.0);
-        let params = self.shading.unwrap_or_default();
+        let params = self
+            .shading
+            .unwrap_or_else(crate::photometric::ShadingParams::light_only);
         let shading = read_shading(
             &self.face.model,
             &grey,

@@ -36,7 +36,8 @@ const ROUNDS: usize = 1;
 /// How strongly and over which band the shading moves the face.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShadingParams {
-    /// The recovered offsets times this (0: off, 1: as recovered).
+    /// The recovered offsets times this (1: as recovered; 0: none, and no solve: the light
+    /// and [`ShadingFit::expected`] alone).
     pub strength: f32,
     /// Grid cells per inter-ocular distance (eye centre to eye centre).
     pub cells_per_iod: f32,
@@ -58,6 +59,17 @@ impl Default for ShadingParams {
             shortest_iod: 0.2,
             longest_iod: 3.0,
             limit_mm: 4.0,
+        }
+    }
+}
+
+impl ShadingParams {
+    /// The light on the face and what it makes of each place ([`ShadingFit::expected`]),
+    /// without solving for the offsets (all 0).
+    pub fn light_only() -> Self {
+        ShadingParams {
+            strength: 0.0,
+            ..Default::default()
         }
     }
 }
@@ -323,7 +335,9 @@ pub fn fit(
     let lambda_s = 1.0 / (k_hi * k_hi);
 
     let mut d = vec![0f32; n];
-    for _ in 0..ROUNDS {
+    // Strength 0 asks for the light alone: the offsets would all be 0.
+    let rounds = if params.strength == 0.0 { 0 } else { ROUNDS };
+    for _ in 0..rounds {
         // Linearise around the current depth.
         let mut sx = vec![0f32; n];
         let mut sy = vec![0f32; n];
@@ -876,6 +890,11 @@ mod tests {
             let got = fit.expected.at(x, y);
             assert!((got - want).abs() < 0.03, "({x}, {y}): {got} for {want}");
         }
+        // The light alone: the same map, no offsets.
+        let light = super::fit(&img, &lm, &mesh, &tris, &pose, &ShadingParams::light_only())
+            .expect("light");
+        assert_eq!(light.expected, fit.expected);
+        assert!(light.offsets.iter().all(|&o| o == 0.0));
         // Far outside the face's grid: unknown.
         assert!(fit.expected.at(5.0, 5.0).is_nan());
         assert!(fit.expected.at(f32::NAN, 400.0).is_nan());
