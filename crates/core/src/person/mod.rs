@@ -361,13 +361,11 @@ pub fn analyse_shaded(
     // cheeks to there) and clear of the face's sides (long hair may hang over them); the
     // darkest (nostrils, a beard's upper edge, shadow beside the nose) left out.
     let nose_base = head[33][1].min(lip_top - 0.08);
-    let mut skin_seed: Vec<Colour> = (0..w * h)
-        .filter(|&i| {
-            let p = pos(i);
-            valid[i] && in_face[i] && p[1] > 0.3 && p[1] < nose_base && p[0].abs() < 0.6 * half
-        })
-        .map(|i| col[i])
-        .collect();
+    let cheeks = |i: usize| {
+        let p = pos(i);
+        valid[i] && in_face[i] && p[1] > 0.3 && p[1] < nose_base && p[0].abs() < 0.6 * half
+    };
+    let mut skin_seed: Vec<Colour> = (0..w * h).filter(|&i| cheeks(i)).map(|i| col[i]).collect();
     let mut ls: Vec<f32> = skin_seed.iter().map(|c| c[0]).collect();
     ls.sort_by(f32::total_cmp);
     if let Some(&median) = ls.get(ls.len() / 2) {
@@ -588,14 +586,7 @@ pub fn analyse_shaded(
                 .collect();
             let reference = median(
                 (0..w * h)
-                    .filter(|&i| {
-                        let p = pos(i);
-                        expected[i].is_finite()
-                            && in_face[i]
-                            && p[1] > 0.3
-                            && p[1] < nose_base
-                            && p[0].abs() < 0.6 * half
-                    })
+                    .filter(|&i| cheeks(i) && expected[i].is_finite())
                     .map(|i| expected[i])
                     .collect(),
             );
