@@ -18,7 +18,7 @@
 //! itself is a closure: this module is pure computation.
 
 use image::GrayImage;
-use nalgebra::{Matrix4, Vector3, Vector4};
+use nalgebra::Vector3;
 
 use crate::fit::Pose;
 use crate::raster;
@@ -211,41 +211,32 @@ impl Scene {
         let align = similarity(&five, &TEMPLATE).ok_or(IdentityError::Landmarks)?;
         let normals = raster::vertex_normals(mesh, triangles);
         let (w, h) = photo.dimensions();
-        let mut ata = Matrix4::<f64>::zeros();
-        let mut atb = Vector4::<f64>::zeros();
-        let mut used = 0;
-        for (v, n) in mesh.chunks_exact(3).zip(&normals) {
-            let nc = turn(pose, *n);
-            if nc[2] < 0.3 {
-                continue;
-            }
-            let p = pose.project(&Vector3::new(
-                f64::from(v[0]),
-                f64::from(v[1]),
-                f64::from(v[2]),
-            ));
-            if !(p.x >= 0.0 && p.y >= 0.0 && p.x <= f64::from(w - 1) && p.y <= f64::from(h - 1)) {
-                continue;
-            }
-            let b = f64::from(photo.get_pixel(p.x.round() as u32, p.y.round() as u32).0[0]) / 255.0;
-            let row = Vector4::new(1.0, f64::from(nc[0]), f64::from(nc[1]), f64::from(nc[2]));
-            ata += row * row.transpose();
-            atb += row * b;
-            used += 1;
-        }
-        if used < 50 {
+        // The photo's brightness at the vertices that face the camera.
+        let samples: Vec<([f32; 3], f64, f64)> = mesh
+            .chunks_exact(3)
+            .zip(&normals)
+            .filter_map(|(v, n)| {
+                let nc = turn(pose, *n);
+                if nc[2] < 0.3 {
+                    return None;
+                }
+                let p = pose.project(&Vector3::new(
+                    f64::from(v[0]),
+                    f64::from(v[1]),
+                    f64::from(v[2]),
+                ));
+                if !(p.x >= 0.0 && p.y >= 0.0 && p.x <= f64::from(w - 1) && p.y <= f64::from(h - 1))
+                {
+                    return None;
+                }
+                let b = f64::from(photo.get_pixel(p.x.round() as u32, p.y.round() as u32).0[0]);
+                Some((nc, b / 255.0, 1.0))
+            })
+            .collect();
+        if samples.len() < 50 {
             return Err(IdentityError::Light);
         }
-        // A little ridge so a flat-lit face still solves.
-        ata += Matrix4::identity() * 1e-3 * used as f64;
-        let x = ata
-            .cholesky()
-            .map(|c| c.solve(&atb))
-            .ok_or(IdentityError::Light)?;
-        let light = [x[0] as f32, x[1] as f32, x[2] as f32, x[3] as f32];
-        if light.iter().any(|v| !v.is_finite()) {
-            return Err(IdentityError::Light);
-        }
+        let light = raster::fit_light(samples).ok_or(IdentityError::Light)?;
         Ok(Scene {
             pose: *pose,
             light,
@@ -280,7 +271,7 @@ impl Scene {
             &points,
             &turned,
             triangles,
-            &|n| (l[0] + l[1] * n[0] + l[2] * n[1] + l[3] * n[2]).clamp(0.0, 1.0),
+            &|n| raster::lambert(&l, n).clamp(0.0, 1.0),
             CROP,
             CROP,
             &mut grey,

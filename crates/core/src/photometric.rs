@@ -22,11 +22,11 @@
 //! the camera. Pure computation.
 
 use image::GrayImage;
-use nalgebra::{Matrix4, Vector3, Vector4};
+use nalgebra::Vector3;
 
 use crate::fit::Pose;
 use crate::photo_grid::{Grid, bilinear_grey, polyline_distance};
-use crate::raster;
+use crate::raster::{self, lambert};
 
 /// Gauss-Newton rounds of the depth solve: offsets of a few millimetres turn the normals a
 /// few degrees, where the linearised shading is close (a second round moved the synthetic
@@ -250,8 +250,14 @@ pub fn fit(
     let mut light = [0f32; 4];
     let mut sigma = 0.0;
     for _ in 0..4 {
-        light =
-            fit_light(&intensity, &normal, &weight, &robust).ok_or(ShadingError::FlatLight(0.0))?;
+        light = raster::fit_light((0..n).map(|i| {
+            (
+                normal[i],
+                f64::from(intensity[i]),
+                f64::from(weight[i] * robust[i]),
+            )
+        }))
+        .ok_or(ShadingError::FlatLight(0.0))?;
         let res: Vec<f32> = (0..n)
             .filter(|&i| weight[i] > 0.0)
             .map(|i| (intensity[i] - lambert(&light, normal[i])).abs())
@@ -521,40 +527,6 @@ impl Skin {
             0.0
         }
     }
-}
-
-/// The light's fit: weighted least squares of brightness on (1, n); `None` when singular.
-fn fit_light(
-    intensity: &[f32],
-    normal: &[[f32; 3]],
-    weight: &[f32],
-    robust: &[f32],
-) -> Option<[f32; 4]> {
-    let mut ata = Matrix4::<f64>::zeros();
-    let mut atb = Vector4::<f64>::zeros();
-    let mut total = 0.0;
-    for i in 0..intensity.len() {
-        let w = f64::from(weight[i] * robust[i]);
-        if w <= 0.0 {
-            continue;
-        }
-        let n = normal[i];
-        let row = Vector4::new(1.0, f64::from(n[0]), f64::from(n[1]), f64::from(n[2]));
-        ata += row * row.transpose() * w;
-        atb += row * (w * f64::from(intensity[i]));
-        total += w;
-    }
-    if total <= 0.0 {
-        return None;
-    }
-    ata += Matrix4::identity() * 1e-3 * total;
-    let x = ata.cholesky()?.solve(&atb);
-    let l = [x[0] as f32, x[1] as f32, x[2] as f32, x[3] as f32];
-    l.iter().all(|v| v.is_finite()).then_some(l)
-}
-
-fn lambert(light: &[f32; 4], n: [f32; 3]) -> f32 {
-    light[0] + light[1] * n[0] + light[2] * n[1] + light[3] * n[2]
 }
 
 /// Brightness for depth slopes (zx, zy) (x right, y down) and its derivatives by each.

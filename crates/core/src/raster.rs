@@ -77,6 +77,39 @@ impl Default for Light {
     }
 }
 
+/// A light fitted to brightness samples: weighted least squares of brightness on (1, n), so
+/// that brightness ~ `light[0] + light[1..4] . n` ([`lambert`]); `n` in the camera's frame.
+/// Samples are (normal, brightness, weight); those of weight 0 or less are skipped. A ridge
+/// of a thousandth of the total weight keeps a flat-lit face solvable. `None` with no weight,
+/// a singular system or a non-finite answer.
+pub fn fit_light(samples: impl IntoIterator<Item = ([f32; 3], f64, f64)>) -> Option<[f32; 4]> {
+    use nalgebra::{Matrix4, Vector4};
+    let mut ata = Matrix4::<f64>::zeros();
+    let mut atb = Vector4::<f64>::zeros();
+    let mut total = 0.0;
+    for (n, brightness, w) in samples {
+        if w <= 0.0 {
+            continue;
+        }
+        let row = Vector4::new(1.0, f64::from(n[0]), f64::from(n[1]), f64::from(n[2]));
+        ata += row * row.transpose() * w;
+        atb += row * (w * brightness);
+        total += w;
+    }
+    if total <= 0.0 {
+        return None;
+    }
+    ata += Matrix4::identity() * 1e-3 * total;
+    let x = ata.cholesky()?.solve(&atb);
+    let l = [x[0] as f32, x[1] as f32, x[2] as f32, x[3] as f32];
+    l.iter().all(|v| v.is_finite()).then_some(l)
+}
+
+/// The brightness a [`fit_light`] light gives a unit normal `n` (camera frame).
+pub fn lambert(light: &[f32; 4], n: [f32; 3]) -> f32 {
+    light[0] + light[1] * n[0] + light[2] * n[1] + light[3] * n[2]
+}
+
 /// Unit vertex normals, the area-weighted mean of the normals of the triangles around each
 /// vertex (counter-clockwise seen from outside: outward). Zero where none is defined; triangles
 /// past the vertex list or with a non-finite corner are skipped.
