@@ -92,8 +92,6 @@ fn main() -> Result<()> {
                 .ok()
             })
             .flatten();
-        let expected = shading.as_ref().map(|f| &f.expected);
-        let light = |x: f32, y: f32| expected.map_or(f32::NAN, |m| m.at(x, y));
         let t = std::time::Instant::now();
         let mask = segmenter
             .as_mut()
@@ -103,9 +101,9 @@ fn main() -> Result<()> {
             &img,
             &face.landmarks,
             mask.as_ref(),
-            expected
-                .is_some()
-                .then_some(&light as &dyn Fn(f32, f32) -> f32),
+            shading
+                .as_ref()
+                .map(|f| &f.expected as &dyn person::Shading),
         )?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
         if let (true, Some(m)) = (mask_only, &mask) {

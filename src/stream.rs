@@ -273,17 +273,14 @@ impl PersonWorker {
                             )
                             .ok()
                         });
-                        let expected = |x: f32, y: f32| {
-                            light.as_ref().map_or(f32::NAN, |l| l.expected.at(x, y))
-                        };
                         // A frame the person cannot be read from is no reading.
                         reading.hair = crate::person::analyse_shaded(
                             &image,
                             &landmarks,
                             mask.as_ref(),
                             light
-                                .is_some()
-                                .then_some(&expected as &dyn Fn(f32, f32) -> f32),
+                                .as_ref()
+                                .map(|l| &l.expected as &dyn crate::person::Shading),
                         )
                         .ok()
                         .map(|p| crate::gem::hair_style(&p));

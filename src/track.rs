@@ -404,7 +404,8 @@ impl Tracker {
         };
         let mesh = self.pipeline.model.instance(&shape, &expression);
         let mut portrait = self.pipeline.portrait(&portrait_shape, &expression);
-        if let (Some(relief), Some(_)) = (&state.relief, &state.steered) {
+        // Set only with the steered identity (Tracker::steer).
+        if let Some(relief) = &state.relief {
             crate::photometric::add(&mut portrait, relief);
         }
         let identity_frames = state.identity_n;

@@ -287,14 +287,11 @@ impl GemPipeline {
         let person = timed(
             "person",
             || {
-                let expected = |x: f32, y: f32| light.map_or(f32::NAN, |m| m.at(x, y));
                 crate::person::analyse_shaded(
                     img,
                     landmarks,
                     mask.as_ref(),
-                    light
-                        .is_some()
-                        .then_some(&expected as &dyn Fn(f32, f32) -> f32),
+                    light.map(|m| m as &dyn crate::person::Shading),
                 )
             },
             describe_person,

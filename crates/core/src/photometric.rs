@@ -104,6 +104,12 @@ pub struct ShadingMap {
     values: Vec<f32>,
 }
 
+impl crate::person::Shading for ShadingMap {
+    fn brightness(&self, x: f32, y: f32) -> f32 {
+        self.at(x, y)
+    }
+}
+
 impl ShadingMap {
     /// The expected brightness at photo point (x, y) (pixels): bilinear over the cells the
     /// face covers, NaN off it.

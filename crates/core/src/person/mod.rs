@@ -285,16 +285,29 @@ pub fn analyse_with(
     analyse_shaded(img, landmarks, mask, None)
 }
 
+/// How the light falls on a face: the brightness its own shape would have at a photo point
+/// (pixels) under the photo's light, NaN where it is not known. Closures are one; so is
+/// [`crate::photometric::ShadingMap`].
+pub trait Shading {
+    fn brightness(&self, x: f32, y: f32) -> f32;
+}
+
+impl<F: Fn(f32, f32) -> f32> Shading for F {
+    fn brightness(&self, x: f32, y: f32) -> f32 {
+        self(x, y)
+    }
+}
+
 /// [`analyse_with`], knowing how the light falls on the face: `shading` gives the brightness
 /// the face's own shape would have at a photo point under the photo's light (NaN where it
-/// does not know; e.g. [`crate::photometric::ShadingMap::at`]). A chin or jaw turned from the
+/// does not know; e.g. a [`crate::photometric::ShadingMap`]). A chin or jaw turned from the
 /// light is then expected darker than the cheeks, and only what is darker than that is
 /// facial hair: a shadow under the jaw is not a beard.
 pub fn analyse_shaded(
     img: &RgbImage,
     landmarks: &[[f32; 2]],
     mask: Option<&PersonMask>,
-    shading: Option<&dyn Fn(f32, f32) -> f32>,
+    shading: Option<&dyn Shading>,
 ) -> Result<Person, PersonError> {
     let frame = head_frame(landmarks)?;
     let head: Vec<[f32; 2]> = landmarks.iter().map(|p| frame.to_head(*p)).collect();
@@ -581,7 +594,7 @@ pub fn analyse_shaded(
             let expected: Vec<f32> = (0..w * h)
                 .map(|i| {
                     let [x, y] = frame.to_pixel(pos(i));
-                    f(x, y)
+                    f.brightness(x, y)
                 })
                 .collect();
             let reference = median(
