@@ -484,3 +484,46 @@ fn hair_without_a_curtain_beside_the_cheeks_does_not_fall_past_the_jaw() {
     assert!(l.curtain >= CURTAIN, "{l:?}");
     assert!(l.length > 1.6, "long hair over the suit: {l:?}");
 }
+
+/// A dark ground the colour of the hair beside the jaw (a tight crop against a dark curtain
+/// or a suit's shoulders) hangs where a curtain of hair would; a bare ear beside the face
+/// says the hair on that side is short. Hair falling over the ears stays long.
+#[test]
+fn a_bare_ear_is_short_hair_whatever_hangs_below_it() {
+    let ear =
+        |x: f32, y: f32| ((x.abs() - 75.0) / 7.0).powi(2) + ((y - 225.0) / 20.0).powi(2) < 1.0;
+    // Joined to the hair's sides above the ear, as a dark ground is.
+    let ground = |x: f32, y: f32| (x - 200.0).abs() > 72.0 && y > 190.0;
+    let lm = landmarks();
+    let with_ears = |hair: &dyn Fn(f32, f32) -> bool| {
+        let base = dressed(hair, BROWN, &ground, BROWN);
+        paint(&base, SKIN, |x, y| !hair(x, y) && ear(x - 200.0, y))
+    };
+    let short = analyse(&with_ears(&hair_to(12.0, 0.0)), &lm).unwrap();
+    let h = short.hair.expect("short hair found");
+    assert!(
+        h.length <= 0.6 + 1e-6,
+        "ears bare, the hair is short: {h:?}"
+    );
+    let long = analyse(&with_ears(&hair_to(12.0, 470.0)), &lm).unwrap();
+    let l = long.hair.expect("long hair found");
+    assert!(
+        l.length > 1.6,
+        "hair over the ears falls past the jaw: {l:?}"
+    );
+}
+
+/// A receding hairline (the forehead's skin reaching high, hair over the top of the head
+/// only) is a head of hair, not a bald one; a bald scalp is bald.
+#[test]
+fn a_receding_hairline_is_not_bald() {
+    let lm = landmarks();
+    let full = hair_to(14.0, 0.0);
+    // Skin up to 40 px above the usual hairline over the forehead's middle.
+    let receding = move |x: f32, y: f32| full(x, y) && !((x - 200.0).abs() < 45.0 && y > 100.0);
+    let p = analyse(&photo(receding, BROWN, false), &lm).unwrap();
+    let h = p.hair.expect("a receding hairline is hair");
+    assert!(h.crown > 0.5, "{h:?}");
+    let bald = analyse(&photo(|_, _| false, BROWN, false), &lm).unwrap();
+    assert!(bald.hair.is_none(), "{:?}", bald.hair);
+}

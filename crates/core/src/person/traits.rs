@@ -20,6 +20,9 @@ pub(crate) fn median(mut v: Vec<f32>) -> Option<f32> {
 /// over 0.00-0.82, 23 of them under this.
 pub const CURTAIN: f32 = 0.4;
 
+/// The share of skin beside the face at the ear's height that makes a bare ear.
+const EAR_BARE: f32 = 0.3;
+
 /// Where hair without a curtain is taken to end (face lengths below the eyes: about the ears).
 const SHORT_LENGTH: f32 = 0.6;
 
@@ -43,21 +46,34 @@ pub(super) fn traits(
     if hair.len() < 30 {
         return None;
     }
-    // The crown: the band above the forehead across the head's middle.
-    let crown_px: Vec<usize> = (0..w * h)
-        .filter(|&i| {
-            let p = pos(i);
-            labels[i] != Label::Outside && skull(p) < 1.0 && p[1] < -0.8 * chin
-        })
-        .collect();
-    let crown = if crown_px.is_empty() {
-        1.0
+    // The crown: over the head's top, above the forehead's hairline (which recedes on many
+    // men) to beyond the skull's top (where hair stands), the share of the head there that
+    // is hair rather than skin; the background around the head does not count. A bald scalp
+    // is skin; a receding hairline leaves the top hair.
+    let (mut crown_hair, mut crown_skin) = (0usize, 0usize);
+    let mut crown_px = 0usize;
+    for i in 0..w * h {
+        let p = pos(i);
+        if labels[i] == Label::Outside
+            || in_face[i]
+            || p[1] > -0.75 * chin
+            || p[0].abs() > 0.8 * half
+            || skull(p) > 1.4
+        {
+            continue;
+        }
+        crown_px += 1;
+        match labels[i] {
+            Label::Hair => crown_hair += 1,
+            Label::Skin => crown_skin += 1,
+            _ => {}
+        }
+    }
+    let crown = if crown_hair + crown_skin < 20 {
+        // Nothing of the head there (cut off by the photo's edge): say nothing against hair.
+        if crown_px == 0 { 1.0 } else { 0.0 }
     } else {
-        crown_px
-            .iter()
-            .filter(|&&i| labels[i] == Label::Hair)
-            .count() as f32
-            / crown_px.len() as f32
+        crown_hair as f32 / (crown_hair + crown_skin) as f32
     };
     // Top: the highest hair over the head's middle, beyond the skull's top.
     let top_t = hair
@@ -132,9 +148,42 @@ pub(super) fn traits(
         left.push(l as f32 * RES / half);
         right.push(r as f32 * RES / half);
     }
-    let curtain = median(left)
-        .unwrap_or(0.0)
-        .max(median(right).unwrap_or(0.0));
+    // An ear left bare (skin beside the face between the eyes' and the nose's heights) is a
+    // side whose hair is short: what hangs below it there is a collar, a suit or a dark
+    // ground, not a curtain of hair.
+    let (mut bare, mut seen) = ([0usize; 2], [0usize; 2]);
+    for y in 0..h {
+        let t = pos(y * w)[1];
+        if !(0.05 * chin..0.4 * chin).contains(&t) {
+            continue;
+        }
+        let row = y * w..(y + 1) * w;
+        let Some(face_x) = row
+            .clone()
+            .filter(|&i| in_face[i])
+            .map(|i| pos(i)[0].abs())
+            .reduce(f32::max)
+        else {
+            continue;
+        };
+        for i in row.filter(|&i| labels[i] != Label::Outside && !in_face[i]) {
+            let x = pos(i)[0];
+            if (face_x..face_x + 0.25 * half).contains(&x.abs()) {
+                let side = usize::from(x > 0.0);
+                seen[side] += 1;
+                bare[side] += usize::from(labels[i] == Label::Skin);
+            }
+        }
+    }
+    let ear_bare = |side: usize| seen[side] > 0 && bare[side] as f32 > EAR_BARE * seen[side] as f32;
+    let side_curtain = |v: Vec<f32>, side: usize| {
+        if ear_bare(side) {
+            0.0
+        } else {
+            median(v).unwrap_or(0.0)
+        }
+    };
+    let curtain = side_curtain(left, 0).max(side_curtain(right, 1));
     // Without a curtain the hair does not fall past the jaw, whatever joined it below (a dark
     // suit, a shadowed neck): it ends about the ears.
     let length = if curtain < CURTAIN {
