@@ -66,6 +66,9 @@ pub struct PhotoGem {
     pub detail: Option<gem::FaceDetail>,
     /// The whole cameo, gem mm.
     pub mesh: Mesh,
+    /// What was read of the person around the face (hair, beard, moustache, glasses);
+    /// `None` with the classical hair or when the photo could not be read for it.
+    pub person: Option<crate::person::Person>,
 }
 
 #[cfg(feature = "face")]
@@ -200,7 +203,8 @@ impl GemPipeline {
         if let (Some(fit), Some(_)) = (&shading, &self.shading) {
             crate::photometric::displace(&mut face.portrait, &fit.offsets, &face.fit.pose);
         }
-        let cameo = self.person_cameo(img, &face.landmarks, shading.as_ref().map(|f| &f.expected));
+        let (cameo, person) =
+            self.person_cameo(img, &face.landmarks, shading.as_ref().map(|f| &f.expected));
         let detail = self.detail.as_ref().and_then(|params| {
             let triangles = &self.face.model.shape.triangles;
             timed(
@@ -225,6 +229,7 @@ impl GemPipeline {
             cameo,
             detail,
             mesh,
+            person,
         })
     }
 
@@ -271,9 +276,9 @@ impl GemPipeline {
         img: &image::RgbImage,
         landmarks: &[[f32; 2]],
         light: Option<&crate::photometric::ShadingMap>,
-    ) -> CameoParams {
+    ) -> (CameoParams, Option<crate::person::Person>) {
         if self.hair == Hair::Classical {
-            return self.cameo.clone();
+            return (self.cameo.clone(), None);
         }
         let mask = self.segmenter.as_mut().and_then(|s| {
             timed(
@@ -297,16 +302,19 @@ impl GemPipeline {
             describe_person,
         );
         match person {
-            Ok(p) => CameoParams {
-                hair: gem::HairStyle {
-                    glasses: p.has_glasses() && self.carve_glasses,
-                    ..gem::hair_style(&p)
+            Ok(p) => (
+                CameoParams {
+                    hair: gem::HairStyle {
+                        glasses: p.has_glasses() && self.carve_glasses,
+                        ..gem::hair_style(&p)
+                    },
+                    ..self.cameo.clone()
                 },
-                ..self.cameo.clone()
-            },
+                Some(p),
+            ),
             Err(e) => {
                 tracing::warn!("cannot read the hair from the photo ({e}); classical hair");
-                self.cameo.clone()
+                (self.cameo.clone(), None)
             }
         }
     }
@@ -509,17 +517,58 @@ fn load_segmenter(models: &ModelPaths, hair: Hair) -> Option<PersonSegmenter> {
 
 #[cfg(feature = "face")]
 fn describe_person(p: &crate::person::Person) -> String {
-    let glasses = if p.has_glasses() { "yes" } else { "no" };
-    let (beard, moustache) = (100.0 * p.beard, 100.0 * p.moustache);
-    match p.hair {
+    let yes = |b: bool| if b { "yes" } else { "no" };
+    let hair = match p.hair {
         Some(h) => format!(
-            "hair: stands {:.2}, ends {:.2} face lengths below the eyes, curl {:.2}; beard {beard:.0} %, moustache {moustache:.0} %, glasses {glasses}",
-            h.top.max(0.7 * h.sides),
+            "hair {} (ends {:.2} face lengths below the eyes, stands {:.2}, curl {:.2})",
+            p.hair_length().as_str(),
             h.length,
+            h.top.max(0.7 * h.sides),
             h.curl,
         ),
-        None => format!("bald; beard {beard:.0} %, moustache {moustache:.0} %, glasses {glasses}"),
-    }
+        None => "hair bald".into(),
+    };
+    format!(
+        "{hair}; beard {} ({:.0} %), moustache {} ({:.0} %), glasses {} (bridge {:.1})",
+        yes(p.has_beard()),
+        100.0 * p.beard,
+        yes(p.has_moustache()),
+        100.0 * p.moustache,
+        yes(p.has_glasses()),
+        p.glasses.bridge,
+    )
+}
+
+#[cfg(feature = "face")]
+/// The person's decisions and their measures, for `--json` reports: a script reads the hair's
+/// length, the beard, the moustache and the glasses by name.
+pub fn person_json(p: &crate::person::Person) -> serde_json::Value {
+    let hair = p.hair.map(|h| {
+        serde_json::json!({
+            "crown": h.crown,
+            "stands_face_lengths": h.top.max(0.7 * h.sides),
+            "top_face_lengths": h.top,
+            "sides_face_lengths": h.sides,
+            "ends_face_lengths": h.length,
+            "curtain": h.curtain,
+            "curl": h.curl,
+            "brightness": h.brightness,
+        })
+    });
+    serde_json::json!({
+        "hair": {
+            "length": p.hair_length().as_str(),
+            "measures": hair,
+        },
+        "beard": { "found": p.has_beard(), "chin_share": p.beard, "jaw_share": p.beard_jaw },
+        "moustache": { "found": p.has_moustache(), "lip_share": p.moustache },
+        "glasses": {
+            "found": p.has_glasses(),
+            "bridge_line": p.glasses.bridge,
+            "lens_brightness": p.glasses.lenses,
+            "dark_bar": p.glasses.dip,
+        },
+    })
 }
 
 /// Reads and decodes a photo (stage `decode`, its size as the detail).

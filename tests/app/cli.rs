@@ -1438,6 +1438,26 @@ fn photo_and_render_report_in_json() {
     assert_eq!(json["outputs"]["stl"], stl.display().to_string());
     assert_eq!(json["face"]["landmarks"].as_array().unwrap().len(), 68);
     assert!(json["face"]["yaw_deg"].as_f64().unwrap().abs() < 45.0);
+    // What was read of the person, as decisions a script can read by name (issue #38):
+    // Einstein's hair is his own and short of the chin, no beard, no glasses. (His white
+    // moustache in a black-and-white photo is still missed: neither darker nor greyer than
+    // his skin.)
+    let person = &json["person"];
+    assert_eq!(person["hair"]["length"], "short", "{person}");
+    assert!(
+        person["hair"]["measures"]["ends_face_lengths"].is_number(),
+        "{person}"
+    );
+    assert_eq!(person["beard"]["found"], false, "{person}");
+    assert_eq!(person["glasses"]["found"], false, "{person}");
+    assert!(person["moustache"]["found"].is_boolean(), "{person}");
+    for (what, measure) in [
+        ("beard", "chin_share"),
+        ("moustache", "lip_share"),
+        ("glasses", "bridge_line"),
+    ] {
+        assert!(person[what][measure].is_number(), "{what}: {person}");
+    }
     for stage in [
         "detect",
         "landmarks",
@@ -1502,6 +1522,11 @@ fn batch_reports_in_json() {
     assert_eq!(results[0]["status"], "ok");
     assert!(Path::new(results[0]["gem"].as_str().unwrap()).is_file());
     assert!(results[0]["times_ms"]["render"].as_f64().unwrap() > 0.0);
+    // What was read of the person: takeo's short hair and glasses, by name.
+    let person = &results[0]["person"];
+    assert_eq!(person["hair"]["length"], "short", "{person}");
+    assert_eq!(person["glasses"]["found"], true, "{person}");
     assert_eq!(results[1]["status"], "no face");
     assert!(results[1]["gem"].is_null());
+    assert!(results[1]["person"].is_null());
 }

@@ -74,6 +74,31 @@ pub struct Hair {
     pub brightness: f32,
 }
 
+/// Hair that ends more than this far below the eyes (face lengths) falls past the chin: long.
+pub const LONG_HAIR: f32 = 1.0;
+
+/// How long the hair is, as decided: what a script reading the report, and the labels of
+/// `bench/labels/person.tsv`, call it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HairLength {
+    /// No hair over the crown (bald or shaved).
+    Bald,
+    /// Ends above the chin (cropped, short, tied back or up seen from the front).
+    Short,
+    /// Falls to the chin or beyond ([`LONG_HAIR`]).
+    Long,
+}
+
+impl HairLength {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            HairLength::Bald => "bald",
+            HairLength::Short => "short",
+            HairLength::Long => "long",
+        }
+    }
+}
+
 /// The share of the chin that makes a beard. On deepface's 61 photos (12 with beards, from
 /// stubble-length to full) bearded chins measure 0.61-1.00, shaven ones 0.03-0.46 (the highest
 /// a day's stubble).
@@ -108,6 +133,14 @@ impl Person {
     /// Whether a moustache is carved (more than [`MOUSTACHE_SHARE`] of the upper lip).
     pub fn has_moustache(&self) -> bool {
         self.moustache > MOUSTACHE_SHARE
+    }
+    /// The hair's length as decided.
+    pub fn hair_length(&self) -> HairLength {
+        match self.hair {
+            None => HairLength::Bald,
+            Some(h) if h.length > LONG_HAIR => HairLength::Long,
+            Some(_) => HairLength::Short,
+        }
     }
     /// Whether the person wears glasses ([`Glasses::found`]).
     pub fn has_glasses(&self) -> bool {

@@ -77,6 +77,8 @@ struct Row {
     faces: usize,
     stages: Vec<(&'static str, f64)>,
     error: String,
+    /// What was read of the person (hair, beard, moustache, glasses), for `--json`.
+    person: Option<serde_json::Value>,
 }
 
 const CSV_STAGES: [&str; 10] = [
@@ -359,6 +361,8 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                                 &mut row,
                             )
                             .map_err(|e| ("error", format!("{e:#}")))?;
+                            row.person =
+                                gem.person.as_ref().map(glyptic::pipeline::gem::person_json);
                             Ok((gem.mesh, made))
                         },
                     ));
@@ -465,6 +469,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                     "faces": r.faces,
                     "error": (!r.error.is_empty()).then_some(&r.error),
                     "times_ms": stages,
+                    "person": r.person,
                 })
             })
             .collect();

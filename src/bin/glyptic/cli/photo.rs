@@ -580,6 +580,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
                     "yaw_deg": yaw, "pitch_deg": pitch, "roll_deg": roll,
                     "reprojection_px": face.fit.reprojection_px,
                 },
+                "person": gem.person.as_ref().map(glyptic::pipeline::gem::person_json),
                 "stages": super::stages_json(),
                 "total_ms": start.elapsed().as_secs_f64() * 1e3,
             })
