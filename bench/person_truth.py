@@ -3,7 +3,8 @@
 moustache and the glasses, how many of the labelled photos it got right and how it went wrong;
 for the hair, short (ends above the chin) / long / bald against the label (hair tied back or
 in an updo counts as short: from the front it ends at the ears); and how often two
-photos of one person are read alike.
+photos of one person are read alike; a confusion table per attribute; the curl measured on each
+labelled kind of hair.
 
 Usage: bench/person_truth.py LABELS.tsv TABLE.md [TABLE.md ...]
 TABLE.md: what `cargo run --release --example person_view -- OUT PHOTO...` prints.
@@ -21,9 +22,9 @@ def main():
     for line in open(sys.argv[1]):
         if line.startswith('#') or line.startswith('set\t') or not line.strip():
             continue
-        s, photo, person, hair, beard, moustache, glasses = line.rstrip('\n').split('\t')
+        s, photo, person, hair, beard, moustache, glasses, kind = line.rstrip('\n').split('\t')
         labels[photo] = dict(person=person, hair=hair, beard=beard, moustache=moustache,
-                             glasses=glasses)
+                             glasses=glasses, kind=kind)
     read = {}
     for table in sys.argv[2:]:
         for line in open(table):
@@ -37,7 +38,8 @@ def main():
             except ValueError:
                 continue
             hair = 'bald' if cells[1] == 'bald' else ('long' if length > 1.0 else 'short')
-            read[name] = dict(hair=hair, beard='1' if beard > 0.55 else '0',
+            curl = None if cells[6] == '-' else float(cells[6])
+            read[name] = dict(hair=hair, curl=curl, beard='1' if beard > 0.55 else '0',
                               moustache='1' if moustache > 0.5 else '0',
                               glasses='1' if glasses > 0.5 else '0')
     both = [p for p in labels if p in read]
@@ -62,6 +64,28 @@ def main():
     print(f'| hair short / long / bald | {len(known)} | {right} | '
           + ', '.join(f'{a} read {b}: {v}' for (a, b), v in sorted(conf.items()) if a != b)
           + ' | |')
+    # Confusion tables: rows what the label says, columns what was read.
+    print()
+    for what, classes in (('beard', '01'), ('moustache', '01'), ('glasses', '01'),
+                          ('hair', ('short', 'long', 'bald'))):
+        known = [p for p in both if labels[p][what] in classes]
+        conf = Counter((labels[p][what], read[p][what]) for p in known)
+        name = {'0': 'no', '1': 'yes'}
+        print(f'| {what}: labelled \\ read | ' + ' | '.join(name.get(c, c) for c in classes) + ' |')
+        print('|---' * (len(classes) + 1) + '|')
+        for a in classes:
+            print(f'| {name.get(a, a)} | ' + ' | '.join(str(conf[(a, b)]) for b in classes) + ' |')
+        print()
+    # The hair's kind: no kind is decided yet; the curl measure per labelled kind.
+    kinds = defaultdict(list)
+    for p in both:
+        if read[p]['curl'] is not None:
+            kinds[labels[p]['kind']].append(read[p]['curl'])
+    print('| labelled kind | photos | curl read: median | min | max |')
+    print('|---|---|---|---|---|')
+    for k, v in sorted(kinds.items()):
+        v.sort()
+        print(f'| {k} | {len(v)} | {v[len(v) // 2]:.2f} | {v[0]:.2f} | {v[-1]:.2f} |')
     # Two photos of one person read alike: the share of each person's photos whose four
     # readings equal the person's commonest.
     groups = defaultdict(list)

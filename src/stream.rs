@@ -108,6 +108,7 @@ impl HairSmoother {
         let beard = most(&|s| s.beard > 0.0);
         let moustache = most(&|s| s.moustache > 0.0);
         let glasses = most(&|s| s.glasses);
+        let ears_shown = most(&|s| s.ears_shown);
         let median = |keep: &dyn Fn(&HairStyle) -> bool, get: &dyn Fn(&HairStyle) -> f32| {
             let mut v: Vec<f32> = self.readings.iter().filter(|s| keep(s)).map(get).collect();
             v.sort_by(f32::total_cmp);
@@ -136,12 +137,14 @@ impl HairSmoother {
                 0.0
             },
             glasses,
+            ears_shown,
         };
         let visible = |a: &HairStyle, b: &HairStyle| {
             a.bald != b.bald
                 || (a.beard > 0.0) != (b.beard > 0.0)
                 || (a.moustache > 0.0) != (b.moustache > 0.0)
                 || a.glasses != b.glasses
+                || a.ears_shown != b.ears_shown
                 || (a.volume - b.volume).abs() > 3.0
                 || (a.end - b.end).abs() > 15.0
                 || (a.curl - b.curl).abs() > 0.2

@@ -230,6 +230,8 @@ fn check_params(p: &CameoParams) -> Result<(), GemError> {
 /// (canonical v), model mm: the unit [`crate::person`] measures hair in.
 const FACE_LENGTH_MM: f32 = 115.0;
 const EYES_V: f32 = 30.0;
+/// Hair ending no further below the eyes than this (face lengths) is cut above the ears.
+const SHORT_HAIR: f32 = 0.6 + 1e-3;
 
 /// A person's hair as the template carves it, from what their photo shows: none for a bald
 /// head; its volume from how far it stands above and beside the skull; where it ends from its
@@ -271,6 +273,8 @@ pub fn hair_style(person: &crate::person::Person) -> HairStyle {
         volume: (3.0 + 0.75 * FACE_LENGTH_MM * stand).clamp(3.0, 32.0),
         end: (EYES_V - h.length * FACE_LENGTH_MM).clamp(-290.0, -20.0),
         curl: (0.15 + 0.85 * h.curl).clamp(0.0, 1.0),
+        // Hair that ends about the ears with nothing hanging beside the cheeks: cut above them.
+        ears_shown: h.curtain < crate::person::CURTAIN && h.length <= SHORT_HAIR,
         ..facial
     }
 }

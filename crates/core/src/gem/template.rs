@@ -83,6 +83,10 @@ pub struct HairStyle {
     /// Glasses carved on the face ([`super::face::glasses`]): not hair, but read from the photo
     /// with it and carried with it.
     pub glasses: bool,
+    /// Short hair cut above the ears (a photo's bare ears): facing the viewer, the hair ends
+    /// above each ear, with a sideburn in front of it, and the ears show; otherwise the hair
+    /// covers them.
+    pub ears_shown: bool,
 }
 
 impl Default for HairStyle {
@@ -96,6 +100,7 @@ impl Default for HairStyle {
             beard_jaw: 0.0,
             moustache: 0.0,
             glasses: false,
+            ears_shown: false,
         }
     }
 }
@@ -551,9 +556,16 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
     let envelope = dome(u, v - 44.0, 94.0 + extra, 125.0 + extra, 96.0 + 0.8 * extra);
     let locks = style.locks();
     let side = if u < 0.0 { -1.0 } else { 1.0 };
-    // Hair over the cranium above the ears' line, parted in the middle, swept down each side.
-    let mut hair = (envelope > 0.0 && v > 8.0 - 0.2 * u.abs()).then(|| {
-        0.9 * envelope
+    // Hair over the cranium above the ears' line, parted in the middle, swept down each side;
+    // cut short, it ends above the ears (their tops at v = 41) but for a sideburn in front.
+    let lowest = if style.ears_shown && style.end > -46.0 {
+        let sideburn = smoothstep(66.0, 72.0, u.abs());
+        (8.0 - 0.2 * u.abs()) + sideburn * (44.0 - (8.0 - 0.2 * u.abs()))
+    } else {
+        8.0 - 0.2 * u.abs()
+    };
+    let mut hair = (envelope > 0.0 && v > lowest).then(|| {
+        let full = 0.9 * envelope
             + swept_locks(
                 u * side,
                 v,
@@ -561,7 +573,14 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
                 1.0,
                 std::f32::consts::FRAC_PI_2,
                 locks,
-            )
+            );
+        if style.ears_shown {
+            // Cut short, the hair thins onto the skin at its edge rather than ending in a
+            // ledge (over 6 mm).
+            height + (full - height) * smoothstep(lowest, lowest + 6.0, v)
+        } else {
+            full
+        }
     });
     // Long hair falls beside the face and neck, onto the shoulders.
     if style.end < -46.0 && v < 20.0 && v > style.end {
@@ -675,6 +694,11 @@ mod tests {
                 curl: 0.0,
                 ..HairStyle::default()
             },
+            HairStyle {
+                volume: 3.0,
+                ears_shown: true,
+                ..HairStyle::default()
+            },
         ];
         for style in &styles {
             for view in [View::Profile, View::Frontal] {
@@ -689,6 +713,31 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Short hair cut above the ears leaves the ears bare (hair over neither ear, facing the
+    /// viewer) and still covers the crown and the temples above them; hair not cut so covers
+    /// the ears' upper half.
+    #[test]
+    fn hair_cut_above_the_ears_shows_them() {
+        let cut = HairStyle {
+            ears_shown: true,
+            ..HairStyle::default()
+        };
+        let covered = HairStyle::default();
+        let hair_over = |style: &HairStyle, us: [i32; 2], vs: [i32; 2]| {
+            (vs[0]..vs[1])
+                .step_by(2)
+                .flat_map(|v| [-1, 1].map(|side| (v, side)))
+                .flat_map(|(v, side)| (us[0]..us[1]).step_by(2).map(move |u| (side * u, v)))
+                .filter(|&(u, v)| sample(View::Frontal, style, u as f32, v as f32).hair > 0.0)
+                .count()
+        };
+        // The ears: u = +-80 (11 mm half-width), v = 10 +- 31.
+        assert_eq!(hair_over(&cut, [74, 90], [-15, 40]), 0);
+        assert!(hair_over(&covered, [74, 90], [-5, 40]) > 50);
+        assert!(hair_over(&cut, [0, 60], [90, 140]) > 300, "the crown");
+        assert!(hair_over(&cut, [80, 95], [50, 80]) > 20, "the temples");
     }
 
     #[test]
