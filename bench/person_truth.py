@@ -39,7 +39,8 @@ def main():
                 continue
             hair = 'bald' if cells[1] == 'bald' else ('long' if length > 1.0 else 'short')
             curl = None if cells[6] == '-' else float(cells[6])
-            read[name] = dict(hair=hair, curl=curl, beard='1' if beard > 0.55 else '0',
+            iou = float(cells[17]) if len(cells) > 17 and cells[17] not in ('-', '') else None
+            read[name] = dict(hair=hair, curl=curl, iou=iou, beard='1' if beard > 0.55 else '0',
                               moustache='1' if moustache > 0.5 else '0',
                               glasses='1' if glasses > 0.5 else '0')
     both = [p for p in labels if p in read]
@@ -86,6 +87,12 @@ def main():
     for k, v in sorted(kinds.items()):
         v.sort()
         print(f'| {k} | {len(v)} | {v[len(v) // 2]:.2f} | {v[0]:.2f} | {v[-1]:.2f} |')
+    # The frontal gem's hair outline against the photo's hair (person_view's last column).
+    ious = sorted(read[p]['iou'] for p in both if read[p].get('iou') is not None)
+    if ious:
+        print(f'\nfrontal hair outline against the photo\'s (intersection over union, '
+              f'{len(ious)} photos with hair): median {ious[len(ious) // 2]:.2f}, '
+              f'quartiles {ious[len(ious) // 4]:.2f} - {ious[3 * len(ious) // 4]:.2f}')
     # Two photos of one person read alike: the share of each person's photos whose four
     # readings equal the person's commonest.
     groups = defaultdict(list)

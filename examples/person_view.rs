@@ -1,7 +1,10 @@
 //! What [`glyptic::person`] finds on photos, as pictures: each photo with its hair tinted
 //! orange, the skin model's skin left as it is, background dimmed; and the traits as a table
 //! (hair, the beard's, jaw's and moustache's shares, whether glasses were found (1 or 0) and
-//! their measures: the bridge's line, the lenses' darkness, the dark bar's dip).
+//! their measures: the bridge's line, the lenses' darkness, the dark bar's dip), and how well
+//! the frontal gem's hair outline matches the photo's hair (intersection over union in the
+//! head frame, `glyptic::gem::measure::frontal_hair_iou`; `--iou` draws it as NAME.iou.png:
+//! both green, the photo's hair only red, the gem's only blue).
 //!
 //! `cargo run --release --example person_view -- OUT_DIR [--labels] PHOTO...` writes
 //! OUT_DIR/NAME.png (360 pixels high) and prints a Markdown table.
@@ -40,10 +43,11 @@ fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
     let out = PathBuf::from(args.next().context("usage: person_view OUT_DIR PHOTO...")?);
     let (mut labels_only, mut colour_only, mut mask_only) = (false, false, false);
-    let mut unshaded = false;
+    let (mut unshaded, mut iou_pictures) = (false, false);
     let photos: Vec<PathBuf> = args
         .filter(|a| {
             unshaded |= a == "--unshaded";
+            iou_pictures |= a == "--iou";
             labels_only |= a == "--labels";
             mask_only |= a == "--mask";
             colour_only |= a == "--colour-only";
@@ -63,7 +67,7 @@ fn main() -> Result<()> {
         )?)
     };
     println!(
-        "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip |"
+        "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip | hair iou |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for photo in &photos {
@@ -188,7 +192,7 @@ fn main() -> Result<()> {
         let f = |v: Option<f32>| v.map_or("-".into(), |v| format!("{v:.2}"));
         let h = p.hair;
         println!(
-            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {ms:.0} | {:.1} | {:.2} | {:.2} |",
+            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {ms:.0} | {:.1} | {:.2} | {:.2} | {} |",
             f(h.map(|h| h.crown)),
             f(h.map(|h| h.top)),
             f(h.map(|h| h.sides)),
@@ -203,7 +207,29 @@ fn main() -> Result<()> {
             p.glasses.bridge,
             p.glasses.lenses,
             p.glasses.dip,
+            f(glyptic::gem::measure::frontal_hair_iou(
+                &p.labels,
+                &glyptic::gem::hair_style(&p)
+            )),
         );
+        if iou_pictures {
+            // The frontal gem's hair against the photo's, in the head frame scaled by the
+            // face's length: both green, the photo's only red, the gem's only blue, the face
+            // and beyond the photo grey.
+            use glyptic::gem::measure::{HairCell, frontal_hair_cells};
+            let (cells, w) = frontal_hair_cells(&p.labels, &glyptic::gem::hair_style(&p));
+            let h = cells.len() / w;
+            let pic = image::RgbImage::from_fn(w as u32, h as u32, |x, y| {
+                image::Rgb(match cells[y as usize * w + x as usize] {
+                    HairCell::Ignored => [90, 90, 90],
+                    HairCell::Neither => [255, 255, 255],
+                    HairCell::PhotoOnly => [220, 40, 40],
+                    HairCell::GemOnly => [40, 80, 220],
+                    HairCell::Both => [40, 170, 60],
+                })
+            });
+            pic.save(out.join(format!("{name}.iou.png")))?;
+        }
     }
     if !sheet.is_empty() {
         let gap = 8;

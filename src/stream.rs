@@ -138,6 +138,11 @@ impl HairSmoother {
             },
             glasses,
             ears_shown,
+            outline: {
+                let with = |s: &HairStyle| scalp(s) && s.outline.is_some();
+                let part = |k: usize| median(&with, &|s| s.outline.map_or(0.0, |o| o[k]));
+                self.readings.iter().any(with).then(|| [part(0), part(1)])
+            },
         };
         let visible = |a: &HairStyle, b: &HairStyle| {
             a.bald != b.bald

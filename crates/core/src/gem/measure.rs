@@ -4,7 +4,8 @@
 //!   (the mesh's silhouette seen from the side) over brow, nose, lips and chin, gem mm;
 //! * [`detail_kept`]: how much of the face's slopes and fine detail the relief keeps, against a
 //!   uniform scale-down of the same portrait to the same depth;
-//! * [`difference`]: the share of two reliefs' area where they differ visibly.
+//! * [`difference`]: the share of two reliefs' area where they differ visibly;
+//! * [`frontal_hair_iou`]: how well a frontal gem's hair outline matches the photo's hair.
 //!
 //! Units: gem millimetres on the stone; canonical millimetres for the portrait before
 //! compression (see [`super::Relief`]). Pure computation.
@@ -279,4 +280,77 @@ pub fn face_leads(relief: &Relief) -> f32 {
         }
     }
     led as f32 / face.max(1) as f32
+}
+
+/// Grid step of [`frontal_hair_iou`], face lengths.
+const HAIR_IOU_STEP: f32 = 0.02;
+/// The grid's extent: 2 face lengths each side, from 2 above the eyes to 3 below them (the
+/// shoulders).
+const HAIR_IOU_S: f32 = 2.0;
+const HAIR_IOU_T: (f32, f32) = (-2.0, 3.0);
+
+/// What a cell of [`frontal_hair_cells`]'s grid holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HairCell {
+    /// Beyond the photo, or inside the face's outline: not compared.
+    Ignored,
+    Neither,
+    PhotoOnly,
+    GemOnly,
+    Both,
+}
+
+/// The grid of [`frontal_hair_iou`], row-major from the top left, and its width.
+pub fn frontal_hair_cells(
+    labels: &crate::person::Labels,
+    style: &super::HairStyle,
+) -> (Vec<HairCell>, usize) {
+    use crate::person::Label;
+    let chin = labels.face_length;
+    let w = (2.0 * HAIR_IOU_S / HAIR_IOU_STEP) as usize;
+    let h = ((HAIR_IOU_T.1 - HAIR_IOU_T.0) / HAIR_IOU_STEP) as usize;
+    let mut cells = vec![HairCell::Ignored; w * h];
+    if chin.is_nan() || chin <= 0.0 {
+        return (cells, w);
+    }
+    for j in 0..h {
+        let t = HAIR_IOU_T.0 + (j as f32 + 0.5) * HAIR_IOU_STEP;
+        for i in 0..w {
+            let s = -HAIR_IOU_S + (i as f32 + 0.5) * HAIR_IOU_STEP;
+            let p = [s * chin, t * chin];
+            let label = labels.at_head(p);
+            if label == Label::Outside || labels.in_face(p) {
+                continue;
+            }
+            let photo = label == Label::Hair;
+            let (u, v) = (
+                s * super::FACE_LENGTH_MM,
+                super::EYES_V - t * super::FACE_LENGTH_MM,
+            );
+            let gem = super::template::sample(View::Frontal, style, u, v).hair > 0.0;
+            cells[j * w + i] = match (photo, gem) {
+                (true, true) => HairCell::Both,
+                (true, false) => HairCell::PhotoOnly,
+                (false, true) => HairCell::GemOnly,
+                (false, false) => HairCell::Neither,
+            };
+        }
+    }
+    (cells, w)
+}
+
+/// Intersection over union of the hair a frontal gem carves for `style` and the hair the
+/// photo shows (`labels`, the person pass's), both in the head frame scaled by the face's
+/// length (eyes to chin): the template's eyes' level and face length
+/// ([`super::EYES_V`], [`super::FACE_LENGTH_MM`]) against the photo's. Inside the face's
+/// outline neither counts (the face covers the template's hair), nor does the photo beyond
+/// its frame. `None` when neither shows any hair (a bald head carved bald).
+pub fn frontal_hair_iou(labels: &crate::person::Labels, style: &super::HairStyle) -> Option<f32> {
+    let (cells, _) = frontal_hair_cells(labels, style);
+    let both = cells.iter().filter(|c| **c == HairCell::Both).count();
+    let either = cells
+        .iter()
+        .filter(|c| matches!(c, HairCell::Both | HairCell::PhotoOnly | HairCell::GemOnly))
+        .count();
+    (either > 0).then(|| both as f32 / either as f32)
 }

@@ -228,8 +228,8 @@ fn check_params(p: &CameoParams) -> Result<(), GemError> {
 
 /// The canonical face's length from the eyes' level to the chin, and the eyes' level
 /// (canonical v), model mm: the unit [`crate::person`] measures hair in.
-const FACE_LENGTH_MM: f32 = 115.0;
-const EYES_V: f32 = 30.0;
+pub(crate) const FACE_LENGTH_MM: f32 = 115.0;
+pub(crate) const EYES_V: f32 = 30.0;
 /// Hair ending no further below the eyes than this (face lengths) is cut above the ears.
 const SHORT_HAIR: f32 = 0.6 + 1e-3;
 
@@ -275,6 +275,7 @@ pub fn hair_style(person: &crate::person::Person) -> HairStyle {
         curl: (0.15 + 0.85 * h.curl).clamp(0.0, 1.0),
         // Hair that ends about the ears with nothing hanging beside the cheeks: cut above them.
         ears_shown: h.curtain < crate::person::CURTAIN && h.length <= SHORT_HAIR,
+        outline: Some([FACE_LENGTH_MM * h.width, EYES_V + FACE_LENGTH_MM * h.height]),
         ..facial
     }
 }

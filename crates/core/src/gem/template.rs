@@ -87,6 +87,10 @@ pub struct HairStyle {
     /// above each ear, with a sideburn in front of it, and the ears show; otherwise the hair
     /// covers them.
     pub ears_shown: bool,
+    /// The hair's outline facing the viewer, read from a photo: its half-width at the temples
+    /// and the canonical v of its top (mm); `None` sizes it by `volume` alone. Never inside
+    /// the cranium.
+    pub outline: Option<[f32; 2]>,
 }
 
 impl Default for HairStyle {
@@ -101,6 +105,7 @@ impl Default for HairStyle {
             moustache: 0.0,
             glasses: false,
             ears_shown: false,
+            outline: None,
         }
     }
 }
@@ -553,14 +558,23 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
         return with_hair(height, None);
     }
     let extra = style.volume - 11.0;
-    let envelope = dome(u, v - 44.0, 94.0 + extra, 125.0 + extra, 96.0 + 0.8 * extra);
+    // The hair's envelope about the cranium (80 mm half-wide, its top at v = 155): sized by
+    // the volume, or to the photo's own outline (at least 3 mm over the cranium).
+    let (half_width, half_height) = match style.outline {
+        Some([width, top]) => (width.clamp(83.0, 160.0), (top - 44.0).clamp(114.0, 200.0)),
+        None => (94.0 + extra, 125.0 + extra),
+    };
+    let envelope = dome(u, v - 44.0, half_width, half_height, 96.0 + 0.8 * extra);
     let locks = style.locks();
     let side = if u < 0.0 { -1.0 } else { 1.0 };
     // Hair over the cranium above the ears' line, parted in the middle, swept down each side;
     // cut short, it ends above the ears (their tops at v = 41) but for a sideburn in front.
     let lowest = if style.ears_shown && style.end > -46.0 {
         let sideburn = smoothstep(66.0, 72.0, u.abs());
-        (8.0 - 0.2 * u.abs()) + sideburn * (44.0 - (8.0 - 0.2 * u.abs()))
+        // Beyond the ear, hair standing out wide curls up and in rather than ending in a
+        // straight brim.
+        let above_ear = 44.0 + 0.8 * (u.abs() - 90.0).max(0.0);
+        (8.0 - 0.2 * u.abs()) + sideburn * (above_ear - (8.0 - 0.2 * u.abs()))
     } else {
         8.0 - 0.2 * u.abs()
     };
@@ -738,6 +752,34 @@ mod tests {
         assert!(hair_over(&covered, [74, 90], [-5, 40]) > 50);
         assert!(hair_over(&cut, [0, 60], [90, 140]) > 300, "the crown");
         assert!(hair_over(&cut, [80, 95], [50, 80]) > 20, "the temples");
+    }
+
+    /// A photo's hair outline sizes the frontal hair: its top where the photo's is, never
+    /// inside the cranium (whose top is at v = 155).
+    #[test]
+    fn the_frontal_hair_follows_the_photos_outline() {
+        let top_of = |outline: Option<[f32; 2]>| {
+            let style = HairStyle {
+                outline,
+                ..HairStyle::default()
+            };
+            (100i32..260)
+                .filter(|&v| sample(View::Frontal, &style, 0.0, v as f32).hair > 0.0)
+                .max()
+                .unwrap_or(0)
+        };
+        assert!((top_of(Some([100.0, 200.0])) - 200).abs() <= 2);
+        assert!((top_of(Some([100.0, 180.0])) - 180).abs() <= 2);
+        assert!(
+            (top_of(Some([60.0, 120.0])) - 158).abs() <= 2,
+            "not inside the cranium"
+        );
+        let wide = HairStyle {
+            outline: Some([130.0, 180.0]),
+            ..HairStyle::default()
+        };
+        assert!(sample(View::Frontal, &wide, 125.0, 60.0).hair > 0.0);
+        assert!(sample(View::Frontal, &HairStyle::default(), 125.0, 60.0).hair == 0.0);
     }
 
     #[test]

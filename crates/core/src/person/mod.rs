@@ -61,6 +61,11 @@ pub struct Hair {
     pub top: f32,
     /// How far it stands out beside the temples beyond the skull, in face lengths.
     pub sides: f32,
+    /// Its outline: how high its top is above the eyes, in face lengths.
+    pub height: f32,
+    /// Its outline: its half-width at the temples (the widest row between the brows and the
+    /// eyes, the wider side), in face lengths.
+    pub width: f32,
     /// Where it ends below the eyes, in face lengths: about 0.5 cropped at the ears, 1 at
     /// the chin, 1.8 at the shoulders, more when it falls over them.
     pub length: f32,
@@ -164,18 +169,32 @@ pub struct Labels {
     pub height: usize,
     pub labels: Vec<Label>,
     frame: Frame,
+    /// The face's length (eyes to chin, the mouth closed), IOD: the head frame's unit for
+    /// comparing a head with a carved one.
+    pub face_length: f32,
+    /// The face's outline (jaw and brows, iBUG 1-17 and 27-18), head frame, IOD.
+    pub face: Vec<[f32; 2]>,
 }
 
 impl Labels {
     /// The label at photo pixel (x, y) (`Outside` beyond the canvas).
     pub fn at_pixel(&self, x: f32, y: f32) -> Label {
-        let [s, t] = self.frame.to_head([x, y]);
+        self.at_head(self.frame.to_head([x, y]))
+    }
+
+    /// The label at head-frame point `[s, t]` (IOD; `Outside` beyond the canvas).
+    pub fn at_head(&self, [s, t]: [f32; 2]) -> Label {
         let c = ((s - S_RANGE.0) / RES).floor();
         let r = ((t - T_RANGE.0) / RES).floor();
-        if c < 0.0 || r < 0.0 || c >= self.width as f32 || r >= self.height as f32 {
+        if !(c >= 0.0 && r >= 0.0 && c < self.width as f32 && r < self.height as f32) {
             return Label::Outside;
         }
         self.labels[r as usize * self.width + c as usize]
+    }
+
+    /// Whether head-frame point `p` (IOD) is inside the face's outline.
+    pub fn in_face(&self, p: [f32; 2]) -> bool {
+        inside(&self.face, p)
     }
 }
 
@@ -755,6 +774,8 @@ pub fn analyse_shaded(
             height: h,
             labels,
             frame,
+            face_length: chin,
+            face: face_poly,
         },
     })
 }

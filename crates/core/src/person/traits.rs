@@ -222,10 +222,19 @@ pub(super) fn traits(
     let coherence = if den > 0.0 { num / den } else { 1.0 };
     let curl = ((0.55 - coherence) / 0.35).clamp(0.0, 1.0);
     let brightness = hair.iter().map(|&i| col[i][0]).sum::<f32>() / hair.len() as f32;
+    // The hair's outline: its top above the eyes and its half-width at the temples.
+    let height = if top_t.is_finite() {
+        (-top_t / chin).max(0.0)
+    } else {
+        0.96
+    };
+    let width = side_reach.max(1.08 * half) / chin;
     Some(Hair {
         crown,
         top,
         sides,
+        height,
+        width,
         length,
         curtain,
         curl,
