@@ -300,10 +300,57 @@ pub enum HairCell {
     Both,
 }
 
+/// The frontal portrait's face outline in the template's canonical frame (mm): the convex
+/// hull of the face mesh's vertices (model mm, the Surrey topology) placed as the gem places
+/// them ([`super::face::place`]). The gem shows no hair inside it: the face covers the
+/// template's hair there (the forehead up to the mesh's edge included).
+pub fn frontal_face_outline(positions: &[f32]) -> Option<Vec<[f32; 2]>> {
+    if positions.len() < 9 || !positions.len().is_multiple_of(3) {
+        return None;
+    }
+    let placement = super::face::place(positions, View::Frontal);
+    let mut points: Vec<[f32; 2]> = positions
+        .chunks_exact(3)
+        .map(|v| {
+            let c = placement.to_canonical(View::Frontal, [v[0], v[1], v[2]]);
+            [c[0], c[1]]
+        })
+        .filter(|p| p[0].is_finite() && p[1].is_finite())
+        .collect();
+    if points.len() < 3 {
+        return None;
+    }
+    // Andrew's monotone chain.
+    points.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    let cross = |o: [f32; 2], a: [f32; 2], b: [f32; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    let mut hull: Vec<[f32; 2]> = Vec::new();
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &[f32; 2]>> = if pass == 0 {
+            Box::new(points.iter())
+        } else {
+            Box::new(points.iter().rev())
+        };
+        for &p in iter {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    (hull.len() >= 3).then_some(hull)
+}
+
 /// The grid of [`frontal_hair_iou`], row-major from the top left, and its width.
 pub fn frontal_hair_cells(
     labels: &crate::person::Labels,
     style: &super::HairStyle,
+    gem_face: Option<&[[f32; 2]]>,
 ) -> (Vec<HairCell>, usize) {
     use crate::person::Label;
     let chin = labels.face_length;
@@ -327,7 +374,8 @@ pub fn frontal_hair_cells(
                 s * super::FACE_LENGTH_MM,
                 super::EYES_V - t * super::FACE_LENGTH_MM,
             );
-            let gem = super::template::sample(View::Frontal, style, u, v).hair > 0.0;
+            let gem = super::template::sample(View::Frontal, style, u, v).hair > 0.0
+                && !gem_face.is_some_and(|f| crate::person::inside(f, [u, v]));
             cells[j * w + i] = match (photo, gem) {
                 (true, true) => HairCell::Both,
                 (true, false) => HairCell::PhotoOnly,
@@ -344,9 +392,14 @@ pub fn frontal_hair_cells(
 /// length (eyes to chin): the template's eyes' level and face length
 /// ([`super::EYES_V`], [`super::FACE_LENGTH_MM`]) against the photo's. Inside the face's
 /// outline neither counts (the face covers the template's hair), nor does the photo beyond
-/// its frame. `None` when neither shows any hair (a bald head carved bald).
-pub fn frontal_hair_iou(labels: &crate::person::Labels, style: &super::HairStyle) -> Option<f32> {
-    let (cells, _) = frontal_hair_cells(labels, style);
+/// its frame; with `gem_face` ([`frontal_face_outline`]) the gem shows no hair where its face
+/// covers the template. `None` when neither shows any hair (a bald head carved bald).
+pub fn frontal_hair_iou(
+    labels: &crate::person::Labels,
+    style: &super::HairStyle,
+    gem_face: Option<&[[f32; 2]]>,
+) -> Option<f32> {
+    let (cells, _) = frontal_hair_cells(labels, style, gem_face);
     let both = cells.iter().filter(|c| **c == HairCell::Both).count();
     let either = cells
         .iter()

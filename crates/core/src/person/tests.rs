@@ -536,7 +536,7 @@ fn the_frontal_hair_outline_is_measured_against_the_photo() {
     use crate::gem::{HairStyle, hair_style, measure::frontal_hair_iou};
     let lm = landmarks();
     let short = analyse(&photo(hair_to(12.0, 0.0), BROWN, false), &lm).unwrap();
-    let own = frontal_hair_iou(&short.labels, &hair_style(&short)).expect("hair on both");
+    let own = frontal_hair_iou(&short.labels, &hair_style(&short), None).expect("hair on both");
     let long = HairStyle {
         end: -220.0,
         ..hair_style(&short)
@@ -546,7 +546,7 @@ fn the_frontal_hair_outline_is_measured_against_the_photo() {
         volume: 32.0,
         ..hair_style(&short)
     };
-    let worse = |style: &HairStyle| frontal_hair_iou(&short.labels, style).unwrap_or(0.0);
+    let worse = |style: &HairStyle| frontal_hair_iou(&short.labels, style, None).unwrap_or(0.0);
     assert!(own > 0.3, "own {own:.2}");
     assert!(
         own > worse(&long) + 0.05,
@@ -559,6 +559,6 @@ fn the_frontal_hair_outline_is_measured_against_the_photo() {
         worse(&big)
     );
     let bald = analyse(&photo(|_, _| false, BROWN, false), &lm).unwrap();
-    let carved = frontal_hair_iou(&bald.labels, &HairStyle::default()).unwrap_or(0.0);
+    let carved = frontal_hair_iou(&bald.labels, &HairStyle::default(), None).unwrap_or(0.0);
     assert!(carved < 0.1, "hair carved on a bald head: {carved:.2}");
 }

@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use glyptic::pipeline::{GemPipeline, GemPipelineError};
@@ -300,11 +300,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         let p = pipelines[0].fork(&models)?;
         pipelines.push(p);
     }
-    let mut renderer: Renderer = renderer_thread
-        .join()
-        .map_err(|_| anyhow!("the renderer thread panicked"))?
-        .context("starting the renderer")?
-        .0;
+    let mut renderer: Renderer = renderer_thread.join()?.0;
     let loaded_ms = start.elapsed().as_secs_f64() * 1e3;
 
     let bar = if super::QUIET.load(Ordering::Relaxed) || args.json {

@@ -277,24 +277,47 @@ fn write_made(made: Made) -> Result<()> {
     Ok(())
 }
 
+/// The renderer coming up on its own thread ([`spawn_renderer`]). Dropped before it is joined
+/// (an error ended the command first), it still waits for the start to finish: a process
+/// that exits while the GPU driver initialises can make wgpu's EGL start-up panic.
+pub(super) struct RendererStart(
+    Option<std::thread::JoinHandle<Result<(Renderer, f64), glyptic::render::RenderError>>>,
+);
+
+impl RendererStart {
+    /// Waits for the start: the renderer and how long it took, ms.
+    pub(super) fn join(mut self) -> Result<(Renderer, f64)> {
+        let handle = self
+            .0
+            .take()
+            .ok_or_else(|| anyhow!("the renderer was already taken"))?;
+        handle
+            .join()
+            .map_err(|_| anyhow!("the renderer thread panicked"))?
+            .context("starting the renderer")
+    }
+}
+
+impl Drop for RendererStart {
+    fn drop(&mut self) {
+        if let Some(handle) = self.0.take() {
+            let _ = handle.join();
+        }
+    }
+}
+
 /// Starts the GPU device and pipelines on another thread: they do not depend on the face, so
 /// they come up while the photo is decoded and fitted.
-pub(super) fn spawn_renderer()
--> std::thread::JoinHandle<Result<(Renderer, f64), glyptic::render::RenderError>> {
-    std::thread::spawn(|| {
+pub(super) fn spawn_renderer() -> RendererStart {
+    RendererStart(Some(std::thread::spawn(|| {
         let t = Instant::now();
         Renderer::new_headless().map(|r| (r, t.elapsed().as_secs_f64() * 1e3))
-    })
+    })))
 }
 
 /// Waits for [`spawn_renderer`] and prints its stage line.
-pub(super) fn join_renderer(
-    handle: std::thread::JoinHandle<Result<(Renderer, f64), glyptic::render::RenderError>>,
-) -> Result<Renderer> {
-    let (renderer, init_ms) = handle
-        .join()
-        .map_err(|_| anyhow!("the renderer thread panicked"))?
-        .context("starting the renderer")?;
+pub(super) fn join_renderer(start: RendererStart) -> Result<Renderer> {
+    let (renderer, init_ms) = start.join()?;
     print_stages(&[Stage {
         name: "gpu init",
         ms: init_ms,
