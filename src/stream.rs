@@ -143,6 +143,14 @@ impl HairSmoother {
                 let part = |k: usize| median(&with, &|s| s.outline.map_or(0.0, |o| o[k]));
                 self.readings.iter().any(with).then(|| [part(0), part(1)])
             },
+            // The newest reading's fall among those that agree (a fall is a shape: a median
+            // per row of different readings would be none of them).
+            fall: self
+                .readings
+                .iter()
+                .rev()
+                .find(|s| scalp(s) && s.fall.is_some())
+                .and_then(|s| s.fall),
         };
         let visible = |a: &HairStyle, b: &HairStyle| {
             a.bald != b.bald

@@ -276,6 +276,7 @@ pub fn hair_style(person: &crate::person::Person) -> HairStyle {
         // Hair that ends about the ears with nothing hanging beside the cheeks: cut above them.
         ears_shown: h.curtain < crate::person::CURTAIN && h.length <= SHORT_HAIR,
         outline: Some([FACE_LENGTH_MM * h.width, EYES_V + FACE_LENGTH_MM * h.height]),
+        fall: (h.length > SHORT_HAIR).then(|| h.fall.map(|r| r.map(|x| FACE_LENGTH_MM * x))),
         ..facial
     }
 }

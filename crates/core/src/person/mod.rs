@@ -28,9 +28,9 @@ use image::RgbImage;
 pub(crate) use colour::inside;
 use colour::*;
 pub use glasses::{DARK_LENSES, GLASSES_BRIDGE, GLASSES_DIP, Glasses};
-pub use traits::CURTAIN;
 pub(crate) use traits::median;
 use traits::*;
+pub use traits::{CURTAIN, FALL_ROWS, FALL_STEP, FALL_TOP};
 
 /// Head-frame extent of the analysis canvas, IOD.
 const S_RANGE: (f32, f32) = (-3.6, 3.6);
@@ -69,6 +69,10 @@ pub struct Hair {
     /// Where it ends below the eyes, in face lengths: about 0.5 cropped at the ears, 1 at
     /// the chin, 1.8 at the shoulders, more when it falls over them.
     pub length: f32,
+    /// How it falls beside the face and below: per row ([`FALL_TOP`], [`FALL_STEP`]) its
+    /// nearest and furthest reach from the face's midline, face lengths; `[0, 0]` where it
+    /// has ended.
+    pub fall: [[f32; 2]; FALL_ROWS],
     /// How much hair hangs beside the cheeks between the mouth and the chin, in face
     /// half-widths (the wider side's median row): hair that falls past the jaw hangs there
     /// as a curtain; short hair leaves at most a shadowed strip along the cheek.

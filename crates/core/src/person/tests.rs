@@ -285,6 +285,26 @@ fn a_suit_below_the_chin_is_not_long_hair() {
     assert!(l.length > 1.6, "long grey hair over the suit: {l:?}");
 }
 
+/// Long hair's fall is read row by row: beside the face and below the chin it reaches from
+/// about the face's side to the painted hair's outer edge (62-100 px from the midline, the
+/// face 120 px long: 0.52-0.83 face lengths), and short hair has none below the ears.
+#[test]
+fn the_hairs_fall_is_read_row_by_row() {
+    let lm = landmarks();
+    let long = analyse(&photo(hair_to(12.0, 470.0), BROWN, false), &lm).unwrap();
+    let h = long.hair.expect("long hair");
+    // Rows from 0.7 to 1.9 face lengths below the eyes (y 284-428 px).
+    for (k, row) in h.fall.iter().enumerate().skip(3).take(6) {
+        assert!(
+            (0.45..0.65).contains(&row[0]) && (0.72..0.9).contains(&row[1]),
+            "row {k}: {row:?}"
+        );
+    }
+    let short = analyse(&photo(hair_to(12.0, 0.0), BROWN, false), &lm).unwrap();
+    let s = short.hair.expect("short hair");
+    assert!(s.fall.iter().skip(4).all(|r| r[1] == 0.0), "{:?}", s.fall);
+}
+
 #[test]
 fn grey_hair_is_hair_and_a_beard_is_found_only_when_there() {
     let lm = landmarks();

@@ -20,6 +20,12 @@ pub(crate) fn median(mut v: Vec<f32>) -> Option<f32> {
 /// over 0.00-0.82, 23 of them under this.
 pub const CURTAIN: f32 = 0.4;
 
+/// The rows of [`super::Hair::fall`]: the first's top, face lengths below the eyes, and each
+/// row's height.
+pub const FALL_TOP: f32 = 0.1;
+pub const FALL_STEP: f32 = 0.2;
+pub const FALL_ROWS: usize = 15;
+
 /// The share of skin beside the face at the ear's height that makes a bare ear.
 const EAR_BARE: f32 = 0.3;
 
@@ -191,6 +197,35 @@ pub(super) fn traits(
     } else {
         length
     };
+    // The fall: per row of FALL_STEP face lengths from FALL_TOP down to where the hair ends,
+    // how near the face's midline and how far out the hair reaches (its tenth and ninetieth
+    // percentiles per side, then the mean of the sides with hair), face lengths.
+    let mut rows: Vec<[Vec<f32>; 2]> = (0..FALL_ROWS).map(|_| [Vec::new(), Vec::new()]).collect();
+    for &i in &hair {
+        let p = pos(i);
+        let t = p[1] / chin;
+        let k = ((t - FALL_TOP) / FALL_STEP).floor();
+        if t > length || !(k >= 0.0 && (k as usize) < FALL_ROWS) {
+            continue;
+        }
+        rows[k as usize][usize::from(p[0] > 0.0)].push(p[0].abs() / chin);
+    }
+    let mut fall = [[0f32; 2]; FALL_ROWS];
+    for (row, out) in rows.iter_mut().zip(fall.iter_mut()) {
+        let mut sides = Vec::new();
+        for v in row.iter_mut().filter(|v| v.len() >= 3) {
+            v.sort_by(f32::total_cmp);
+            let at = |q: f32| v[((v.len() - 1) as f32 * q).round() as usize];
+            sides.push([at(0.1), at(0.9)]);
+        }
+        if !sides.is_empty() {
+            let n = sides.len() as f32;
+            *out = [
+                sides.iter().map(|r| r[0]).sum::<f32>() / n,
+                sides.iter().map(|r| r[1]).sum::<f32>() / n,
+            ];
+        }
+    }
     // Curl: structure-tensor coherence of brightness over the hair (straight strands agree).
     let lum: Vec<f32> = col.iter().map(|c| c[0]).collect();
     let (mut jxx, mut jyy, mut jxy) = (vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]);
@@ -236,6 +271,7 @@ pub(super) fn traits(
         height,
         width,
         length,
+        fall,
         curtain,
         curl,
         brightness,
