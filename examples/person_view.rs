@@ -66,10 +66,9 @@ fn main() -> Result<()> {
             &glyptic::assets::onnxruntime_lib(),
         )?)
     };
-    println!(
-        "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip | hair iou |"
-    );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let header = "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip | hair iou |";
+    println!("{header}");
+    println!("{}|", "|---".repeat(header.matches('|').count() - 1));
     for photo in &photos {
         let name = photo
             .file_stem()
