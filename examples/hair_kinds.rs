@@ -1,0 +1,107 @@
+//! The frontal hair the template carves today, one gem per kind, all on the Surrey mean face
+//! (no photo, so the picture may be committed): bald, short hair cut above the ears, hair
+//! standing wide, the classical template's hair, long hair falling as a photo's does, and a
+//! bearded, moustached face with glasses. The styles are what `gem::hair_style` makes of a
+//! photo's readings (issue #38); the picture shows what each reading turns into.
+//!
+//! `cargo run --release --example hair_kinds -- OUT.png`
+
+use anyhow::{Context, Result};
+use glyptic::gem::{self, HairStyle, View};
+use glyptic::person::FALL_ROWS;
+use glyptic::render::{RenderParams, Renderer};
+
+fn main() -> Result<()> {
+    let out = std::env::args()
+        .nth(1)
+        .context("usage: hair_kinds OUT.png")?;
+    let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir())?;
+    let mean = model.instance(&[], &[]);
+    let triangles = &model.shape.triangles;
+    // A shoulder-length fall widening below the jaw, as `Hair::fall` reads one (canonical mm).
+    let mut fall = [[0.0f32; 2]; FALL_ROWS];
+    for (k, row) in fall.iter_mut().enumerate().take(9) {
+        *row = [58.0 + 2.0 * k as f32, 92.0 + 7.0 * k as f32];
+    }
+    let kinds: [(&str, HairStyle); 6] = [
+        (
+            "bald",
+            HairStyle {
+                bald: true,
+                ..HairStyle::default()
+            },
+        ),
+        (
+            "short, ears bare",
+            HairStyle {
+                volume: 5.0,
+                ears_shown: true,
+                outline: Some([86.0, 162.0]),
+                ..HairStyle::default()
+            },
+        ),
+        (
+            "standing wide",
+            HairStyle {
+                volume: 28.0,
+                ears_shown: true,
+                outline: Some([130.0, 185.0]),
+                ..HairStyle::default()
+            },
+        ),
+        ("classical", HairStyle::default()),
+        (
+            "long, the photo's fall",
+            HairStyle {
+                end: -200.0,
+                outline: Some([100.0, 170.0]),
+                fall: Some(fall),
+                ..HairStyle::default()
+            },
+        ),
+        (
+            "beard, moustache, glasses",
+            HairStyle {
+                volume: 6.0,
+                ears_shown: true,
+                outline: Some([88.0, 164.0]),
+                beard: 9.0,
+                beard_jaw: 0.8,
+                moustache: 3.8,
+                glasses: true,
+                ..HairStyle::default()
+            },
+        ),
+    ];
+    let mut renderer = Renderer::new_headless()?;
+    let params = RenderParams {
+        width: 240,
+        height: 300,
+        ..RenderParams::default()
+    };
+    let gap = 8;
+    let mut sheet = image::RgbImage::from_pixel(
+        kinds.len() as u32 * (params.width + gap) - gap,
+        params.height,
+        image::Rgb([255, 255, 255]),
+    );
+    for (k, (name, style)) in kinds.iter().enumerate() {
+        let cameo = gem::CameoParams {
+            hair: *style,
+            ..View::Frontal.cameo()
+        };
+        let mesh = gem::build_cameo(&mean, triangles, &cameo)?;
+        let rgba = renderer.render(&mesh, &params)?;
+        let rgb = image::DynamicImage::ImageRgba8(rgba).into_rgb8();
+        image::imageops::replace(
+            &mut sheet,
+            &rgb,
+            i64::from(k as u32 * (params.width + gap)),
+            0,
+        );
+        println!("{k}: {name}");
+    }
+    sheet.save(&out).with_context(|| out.clone())?;
+    println!("wrote {out}");
+    Ok(())
+}
