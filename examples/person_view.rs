@@ -189,6 +189,7 @@ fn main() -> Result<()> {
         }
         // Where the gem's face covers its hair (the portrait mesh as the gem places it).
         let gem_face = glyptic::gem::measure::frontal_face_outline(&face.portrait);
+        let style = glyptic::gem::hair_style(&p);
         let hair = p.hair.map_or("bald".to_string(), |_| "yes".into());
         let f = |v: Option<f32>| v.map_or("-".into(), |v| format!("{v:.2}"));
         let h = p.hair;
@@ -210,8 +211,8 @@ fn main() -> Result<()> {
             p.glasses.dip,
             f(glyptic::gem::measure::frontal_hair_iou(
                 &p.labels,
-                &glyptic::gem::hair_style(&p),
-                gem_face.as_deref(),
+                &style,
+                gem_face.as_deref()
             )),
         );
         if iou_pictures {
@@ -219,11 +220,7 @@ fn main() -> Result<()> {
             // face's length: both green, the photo's only red, the gem's only blue, the face
             // and beyond the photo grey.
             use glyptic::gem::measure::{HairCell, frontal_hair_cells};
-            let (cells, w) = frontal_hair_cells(
-                &p.labels,
-                &glyptic::gem::hair_style(&p),
-                gem_face.as_deref(),
-            );
+            let (cells, w) = frontal_hair_cells(&p.labels, &style, gem_face.as_deref());
             let h = cells.len() / w;
             let pic = image::RgbImage::from_fn(w as u32, h as u32, |x, y| {
                 image::Rgb(match cells[y as usize * w + x as usize] {

@@ -320,29 +320,26 @@ pub fn frontal_face_outline(positions: &[f32]) -> Option<Vec<[f32; 2]>> {
     if points.len() < 3 {
         return None;
     }
-    // Andrew's monotone chain.
+    // Andrew's monotone chain: the lower hull left to right, then the upper right to left.
     points.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
     let cross = |o: [f32; 2], a: [f32; 2], b: [f32; 2]| {
         (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
     };
-    let mut hull: Vec<[f32; 2]> = Vec::new();
-    for pass in 0..2 {
-        let start = hull.len();
-        let iter: Box<dyn Iterator<Item = &[f32; 2]>> = if pass == 0 {
-            Box::new(points.iter())
-        } else {
-            Box::new(points.iter().rev())
-        };
-        for &p in iter {
-            while hull.len() >= start + 2
-                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+    let half = |points: &mut dyn Iterator<Item = [f32; 2]>| {
+        let mut chain: Vec<[f32; 2]> = Vec::new();
+        for p in points {
+            while chain.len() >= 2
+                && cross(chain[chain.len() - 2], chain[chain.len() - 1], p) <= 0.0
             {
-                hull.pop();
+                chain.pop();
             }
-            hull.push(p);
+            chain.push(p);
         }
-        hull.pop();
-    }
+        chain.pop();
+        chain
+    };
+    let mut hull = half(&mut points.iter().copied());
+    hull.extend(half(&mut points.iter().rev().copied()));
     (hull.len() >= 3).then_some(hull)
 }
 

@@ -575,8 +575,7 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
     // The cranium, its top at v = 155. (Lowered to a photo's hair top, down to v = 135, it
     // raised the outline's IoU by under 0.01 and cost the gems 4-5 points of recognition:
     // BENCHMARKS.md, issue #38.)
-    let cranium_b = 115.0;
-    let cranium = dome(u, v - 40.0, 80.0, cranium_b, 85.0);
+    let cranium = dome(u, v - 40.0, 80.0, 115.0, 85.0);
     let body = frontal_body(u, v);
     let mut height = smooth_max(cranium, body, 12.0);
     // Ears at the sides, seen almost edge-on: a narrow rim with a hollow.
@@ -597,7 +596,8 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
     let (half_width, half_height) = match style.outline {
         Some([width, top]) => (
             width.clamp(83.0, 160.0),
-            (top - 44.0).clamp(cranium_b - 1.0, 200.0),
+            // At least 3 mm over the cranium's top.
+            (top - 44.0).clamp(114.0, 200.0),
         ),
         None => (94.0 + extra, 125.0 + extra),
     };

@@ -124,21 +124,23 @@ pub(super) fn traits(
     // The curtain: in each canvas row from the mouth to the chin, the scalp hair beside the
     // face on each side (beyond a tenth of the face's half-width from its outline, where a
     // shadowed cheek's edge may pass for hair, and within most of a half-width of it).
+    // The canvas rows between two heights (t, IOD) that cross the face, with the face's
+    // widest reach from the midline in each.
+    let face_rows = |t0: f32, t1: f32| {
+        (0..h).filter_map(move |y| {
+            let row = y * w..(y + 1) * w;
+            if !(t0..t1).contains(&pos(y * w)[1]) {
+                return None;
+            }
+            row.clone()
+                .filter(|&i| in_face[i])
+                .map(|i| pos(i)[0].abs())
+                .reduce(f32::max)
+                .map(|face_x| (row, face_x))
+        })
+    };
     let (mut left, mut right) = (Vec::new(), Vec::new());
-    for y in 0..h {
-        let t = pos(y * w)[1];
-        if !(0.45 * chin..0.9 * chin).contains(&t) {
-            continue;
-        }
-        let row = y * w..(y + 1) * w;
-        let Some(face_x) = row
-            .clone()
-            .filter(|&i| in_face[i])
-            .map(|i| pos(i)[0].abs())
-            .reduce(f32::max)
-        else {
-            continue;
-        };
+    for (row, face_x) in face_rows(0.45 * chin, 0.9 * chin) {
         let (lo, hi) = (face_x + 0.1 * half, face_x + 0.9 * half);
         let (mut l, mut r) = (0usize, 0usize);
         for i in row.filter(|&i| labels[i] == Label::Hair && !in_face[i]) {
@@ -158,20 +160,7 @@ pub(super) fn traits(
     // side whose hair is short: what hangs below it there is a collar, a suit or a dark
     // ground, not a curtain of hair.
     let (mut bare, mut seen) = ([0usize; 2], [0usize; 2]);
-    for y in 0..h {
-        let t = pos(y * w)[1];
-        if !(0.05 * chin..0.4 * chin).contains(&t) {
-            continue;
-        }
-        let row = y * w..(y + 1) * w;
-        let Some(face_x) = row
-            .clone()
-            .filter(|&i| in_face[i])
-            .map(|i| pos(i)[0].abs())
-            .reduce(f32::max)
-        else {
-            continue;
-        };
+    for (row, face_x) in face_rows(0.05 * chin, 0.4 * chin) {
         for i in row.filter(|&i| labels[i] != Label::Outside && !in_face[i]) {
             let x = pos(i)[0];
             if (face_x..face_x + 0.25 * half).contains(&x.abs()) {
