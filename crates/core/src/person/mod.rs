@@ -21,6 +21,7 @@
 
 mod colour;
 mod glasses;
+mod silhouette;
 mod traits;
 
 use image::RgbImage;
@@ -28,6 +29,7 @@ use image::RgbImage;
 pub(crate) use colour::inside;
 use colour::*;
 pub use glasses::{DARK_LENSES, GLASSES_BRIDGE, GLASSES_DIP, Glasses};
+pub use silhouette::{HairMask, MASK_COLS, MASK_ROWS, MASK_S, MASK_STEP, MASK_T};
 pub(crate) use traits::median;
 use traits::*;
 pub use traits::{CURTAIN, FALL_ROWS, FALL_STEP, FALL_TOP};
@@ -73,6 +75,8 @@ pub struct Hair {
     /// nearest and furthest reach from the face's midline, face lengths; `[0, 0]` where it
     /// has ended.
     pub fall: [[f32; 2]; FALL_ROWS],
+    /// Its silhouette over the head frame (what the frontal gem's hair outline follows).
+    pub mask: HairMask,
     /// How much hair hangs beside the cheeks between the mouth and the chin, in face
     /// half-widths (the wider side's median row): hair that falls past the jaw hangs there
     /// as a curtain; short hair leaves at most a shadowed strip along the cheek.

@@ -253,6 +253,20 @@ pub(super) fn traits(
         0.96
     };
     let width = side_reach.max(1.08 * half) / chin;
+    let mask = super::silhouette::hair_mask(
+        labels,
+        w,
+        h,
+        pos,
+        in_face,
+        skull,
+        chin,
+        half,
+        &super::silhouette::Decided {
+            length,
+            ear_bare: [ear_bare(0), ear_bare(1)],
+        },
+    );
     Some(Hair {
         crown,
         top,
@@ -261,6 +275,7 @@ pub(super) fn traits(
         width,
         length,
         fall,
+        mask,
         curtain,
         curl,
         brightness,
