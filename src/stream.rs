@@ -27,6 +27,7 @@ use std::collections::VecDeque;
 use image::RgbImage;
 
 use crate::capture::{Capture, CaptureEvent, CaptureSummary, Frame, LatestReceiver, latest};
+use crate::gem::silhouette::Silhouette;
 use crate::gem::{CameoBuilder, CameoParams, HairStyle};
 use crate::pipeline::Stage;
 use crate::render::Mesh;
@@ -61,6 +62,10 @@ pub struct HairSmoother {
     readings: VecDeque<HairStyle>,
     settled: Option<HairStyle>,
 }
+
+/// The share of the hair's outline grid that must change sides for the settled hair to be
+/// rebuilt (about a finger's width all round a head).
+const SILHOUETTE_MOVED: f32 = 0.02;
 
 impl HairSmoother {
     /// Readings weighed together.
@@ -151,6 +156,13 @@ impl HairSmoother {
                 .rev()
                 .find(|s| scalp(s) && s.fall.is_some())
                 .and_then(|s| s.fall),
+            // The silhouette: the cell-wise median of the agreeing readings' signed distances.
+            silhouette: Silhouette::median(
+                self.readings
+                    .iter()
+                    .filter(|s| scalp(s))
+                    .filter_map(|s| s.silhouette.as_ref()),
+            ),
         };
         let visible = |a: &HairStyle, b: &HairStyle| {
             a.bald != b.bald
@@ -164,6 +176,10 @@ impl HairSmoother {
                 || (a.beard - b.beard).abs() > 2.0
                 || (a.beard_jaw - b.beard_jaw).abs() > 0.25
                 || (a.moustache - b.moustache).abs() > 1.5
+                || match (&a.silhouette, &b.silhouette) {
+                    (Some(x), Some(y)) => x.differs(y) > SILHOUETTE_MOVED,
+                    (x, y) => x.is_some() != y.is_some(),
+                }
         };
         if self.settled.is_none_or(|old| visible(&old, &new)) {
             self.settled = Some(new);

@@ -292,13 +292,19 @@ impl CameoBuilder {
                 } else {
                     0.0
                 };
-                let f = (smooth[i] + carved + locks).max(0.0);
+                // A fringe over the forehead (frontal, where the photo's hair reaches it).
+                let fringe = if view == View::Frontal {
+                    template::fringe(&p.hair, u, v)
+                } else {
+                    0.0
+                };
+                let f = (smooth[i] + carved + locks + fringe).max(0.0);
                 if face[i] {
                     face_height[i] = f;
                 }
                 portrait[i] = share * f + (1.0 - share) * head_height;
-                hair[i] =
-                    (1.0 - share) * head.hair[i] + share * template::smoothstep(0.5, 2.0, thick);
+                let on_face = template::smoothstep(0.5, 2.0, thick.max(fringe));
+                hair[i] = (1.0 - share) * head.hair[i] + share * on_face;
                 mask[i] = true;
             } else if head_here {
                 portrait[i] = head_height;

@@ -371,8 +371,12 @@ pub fn frontal_hair_cells(
                 s * super::FACE_LENGTH_MM,
                 super::EYES_V - t * super::FACE_LENGTH_MM,
             );
-            let gem = super::template::sample(View::Frontal, style, u, v).hair > 0.0
-                && !gem_face.is_some_and(|f| crate::person::inside(f, [u, v]));
+            let gem = if gem_face.is_some_and(|f| crate::person::inside(f, [u, v])) {
+                // Under the gem's face only a fringe is hair.
+                super::template::fringe(style, u, v) > 0.0
+            } else {
+                super::template::sample(View::Frontal, style, u, v).hair > 0.0
+            };
             cells[j * w + i] = match (photo, gem) {
                 (true, true) => HairCell::Both,
                 (true, false) => HairCell::PhotoOnly,

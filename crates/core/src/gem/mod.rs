@@ -30,6 +30,7 @@ mod obj;
 mod poisson;
 pub mod relief;
 mod shading;
+pub mod silhouette;
 pub mod solid;
 pub mod template;
 mod tessellate;
@@ -228,8 +229,8 @@ fn check_params(p: &CameoParams) -> Result<(), GemError> {
 
 /// The canonical face's length from the eyes' level to the chin, and the eyes' level
 /// (canonical v), model mm: the unit [`crate::person`] measures hair in.
-pub(crate) const FACE_LENGTH_MM: f32 = 115.0;
-pub(crate) const EYES_V: f32 = 30.0;
+pub const FACE_LENGTH_MM: f32 = 115.0;
+pub const EYES_V: f32 = 30.0;
 /// Hair ending no further below the eyes than this (face lengths) is cut above the ears.
 const SHORT_HAIR: f32 = 0.6 + 1e-3;
 
@@ -268,7 +269,7 @@ pub fn hair_style(person: &crate::person::Person) -> HairStyle {
         };
     };
     let stand = h.top.max(0.7 * h.sides);
-    HairStyle {
+    let style = HairStyle {
         bald: false,
         volume: (3.0 + 0.75 * FACE_LENGTH_MM * stand).clamp(3.0, 32.0),
         end: (EYES_V - h.length * FACE_LENGTH_MM).clamp(-290.0, -20.0),
@@ -278,6 +279,10 @@ pub fn hair_style(person: &crate::person::Person) -> HairStyle {
         outline: Some([FACE_LENGTH_MM * h.width, EYES_V + FACE_LENGTH_MM * h.height]),
         fall: (h.length > SHORT_HAIR).then(|| h.fall.map(|r| r.map(|x| FACE_LENGTH_MM * x))),
         ..facial
+    };
+    HairStyle {
+        silhouette: Some(silhouette::Silhouette::from_mask(&h.mask, &style, h.crown)),
+        ..style
     }
 }
 

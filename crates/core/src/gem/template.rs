@@ -96,6 +96,11 @@ pub struct HairStyle {
     /// nearest and furthest reach from the midline, canonical mm (`[0, 0]`: none there);
     /// `None` falls in the template's own band.
     pub fall: Option<[[f32; 2]; crate::person::FALL_ROWS]>,
+    /// The hair's own outline facing the viewer, read from a photo
+    /// ([`super::silhouette::Silhouette`]): where it is, the frontal hair is exactly there
+    /// (its volume rounded in from the outline) and `outline`, `fall` and `ears_shown` only
+    /// fill in where the photo did not show the head; `None`: the template's shapes.
+    pub silhouette: Option<super::silhouette::Silhouette>,
 }
 
 impl Default for HairStyle {
@@ -112,6 +117,7 @@ impl Default for HairStyle {
             ears_shown: false,
             outline: None,
             fall: None,
+            silhouette: None,
         }
     }
 }
@@ -572,10 +578,9 @@ fn fall_at(fall: &[[f32; 2]; crate::person::FALL_ROWS], v: f32) -> Option<(f32, 
 }
 
 fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
-    // The cranium, its top at v = 155. (Lowered to a photo's hair top, down to v = 135, it
-    // raised the outline's IoU by under 0.01 and cost the gems 4-5 points of recognition:
-    // BENCHMARKS.md, issue #38.)
-    let cranium = dome(u, v - 40.0, 80.0, 115.0, 85.0);
+    // The cranium, its top at v = 155, or under a photo's hair outline.
+    let b = super::silhouette::cranium_height(style.silhouette.as_ref().and_then(|s| s.top()));
+    let cranium = dome(u, v - 40.0, 80.0, b, 85.0);
     let body = frontal_body(u, v);
     let mut height = smooth_max(cranium, body, 12.0);
     // Ears at the sides, seen almost edge-on: a narrow rim with a hollow.
@@ -589,6 +594,9 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
     }
     if style.bald {
         return with_hair(height, None);
+    }
+    if let Some(sil) = &style.silhouette {
+        return with_hair(height, silhouette_hair(style, sil, height, u, v));
     }
     let extra = style.volume - 11.0;
     // The hair's envelope about the cranium (80 mm half-wide, its top at v = 155): sized by
@@ -659,6 +667,77 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
         }
     }
     with_hair(height, hair)
+}
+
+/// Hair carved over the face (frontal, canonical mm above the face's surface; 0 where none):
+/// a fringe, where a photo's hair outline reaches down over the forehead, thinning from
+/// the outline and ending above the brows. The builder lays it on the face; the outline
+/// measure counts it as hair.
+pub fn fringe(style: &HairStyle, u: f32, v: f32) -> f32 {
+    let Some(sil) = &style.silhouette else {
+        return 0.0;
+    };
+    let brows = smoothstep(FRINGE_V.0, FRINGE_V.1, v);
+    if brows <= 0.0 {
+        return 0.0;
+    }
+    let d = sil.at(u, v);
+    if d <= 0.0 || !d.is_finite() {
+        return 0.0;
+    }
+    let (w, seg, wave) = style.locks();
+    // Locks hanging down over the forehead, narrower than the head's.
+    let s = (u + wave * (v / 25.0).sin()) / (0.6 * w);
+    let row = s.floor();
+    let t = -v / (30.0 * seg) + hash2(row as i32, 31);
+    let texture = lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32));
+    let ramp = smoothstep(0.0, 6.0, d) * brows;
+    (ramp * (3.0 + 0.3 * style.volume + 0.5 * texture)).max(0.0)
+}
+
+/// A fringe ends between these heights (canonical v, mm): the mean face's brows are about
+/// v = 45.
+const FRINGE_V: (f32, f32) = (50.0, 60.0);
+
+/// Frontal hair inside a photo's outline: a rounded mass rising from the outline (as high as
+/// the template's envelope over the head, lower where it falls beside the neck) and never
+/// less than a layer over the head and bust, carved as locks swept round the head above the
+/// ears and hanging in rows below them.
+fn silhouette_hair(
+    style: &HairStyle,
+    sil: &super::silhouette::Silhouette,
+    height: f32,
+    u: f32,
+    v: f32,
+) -> Option<f32> {
+    let d = sil.at(u, v);
+    if d <= 0.0 || !d.is_finite() {
+        return None;
+    }
+    // Rising over the outline's first 6 mm, full within a lock's width of it.
+    let ramp = smoothstep(0.0, 6.0, d);
+    let x = (d / 60.0).min(1.0);
+    let peak = 40.0 + 46.0 * smoothstep(-60.0, 0.0, v);
+    let mass = peak * (1.0 - (1.0 - x) * (1.0 - x)).sqrt();
+    let layer = height + (3.0 + 0.5 * style.volume) * ramp;
+    let locks = style.locks();
+    let side = if u < 0.0 { -1.0 } else { 1.0 };
+    let swept = swept_locks(
+        u * side,
+        v,
+        [12.0, 30.0],
+        1.0,
+        std::f32::consts::FRAC_PI_2,
+        locks,
+    );
+    let (w, seg, wave) = locks;
+    let s = (u.abs() + wave * (v / 25.0).sin()) / w;
+    let row = s.floor();
+    let t = -v / (60.0 * seg) + hash2(row as i32, 13);
+    let hanging = lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32));
+    let below = smoothstep(20.0, -20.0, v);
+    let texture = swept + below * (hanging - swept);
+    Some(mass.max(layer) + ramp * texture)
 }
 
 #[cfg(test)]
@@ -829,6 +908,59 @@ mod tests {
         };
         assert!(sample(View::Frontal, &wide, 125.0, 60.0).hair > 0.0);
         assert!(sample(View::Frontal, &HairStyle::default(), 125.0, 60.0).hair == 0.0);
+    }
+
+    /// A photo's silhouette is the frontal hair's outline: hair exactly where its signed
+    /// distance is positive (a disc of hair over the head's top and one temple here), higher
+    /// inside than at its edge; a fringe only over the forehead inside it, never below the
+    /// brows.
+    #[test]
+    fn the_frontal_hair_is_the_photos_silhouette() {
+        use crate::person::{HairMask, MASK_COLS, MASK_ROWS};
+        let mut share = [[0.0; MASK_COLS]; MASK_ROWS];
+        for (r, row) in share.iter_mut().enumerate() {
+            for (c, x) in row.iter_mut().enumerate() {
+                let [s, t] = HairMask::centre(r, c);
+                *x = if s.hypot(t + 0.75) < 0.55 { 1.0 } else { 0.0 };
+            }
+        }
+        let style = HairStyle {
+            silhouette: Some(super::super::silhouette::Silhouette::from_mask(
+                &HairMask { share },
+                &HairStyle::default(),
+                0.0,
+            )),
+            ..HairStyle::default()
+        };
+        let sil = style.silhouette.expect("set");
+        let mut checked = 0;
+        for k in 0..60 {
+            for j in 0..60 {
+                let (u, v) = (-150.0 + 5.0 * k as f32, -100.0 + 5.0 * j as f32);
+                let d = sil.at(u, v);
+                if d.abs() < 1.0 {
+                    continue;
+                }
+                let hair = frontal(&style, u, v).hair > 0.0;
+                assert_eq!(hair, d > 0.0, "({u}, {v}): distance {d}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 3000);
+        let centre_v = 30.0 + 0.75 * 115.0;
+        let at = |u: f32| frontal(&style, u, centre_v).height;
+        assert!(
+            at(0.0) > at(60.0) - 1.0 && at(55.0) > at(62.0),
+            "rounded from the edge"
+        );
+        assert!(fringe(&style, 0.0, 80.0) > 2.0, "over the forehead");
+        assert_eq!(fringe(&style, 0.0, 40.0), 0.0, "below the brows");
+        assert_eq!(fringe(&style, 0.0, 200.0), 0.0, "beyond the outline");
+        assert_eq!(
+            fringe(&HairStyle::default(), 0.0, 80.0),
+            0.0,
+            "no photo, no fringe"
+        );
     }
 
     /// Long hair falls where a photo's fall says (between its rows' reaches), else in the

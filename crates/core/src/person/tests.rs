@@ -549,35 +549,38 @@ fn a_receding_hairline_is_not_bald() {
 }
 
 /// The frontal gem's hair outline is measured against the photo's (issue #38): a short-haired
-/// head's own reading matches its photo better than long hair or a big volume would, and hair
-/// carved on a bald head overlaps next to nothing.
+/// head's own reading matches its photo better than long hair or a big volume would, the
+/// photo's own silhouette better than the template's outline sized to it, and hair carved on a
+/// bald head overlaps next to nothing.
 #[test]
 fn the_frontal_hair_outline_is_measured_against_the_photo() {
     use crate::gem::{HairStyle, hair_style, measure::frontal_hair_iou};
     let lm = landmarks();
     let short = analyse(&photo(hair_to(12.0, 0.0), BROWN, false), &lm).unwrap();
-    let own = frontal_hair_iou(&short.labels, &hair_style(&short), None).expect("hair on both");
+    let style = hair_style(&short);
+    let own = frontal_hair_iou(&short.labels, &style, None).expect("hair on both");
+    let sized = HairStyle {
+        silhouette: None,
+        ..style
+    };
     let long = HairStyle {
         end: -220.0,
-        ..hair_style(&short)
+        ..sized
     };
     let big = HairStyle {
         outline: None,
         volume: 32.0,
-        ..hair_style(&short)
+        ..sized
     };
     let worse = |style: &HairStyle| frontal_hair_iou(&short.labels, style, None).unwrap_or(0.0);
-    assert!(own > 0.3, "own {own:.2}");
-    assert!(
-        own > worse(&long) + 0.05,
-        "own {own:.2}, long {:.2}",
-        worse(&long)
-    );
-    assert!(
-        own > worse(&big) + 0.05,
-        "own {own:.2}, big {:.2}",
-        worse(&big)
-    );
+    assert!(own > 0.6, "own {own:.2}");
+    for (what, other) in [("sized", &sized), ("long", &long), ("big", &big)] {
+        assert!(
+            own > worse(other) + 0.05,
+            "own {own:.2}, {what} {:.2}",
+            worse(other)
+        );
+    }
     let bald = analyse(&photo(|_, _| false, BROWN, false), &lm).unwrap();
     let carved = frontal_hair_iou(&bald.labels, &HairStyle::default(), None).unwrap_or(0.0);
     assert!(carved < 0.1, "hair carved on a bald head: {carved:.2}");

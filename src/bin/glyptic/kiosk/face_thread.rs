@@ -15,8 +15,9 @@ pub(super) enum FaceNews {
     /// the stream and its latency from capture, ms.
     Update {
         face: Option<Vec<f32>>,
-        /// The visitor's hair once the person thread has settled it.
-        hair: Option<glyptic::gem::HairStyle>,
+        /// The visitor's hair once the person thread has settled it (boxed: its silhouette
+        /// grid is some kilobytes).
+        hair: Option<Box<glyptic::gem::HairStyle>>,
         frame: u64,
         latency_ms: f64,
     },
@@ -221,7 +222,7 @@ impl Live {
         }
         match stream.updates().try_recv() {
             Ok(Some(u)) => news.push(FaceNews::Update {
-                hair: u.hair,
+                hair: u.hair.map(Box::new),
                 face: u.face.map(|f| f.portrait),
                 frame: u.frame_index,
                 latency_ms: u.latency_ms,

@@ -109,7 +109,7 @@ impl Running {
                     if let Some(h) = hair {
                         self.visitor_hair = HairStyle {
                             glasses: h.glasses && self.carve_glasses,
-                            ..h
+                            ..*h
                         };
                     }
                     self.timeline.face_rate.tick();
