@@ -193,6 +193,7 @@ fn main() -> Result<()> {
         let hair = p.hair.map_or("bald".to_string(), |_| "yes".into());
         let f = |v: Option<f32>| v.map_or("-".into(), |v| format!("{v:.2}"));
         let h = p.hair;
+        let h_mask = h.map(|h| h.mask);
         println!(
             "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {ms:.0} | {:.1} | {:.2} | {:.2} | {} |",
             f(h.map(|h| h.crown)),
@@ -232,6 +233,39 @@ fn main() -> Result<()> {
                 })
             });
             pic.save(out.join(format!("{name}.iou.png")))?;
+            // The silhouette the gem's hair follows: the cleaned mask's hair white, its
+            // neither black, unknown grey; the gem's outline (signed distance 0) red.
+            if let (Some(hair), Some(sil)) = (h_mask, style.silhouette.as_ref()) {
+                use glyptic::person::{HairMask, MASK_COLS, MASK_ROWS};
+                let k = 4u32;
+                let pic =
+                    image::RgbImage::from_fn(MASK_COLS as u32 * k, MASK_ROWS as u32 * k, |x, y| {
+                        let (r, c) = ((y / k) as usize, (x / k) as usize);
+                        let [s, t] = HairMask::centre(r, c);
+                        let fine = |dx: f32, dy: f32| {
+                            let (u, v) = (
+                                (s + dx) * glyptic::gem::FACE_LENGTH_MM,
+                                glyptic::gem::EYES_V - (t + dy) * glyptic::gem::FACE_LENGTH_MM,
+                            );
+                            sil.at(u, v)
+                        };
+                        let step = glyptic::person::MASK_STEP / k as f32;
+                        let (dx, dy) =
+                            (((x % k) as f32 - 1.5) * step, ((y % k) as f32 - 1.5) * step);
+                        if fine(dx, dy).abs() < 2.0 {
+                            return image::Rgb([220, 40, 40]);
+                        }
+                        let share = hair.share[r][c];
+                        image::Rgb(if share.is_nan() {
+                            [120, 120, 120]
+                        } else if share >= 0.5 {
+                            [255, 255, 255]
+                        } else {
+                            [0, 0, 0]
+                        })
+                    });
+                pic.save(out.join(format!("{name}.mask.png")))?;
+            }
         }
     }
     if !sheet.is_empty() {
