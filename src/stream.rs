@@ -694,4 +694,41 @@ mod tests {
         assert_eq!(s.settled(), None);
         assert_eq!(s.push(style(0.0, 11.0)), None);
     }
+
+    /// The settled silhouette is the median of the readings': a slightly different outline
+    /// rebuilds nothing, hair grown out by a third of a face length does.
+    #[test]
+    fn the_hair_silhouette_settles_on_the_median_outline() {
+        use crate::person::{HairMask, MASK_COLS, MASK_ROWS};
+        let with = |radius: f32| {
+            let mut share = [[0.0; MASK_COLS]; MASK_ROWS];
+            for (r, row) in share.iter_mut().enumerate() {
+                for (c, x) in row.iter_mut().enumerate() {
+                    let [s, t] = HairMask::centre(r, c);
+                    *x = f32::from(u8::from(s.hypot(t + 0.6) < radius));
+                }
+            }
+            let plain = style(0.0, 11.0);
+            HairStyle {
+                silhouette: Some(Silhouette::from_mask(&HairMask { share }, &plain, 0.0)),
+                ..plain
+            }
+        };
+        let mut s = HairSmoother::default();
+        s.push(with(0.5));
+        s.push(with(0.55));
+        let first = s.push(with(0.5)).expect("three readings");
+        let outline = first.silhouette.expect("a silhouette");
+        assert_eq!(outline, with(0.5).silhouette.expect("one"), "the median");
+        assert_eq!(s.push(with(0.52)), None, "noise");
+        let mut grown = None;
+        for _ in 0..3 {
+            grown = grown.or(s.push(with(0.85)));
+        }
+        let grown = grown.and_then(|g| g.silhouette).expect("rebuilt");
+        assert!(
+            grown.at(0.0, 30.0 + 0.6 * 115.0 + 0.8 * 115.0) > 0.0,
+            "{grown:?}"
+        );
+    }
 }
