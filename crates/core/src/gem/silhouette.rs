@@ -83,13 +83,10 @@ impl Silhouette {
         let all: Vec<&Silhouette> = all.collect();
         let first = *all.first()?;
         let mut out = *first;
-        let mut v = Vec::with_capacity(all.len());
-        for r in 0..MASK_ROWS {
-            for c in 0..MASK_COLS {
-                v.clear();
-                v.extend(all.iter().map(|s| s.sdf[r][c]));
-                if let Some(m) = crate::person::median(v.clone()) {
-                    out.sdf[r][c] = m;
+        for (r, row) in out.sdf.iter_mut().enumerate() {
+            for (c, d) in row.iter_mut().enumerate() {
+                if let Some(m) = crate::person::median(all.iter().map(|s| s.sdf[r][c]).collect()) {
+                    *d = m;
                 }
             }
         }

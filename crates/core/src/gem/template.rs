@@ -255,16 +255,43 @@ fn swept_locks(
     lock(s, t, hash2(row as i32, j as i32))
 }
 
+/// Locks hanging down in rows across `x` (mm; each row `width` across, waving by `wave` mm
+/// every `period` mm of height), each lock `length` mm long; `salt` staggers the rows
+/// differently for each place they hang (fall, fringe, beard).
+fn hanging_locks(
+    x: f32,
+    v: f32,
+    width: f32,
+    length: f32,
+    (wave, period): (f32, f32),
+    salt: i32,
+) -> f32 {
+    let s = (x + wave * (v / period).sin()) / width;
+    let row = s.floor();
+    let t = -v / length + hash2(row as i32, salt);
+    lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32))
+}
+
+/// The frontal head's locks: swept round from the parting in the middle, down each side.
+fn frontal_locks(u: f32, v: f32, locks: (f32, f32, f32)) -> f32 {
+    let side = if u < 0.0 { -1.0 } else { 1.0 };
+    swept_locks(
+        u * side,
+        v,
+        [12.0, 30.0],
+        1.0,
+        std::f32::consts::FRAC_PI_2,
+        locks,
+    )
+}
+
 /// A beard's or moustache's locks at canonical (u, v), mm (about -0.8..2 around 0): rows of
 /// short locks hanging down, narrower and shorter the curlier the hair (`curl` as
 /// [`HairStyle::curl`]).
 pub fn beard_locks(u: f32, v: f32, curl: f32) -> f32 {
     let c = curl.clamp(0.0, 1.0);
     let (width, length, wave) = (7.0 - 3.0 * c, 16.0 - 8.0 * c, 0.5 + 2.0 * c);
-    let s = (u + wave * (v / 6.0).sin()) / width;
-    let row = s.floor();
-    let t = -v / length + hash2(row as i32, 23);
-    0.4 * lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32))
+    0.4 * hanging_locks(u, v, width, length, (wave, 6.0), 23)
 }
 
 /// The template at canonical point (u, v).
@@ -468,12 +495,9 @@ fn profile(style: &HairStyle, u: f32, v: f32) -> Sample {
         let under = height.max(45.0);
         let (w, seg, wave) = locks;
         // Locks run down the fall: rows across u, each lock `seg` x 60 mm long.
-        let s = (u + wave * (v / 25.0).sin()) / w;
-        let row = s.floor();
-        let t = -v / (60.0 * seg) + hash2(row as i32, 11);
         let fall = under
             + (14.0 + 0.6 * style.volume) * round * taper
-            + lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32));
+            + hanging_locks(u, v, w, 60.0 * seg, (wave, 25.0), 11);
         hair = Some(hair.map_or(fall, |h| h.max(fall)));
     }
     with_hair(height, hair)
@@ -611,7 +635,6 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
     };
     let envelope = dome(u, v - 44.0, half_width, half_height, 96.0 + 0.8 * extra);
     let locks = style.locks();
-    let side = if u < 0.0 { -1.0 } else { 1.0 };
     // Hair over the cranium above the ears' line, parted in the middle, swept down each side;
     // cut short, it ends above the ears (their tops at v = 41) but for a sideburn in front.
     let lowest = if style.ears_shown && style.end > -46.0 {
@@ -624,15 +647,7 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
         8.0 - 0.2 * u.abs()
     };
     let mut hair = (envelope > 0.0 && v > lowest).then(|| {
-        let full = 0.9 * envelope
-            + swept_locks(
-                u * side,
-                v,
-                [12.0, 30.0],
-                1.0,
-                std::f32::consts::FRAC_PI_2,
-                locks,
-            );
+        let full = 0.9 * envelope + frontal_locks(u, v, locks);
         if style.ears_shown {
             // Cut short, the hair thins onto the skin at its edge rather than ending in a
             // ledge (over 6 mm).
@@ -657,12 +672,9 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
             let round = (std::f32::consts::PI * across).sin().sqrt();
             let taper = smoothstep(style.end, style.end + 40.0, v);
             let (w, seg, wave) = locks;
-            let s = (a + wave * (v / 25.0).sin()) / w;
-            let row = s.floor();
-            let t = -v / (60.0 * seg) + hash2(row as i32, 13);
             let fall = height.max(30.0)
                 + (16.0 + 0.6 * style.volume) * round * taper
-                + lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32));
+                + hanging_locks(a, v, w, 60.0 * seg, (wave, 25.0), 13);
             hair = Some(hair.map_or(fall, |h| h.max(fall)));
         }
     }
@@ -686,11 +698,8 @@ pub fn fringe(style: &HairStyle, u: f32, v: f32) -> f32 {
         return 0.0;
     }
     let (w, seg, wave) = style.locks();
-    // Locks hanging down over the forehead, narrower than the head's.
-    let s = (u + wave * (v / 25.0).sin()) / (0.6 * w);
-    let row = s.floor();
-    let t = -v / (30.0 * seg) + hash2(row as i32, 31);
-    let texture = lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32));
+    // Locks hanging down over the forehead, narrower and shorter than the head's.
+    let texture = hanging_locks(u, v, 0.6 * w, 30.0 * seg, (wave, 25.0), 31);
     let ramp = smoothstep(0.0, 6.0, d) * brows;
     (ramp * (3.0 + 0.3 * style.volume + 0.5 * texture)).max(0.0)
 }
@@ -721,20 +730,9 @@ fn silhouette_hair(
     let mass = peak * (1.0 - (1.0 - x) * (1.0 - x)).sqrt();
     let layer = height + (3.0 + 0.5 * style.volume) * ramp;
     let locks = style.locks();
-    let side = if u < 0.0 { -1.0 } else { 1.0 };
-    let swept = swept_locks(
-        u * side,
-        v,
-        [12.0, 30.0],
-        1.0,
-        std::f32::consts::FRAC_PI_2,
-        locks,
-    );
+    let swept = frontal_locks(u, v, locks);
     let (w, seg, wave) = locks;
-    let s = (u.abs() + wave * (v / 25.0).sin()) / w;
-    let row = s.floor();
-    let t = -v / (60.0 * seg) + hash2(row as i32, 13);
-    let hanging = lock(s - row, t - t.floor(), hash2(row as i32, t.floor() as i32));
+    let hanging = hanging_locks(u.abs(), v, w, 60.0 * seg, (wave, 25.0), 13);
     let below = smoothstep(20.0, -20.0, v);
     let texture = swept + below * (hanging - swept);
     Some(mass.max(layer) + ramp * texture)

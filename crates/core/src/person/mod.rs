@@ -768,7 +768,19 @@ pub fn analyse_shaded(
     // Hair over less than a third of the crown: a bald head (perhaps with a fringe of hair
     // at the sides, which a carver leaves out at this size).
     let hair_traits = (!bald)
-        .then(|| traits(&labels, &col, w, h, &pos, &not_scalp, &skull, chin, half))
+        .then(|| {
+            let canvas = Canvas {
+                labels: &labels,
+                w,
+                h,
+                pos: &pos,
+                in_face: &not_scalp,
+                skull: &skull,
+                chin,
+                half,
+            };
+            traits(&canvas, &col)
+        })
         .flatten()
         .filter(|h| h.crown >= 0.33);
     Ok(Person {

@@ -75,19 +75,18 @@ pub(super) struct Decided {
     pub ear_bare: [bool; 2],
 }
 
-/// The silhouette from the labelled canvas (`pos`: a pixel's head-frame point, IOD).
-#[allow(clippy::too_many_arguments)]
-pub(super) fn hair_mask(
-    labels: &[Label],
-    w: usize,
-    h: usize,
-    pos: &dyn Fn(usize) -> [f32; 2],
-    in_face: &[bool],
-    skull: &dyn Fn([f32; 2]) -> f32,
-    chin: f32,
-    half: f32,
-    decided: &Decided,
-) -> HairMask {
+/// The silhouette from the labelled canvas.
+pub(super) fn hair_mask(canvas: &super::traits::Canvas, decided: &Decided) -> HairMask {
+    let super::traits::Canvas {
+        labels,
+        w,
+        h,
+        pos,
+        in_face,
+        skull,
+        chin,
+        half,
+    } = *canvas;
     let mut hair = vec![0u32; MASK_COLS * MASK_ROWS];
     let mut seen = vec![0u32; MASK_COLS * MASK_ROWS];
     let mut face = vec![0u32; MASK_COLS * MASK_ROWS];

@@ -32,19 +32,34 @@ const EAR_BARE: f32 = 0.3;
 /// Where hair without a curtain is taken to end (face lengths below the eyes: about the ears).
 const SHORT_LENGTH: f32 = 0.6;
 
-/// The hair's traits from its labelled pixels.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn traits(
-    labels: &[Label],
-    col: &[Colour],
-    w: usize,
-    h: usize,
-    pos: &dyn Fn(usize) -> [f32; 2],
-    in_face: &[bool],
-    skull: &dyn Fn([f32; 2]) -> f32,
-    chin: f32,
-    half: f32,
-) -> Option<Hair> {
+/// The labelled head frame that the hair's readings measure: its `w` x `h` pixels' labels,
+/// each pixel's head-frame point (`pos`, IOD), which pixels are the face's (not scalp), the
+/// skull's normalised radius at a point (1 on its outline), the face's length (eyes to chin)
+/// and half-width, IOD.
+#[derive(Clone, Copy)]
+pub(super) struct Canvas<'a> {
+    pub labels: &'a [Label],
+    pub w: usize,
+    pub h: usize,
+    pub pos: &'a dyn Fn(usize) -> [f32; 2],
+    pub in_face: &'a [bool],
+    pub skull: &'a dyn Fn([f32; 2]) -> f32,
+    pub chin: f32,
+    pub half: f32,
+}
+
+/// The hair's traits from its labelled pixels (`col`: each pixel's colour).
+pub(super) fn traits(canvas: &Canvas, col: &[Colour]) -> Option<Hair> {
+    let Canvas {
+        labels,
+        w,
+        h,
+        pos,
+        in_face,
+        skull,
+        chin,
+        half,
+    } = *canvas;
     // Scalp hair only (the face's own hair-coloured pixels are brows and beard).
     let hair: Vec<usize> = (0..w * h)
         .filter(|&i| labels[i] == Label::Hair && !in_face[i])
@@ -254,14 +269,7 @@ pub(super) fn traits(
     };
     let width = side_reach.max(1.08 * half) / chin;
     let mask = super::silhouette::hair_mask(
-        labels,
-        w,
-        h,
-        pos,
-        in_face,
-        skull,
-        chin,
-        half,
+        canvas,
         &super::silhouette::Decided {
             length,
             ear_bare: [ear_bare(0), ear_bare(1)],
