@@ -40,7 +40,8 @@ def main():
             hair = 'bald' if cells[1] == 'bald' else ('long' if length > 1.0 else 'short')
             curl = None if cells[6] == '-' else float(cells[6])
             iou = float(cells[17]) if len(cells) > 17 and cells[17] not in ('-', '') else None
-            read[name] = dict(hair=hair, curl=curl, iou=iou, beard='1' if beard > 0.55 else '0',
+            kind = cells[18] if len(cells) > 18 else None
+            read[name] = dict(hair=hair, curl=curl, iou=iou, kind=kind, beard='1' if beard > 0.55 else '0',
                               moustache='1' if moustache > 0.5 else '0',
                               glasses='1' if glasses > 0.5 else '0')
     both = [p for p in labels if p in read]
@@ -77,14 +78,30 @@ def main():
         for a in classes:
             print(f'| {name.get(a, a)} | ' + ' | '.join(str(conf[(a, b)]) for b in classes) + ' |')
         print()
-    # The hair's kind: no kind is decided yet; the curl measure per labelled kind.
-    kinds = defaultdict(list)
+    # The hair's kind: as decided (person_view's kind column) against the label (waves are
+    # not told from straight hair: a wavy label is right when read straight), with the curl
+    # measure per labelled kind.
+    kinds = ('straight', 'curly', 'cropped', 'bald')
+    same = {'wavy': 'straight'}
+    known = [p for p in both if labels[p]['kind'] not in ('-', '') and read[p]['kind']]
+    if known:
+        conf = Counter((labels[p]['kind'], read[p]['kind']) for p in known)
+        right = sum(v for (a, b), v in conf.items() if same.get(a, a) == b)
+        exact = sum(v for (a, b), v in conf.items() if a == b)
+        print(f'hair kind: {right} of {len(known)} agree (wavy read straight counted right; '
+              f'{exact} exactly)\n')
+        print('| kind: labelled \\ read | ' + ' | '.join(kinds) + ' |')
+        print('|---' * (len(kinds) + 1) + '|')
+        for a in ('straight', 'wavy', 'curly', 'cropped', 'bald'):
+            print(f'| {a} | ' + ' | '.join(str(conf[(a, b)]) for b in kinds) + ' |')
+        print()
+    curls = defaultdict(list)
     for p in both:
         if read[p]['curl'] is not None:
-            kinds[labels[p]['kind']].append(read[p]['curl'])
+            curls[labels[p]['kind']].append(read[p]['curl'])
     print('| labelled kind | photos | curl read: median | min | max |')
     print('|---|---|---|---|---|')
-    for k, v in sorted(kinds.items()):
+    for k, v in sorted(curls.items()):
         v.sort()
         print(f'| {k} | {len(v)} | {v[len(v) // 2]:.2f} | {v[0]:.2f} | {v[-1]:.2f} |')
     # The frontal gem's hair outline against the photo's hair (person_view's last column).
@@ -102,6 +119,13 @@ def main():
     agree = sum(Counter(v).most_common(1)[0][1] for v in groups.values())
     print(f'\nphotos read as their person\'s commonest reading (hair, beard, moustache, '
           f'glasses): {agree} of {len(both)}')
+    kinds = defaultdict(list)
+    for p in both:
+        if read[p]['kind']:
+            kinds[labels[p]['person']].append(read[p]['kind'])
+    same = sum(Counter(v).most_common(1)[0][1] for v in kinds.values())
+    print(f'photos whose hair kind is their person\'s commonest: {same} of '
+          f'{sum(len(v) for v in kinds.values())}')
 
 
 if __name__ == '__main__':

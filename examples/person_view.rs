@@ -1,6 +1,6 @@
 //! What [`glyptic::person`] finds on photos, as pictures: each photo with its hair tinted
 //! orange, the skin model's skin left as it is, background dimmed; and the traits as a table
-//! (hair, the beard's, jaw's and moustache's shares, whether glasses were found (1 or 0) and
+//! (hair, its kind and texture (`person::Texture`), the beard's, jaw's and moustache's shares, whether glasses were found (1 or 0) and
 //! their measures: the bridge's line, the lenses' darkness, the dark bar's dip), and how well
 //! the frontal gem's hair outline matches the photo's hair (intersection over union in the
 //! head frame, `glyptic::gem::measure::frontal_hair_iou`; `--iou` draws it as NAME.iou.png:
@@ -66,7 +66,7 @@ fn main() -> Result<()> {
             &glyptic::assets::onnxruntime_lib(),
         )?)
     };
-    let header = "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip | hair iou |";
+    let header = "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip | hair iou | kind | coherence | iod px |";
     println!("{header}");
     println!("{}|", "|---".repeat(header.matches('|').count() - 1));
     for photo in &photos {
@@ -195,7 +195,7 @@ fn main() -> Result<()> {
         let h = p.hair;
         let h_mask = h.map(|h| h.mask);
         println!(
-            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {ms:.0} | {:.1} | {:.2} | {:.2} | {} |",
+            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {ms:.0} | {:.1} | {:.2} | {:.2} | {} | {} | {} | {} |",
             f(h.map(|h| h.crown)),
             f(h.map(|h| h.top)),
             f(h.map(|h| h.sides)),
@@ -215,6 +215,9 @@ fn main() -> Result<()> {
                 &style,
                 gem_face.as_deref()
             )),
+            p.hair_kind().as_str(),
+            f(h.map(|h| h.texture.coherence)),
+            f(h.map(|h| h.texture.iod)),
         );
         if iou_pictures {
             // The frontal gem's hair against the photo's, in the head frame scaled by the

@@ -21,6 +21,7 @@
 
 mod colour;
 mod glasses;
+mod kind;
 mod silhouette;
 mod traits;
 
@@ -29,6 +30,7 @@ use image::RgbImage;
 pub(crate) use colour::inside;
 use colour::*;
 pub use glasses::{DARK_LENSES, GLASSES_BRIDGE, GLASSES_DIP, Glasses};
+pub use kind::{CROP_SIDES, CROP_TOP, HairKind, TEXTURED, Texture};
 pub use silhouette::{HairMask, MASK_COLS, MASK_ROWS, MASK_S, MASK_STEP, MASK_T};
 pub(crate) use traits::median;
 use traits::*;
@@ -81,10 +83,13 @@ pub struct Hair {
     /// half-widths (the wider side's median row): hair that falls past the jaw hangs there
     /// as a curtain; short hair leaves at most a shadowed strip along the cheek.
     pub curtain: f32,
-    /// 0 straight .. 1 tight curls (from how little its strands agree in direction).
+    /// 0 straight .. 1 tight curls (from how little its strands agree in direction at the
+    /// photo's resolution, [`Texture::coherence`]).
     pub curl: f32,
     /// Mean brightness 0..1 (grey and blond hair are light).
     pub brightness: f32,
+    /// Its texture at the photo's resolution (what its kind is read from).
+    pub texture: Texture,
 }
 
 /// Hair that ends more than this far below the eyes (face lengths) falls past the chin: long.
@@ -153,6 +158,13 @@ impl Person {
             None => HairLength::Bald,
             Some(h) if h.length > LONG_HAIR => HairLength::Long,
             Some(_) => HairLength::Short,
+        }
+    }
+    /// The hair's kind as decided (`kind`: its texture and how thick a layer it is).
+    pub fn hair_kind(&self) -> HairKind {
+        match self.hair {
+            None => HairKind::Bald,
+            Some(h) => kind::kind(&h.texture, h.top, h.sides, h.length),
         }
     }
     /// Whether the person wears glasses ([`Glasses::found`]).
@@ -782,7 +794,24 @@ pub fn analyse_shaded(
             traits(&canvas, &col)
         })
         .flatten()
-        .filter(|h| h.crown >= 0.33);
+        .filter(|h| h.crown >= 0.33)
+        .map(|found| {
+            let scalp_hair = |p: [f32; 2]| {
+                let c = ((p[0] - S_RANGE.0) / RES).floor();
+                let r = ((p[1] - T_RANGE.0) / RES).floor();
+                if !(c >= 0.0 && r >= 0.0 && c < w as f32 && r < h as f32) {
+                    return false;
+                }
+                let i = r as usize * w + c as usize;
+                labels[i] == Label::Hair && !not_scalp[i]
+            };
+            let texture = kind::measure(frame, iod, &lightness, &scalp_hair);
+            Hair {
+                texture,
+                curl: kind::curl(&texture),
+                ..found
+            }
+        });
     Ok(Person {
         hair: hair_traits,
         beard,

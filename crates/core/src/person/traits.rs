@@ -1,5 +1,6 @@
-//! The hair's traits (how far it stands out, how long it falls, how it curls) and the facial
-//! hair's shares, measured on the labelled head frame.
+//! The hair's traits (how far it stands out, how long it falls, its silhouette), measured on
+//! the labelled head frame. Its texture and curl are read at the photo's resolution
+//! (`super::kind`).
 
 // The pass's shared types and constants (this file is a part of `person`, split out).
 use super::*;
@@ -30,7 +31,7 @@ pub const FALL_ROWS: usize = 15;
 const EAR_BARE: f32 = 0.3;
 
 /// Where hair without a curtain is taken to end (face lengths below the eyes: about the ears).
-const SHORT_LENGTH: f32 = 0.6;
+pub(super) const SHORT_LENGTH: f32 = 0.6;
 
 /// The labelled head frame that the hair's readings measure: its `w` x `h` pixels' labels,
 /// each pixel's head-frame point (`pos`, IOD), which pixels are the face's (not scalp), the
@@ -230,36 +231,6 @@ pub(super) fn traits(canvas: &Canvas, col: &[Colour]) -> Option<Hair> {
             ];
         }
     }
-    // Curl: structure-tensor coherence of brightness over the hair (straight strands agree).
-    let lum: Vec<f32> = col.iter().map(|c| c[0]).collect();
-    let (mut jxx, mut jyy, mut jxy) = (vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]);
-    for y in 1..h - 1 {
-        for x in 1..w - 1 {
-            let i = y * w + x;
-            let gx = lum[i + 1] - lum[i - 1];
-            let gy = lum[i + w] - lum[i - w];
-            jxx[i] = gx * gx;
-            jyy[i] = gy * gy;
-            jxy[i] = gx * gy;
-        }
-    }
-    let (jxx, jyy, jxy) = (
-        box_blur(&jxx, w, h, 3),
-        box_blur(&jyy, w, h, 3),
-        box_blur(&jxy, w, h, 3),
-    );
-    let (mut num, mut den) = (0.0, 0.0);
-    for &i in &hair {
-        let tr = jxx[i] + jyy[i];
-        if tr < 1e-6 {
-            continue;
-        }
-        let diff = ((jxx[i] - jyy[i]).powi(2) + 4.0 * jxy[i].powi(2)).sqrt();
-        num += diff;
-        den += tr;
-    }
-    let coherence = if den > 0.0 { num / den } else { 1.0 };
-    let curl = ((0.55 - coherence) / 0.35).clamp(0.0, 1.0);
     let brightness = hair.iter().map(|&i| col[i][0]).sum::<f32>() / hair.len() as f32;
     // The hair's outline: its top above the eyes and its half-width at the temples.
     let height = if top_t.is_finite() {
@@ -285,7 +256,9 @@ pub(super) fn traits(canvas: &Canvas, col: &[Colour]) -> Option<Hair> {
         fall,
         mask,
         curtain,
-        curl,
         brightness,
+        // Read at the photo's resolution by the caller (`super::kind`).
+        curl: 0.0,
+        texture: super::Texture::default(),
     })
 }
