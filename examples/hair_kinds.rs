@@ -1,13 +1,14 @@
 //! The frontal hair the template carves today, one gem per kind, all on the Surrey mean face
 //! (no photo, so the picture may be committed): bald, short hair cut above the ears, hair
-//! standing wide, the classical template's hair, long hair falling as a photo's does, and a
-//! bearded, moustached face with glasses. The styles are what `gem::hair_style` makes of a
+//! standing wide, the classical template's hair, long hair falling as a photo's does, curly
+//! hair in snail curls (short and long), a crop stippled close to the skull, and a bearded,
+//! moustached face with glasses. The styles are what `gem::hair_style` makes of a
 //! photo's readings (issue #38); the picture shows what each reading turns into.
 //!
 //! `cargo run --release --example hair_kinds -- OUT.png`
 
 use anyhow::{Context, Result};
-use glyptic::gem::{self, HairStyle, View};
+use glyptic::gem::{self, HairCarving, HairStyle, View};
 use glyptic::person::FALL_ROWS;
 use glyptic::render::{RenderParams, Renderer};
 
@@ -23,7 +24,7 @@ fn main() -> Result<()> {
     for (k, row) in fall.iter_mut().enumerate().take(9) {
         *row = [58.0 + 2.0 * k as f32, 92.0 + 7.0 * k as f32];
     }
-    let kinds: [(&str, HairStyle); 6] = [
+    let kinds: [(&str, HairStyle); 9] = [
         (
             "bald",
             HairStyle {
@@ -56,6 +57,37 @@ fn main() -> Result<()> {
                 end: -200.0,
                 outline: Some([100.0, 170.0]),
                 fall: Some(fall),
+                ..HairStyle::default()
+            },
+        ),
+        (
+            "curly (snail curls)",
+            HairStyle {
+                volume: 16.0,
+                curl: 0.9,
+                carving: HairCarving::Curls,
+                outline: Some([104.0, 176.0]),
+                ..HairStyle::default()
+            },
+        ),
+        (
+            "long curls",
+            HairStyle {
+                end: -200.0,
+                curl: 0.7,
+                carving: HairCarving::Curls,
+                outline: Some([104.0, 172.0]),
+                fall: Some(fall),
+                ..HairStyle::default()
+            },
+        ),
+        (
+            "cropped (stippled)",
+            HairStyle {
+                volume: 4.0,
+                carving: HairCarving::Stippled,
+                ears_shown: true,
+                outline: Some([84.0, 158.0]),
                 ..HairStyle::default()
             },
         ),

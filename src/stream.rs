@@ -28,7 +28,7 @@ use image::RgbImage;
 
 use crate::capture::{Capture, CaptureEvent, CaptureSummary, Frame, LatestReceiver, latest};
 use crate::gem::silhouette::Silhouette;
-use crate::gem::{CameoBuilder, CameoParams, HairStyle};
+use crate::gem::{CameoBuilder, CameoParams, HairCarving, HairStyle};
 use crate::pipeline::Stage;
 use crate::render::Mesh;
 use crate::track::{TrackStep, TrackedFace, Tracker};
@@ -126,6 +126,24 @@ impl HairSmoother {
             volume: median(&scalp, &|s| s.volume),
             end: median(&scalp, &|s| s.end),
             curl: median(&scalp, &|s| s.curl),
+            // The commonest carving among the agreeing readings (locks on a tie: the last
+            // of the largest counts wins).
+            carving: {
+                let count = |c: HairCarving| {
+                    self.readings
+                        .iter()
+                        .filter(|s| scalp(s) && s.carving == c)
+                        .count()
+                };
+                [
+                    HairCarving::Stippled,
+                    HairCarving::Curls,
+                    HairCarving::Locks,
+                ]
+                .into_iter()
+                .max_by_key(|&c| count(c))
+                .unwrap_or_default()
+            },
             beard: if beard {
                 median(&bearded, &|s| s.beard)
             } else {
@@ -170,6 +188,7 @@ impl HairSmoother {
                 || (a.moustache > 0.0) != (b.moustache > 0.0)
                 || a.glasses != b.glasses
                 || a.ears_shown != b.ears_shown
+                || a.carving != b.carving
                 || (a.volume - b.volume).abs() > 3.0
                 || (a.end - b.end).abs() > 15.0
                 || (a.curl - b.curl).abs() > 0.2
@@ -730,5 +749,25 @@ mod tests {
             grown.at(0.0, 30.0 + 0.6 * 115.0 + 0.8 * 115.0) > 0.0,
             "{grown:?}"
         );
+    }
+
+    /// The carving is the readings' commonest (locks on a tie): one curly reading among
+    /// straight ones changes nothing, most readings curly rebuild in curls.
+    #[test]
+    fn the_hairs_carving_is_the_commonest_reading() {
+        let with = |carving: HairCarving| HairStyle {
+            carving,
+            ..style(0.0, 11.0)
+        };
+        let mut s = HairSmoother::default();
+        s.push(with(HairCarving::Locks));
+        s.push(with(HairCarving::Curls));
+        let first = s.push(with(HairCarving::Locks)).expect("three readings");
+        assert_eq!(first.carving, HairCarving::Locks);
+        assert_eq!(s.push(with(HairCarving::Curls)), None, "a tie keeps locks");
+        let curly = s
+            .push(with(HairCarving::Curls))
+            .expect("three curly of five");
+        assert_eq!(curly.carving, HairCarving::Curls);
     }
 }

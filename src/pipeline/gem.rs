@@ -520,11 +520,13 @@ fn describe_person(p: &crate::person::Person) -> String {
     let yes = |b: bool| if b { "yes" } else { "no" };
     let hair = match p.hair {
         Some(h) => format!(
-            "hair {} (ends {:.2} face lengths below the eyes, stands {:.2}, curl {:.2})",
+            "hair {} {} (ends {:.2} face lengths below the eyes, stands {:.2}, curl {:.2}, coherence {:.2})",
             p.hair_length().as_str(),
+            p.hair_kind().as_str(),
             h.length,
             h.top.max(0.7 * h.sides),
             h.curl,
+            h.texture.coherence,
         ),
         None => "hair bald".into(),
     };
@@ -552,12 +554,14 @@ pub fn person_json(p: &crate::person::Person) -> serde_json::Value {
             "ends_face_lengths": h.length,
             "curtain": h.curtain,
             "curl": h.curl,
+            "coherence": h.texture.coherence,
             "brightness": h.brightness,
         })
     });
     serde_json::json!({
         "hair": {
             "length": p.hair_length().as_str(),
+            "kind": p.hair_kind().as_str(),
             "measures": hair,
         },
         "beard": { "found": p.has_beard(), "chin_share": p.beard, "jaw_share": p.beard_jaw },

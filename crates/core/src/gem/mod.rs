@@ -41,7 +41,7 @@ pub use builder::CameoBuilder;
 pub use detail::{DetailParams, FaceDetail};
 pub use face::Placement;
 pub use obj::{ObjError, mesh_to_obj, parse_obj, to_obj};
-pub use template::{HairStyle, View};
+pub use template::{HairCarving, HairStyle, View};
 
 /// Why a cameo could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -231,13 +231,16 @@ fn check_params(p: &CameoParams) -> Result<(), GemError> {
 /// (canonical v), model mm: the unit [`crate::person`] measures hair in.
 pub const FACE_LENGTH_MM: f32 = 115.0;
 pub const EYES_V: f32 = 30.0;
+/// How far a crop stands over the skull, canonical mm.
+const CROP_VOLUME: f32 = 4.0;
 /// Hair ending no further below the eyes than this (face lengths) is cut above the ears.
 const SHORT_HAIR: f32 = 0.6 + 1e-3;
 
 /// A person's hair as the template carves it, from what their photo shows: none for a bald
 /// head; its volume from how far it stands above and beside the skull; where it ends from its
 /// length (below the nape it falls behind the neck and over the shoulders); its locks from its
-/// curl (straight hair in long locks, curls in short ones).
+/// curl (straight hair in long locks, curls in short ones); its carving from its kind (curly
+/// hair in snail curls, a crop stippled and close to the skull).
 pub fn hair_style(person: &crate::person::Person) -> HairStyle {
     let smooth = template::smoothstep;
     // Facial hair: a beard as thick as it is full (3 mm of stubble-length beard on a chin
@@ -269,9 +272,21 @@ pub fn hair_style(person: &crate::person::Person) -> HairStyle {
         };
     };
     let stand = h.top.max(0.7 * h.sides);
+    let carving = match person.hair_kind() {
+        crate::person::HairKind::Curly => template::HairCarving::Curls,
+        crate::person::HairKind::Cropped => template::HairCarving::Stippled,
+        _ => template::HairCarving::Locks,
+    };
+    let volume = (3.0 + 0.75 * FACE_LENGTH_MM * stand).clamp(3.0, 32.0);
     let style = HairStyle {
         bald: false,
-        volume: (3.0 + 0.75 * FACE_LENGTH_MM * stand).clamp(3.0, 32.0),
+        // A crop is a layer on the skull, whatever stood out of it in the photo (an ear).
+        volume: if carving == template::HairCarving::Stippled {
+            volume.min(CROP_VOLUME)
+        } else {
+            volume
+        },
+        carving,
         end: (EYES_V - h.length * FACE_LENGTH_MM).clamp(-290.0, -20.0),
         curl: (0.15 + 0.85 * h.curl).clamp(0.0, 1.0),
         // Hair that ends about the ears with nothing hanging beside the cheeks: cut above them.

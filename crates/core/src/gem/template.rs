@@ -70,8 +70,11 @@ pub struct HairStyle {
     /// Where it ends below the eyes' level (canonical v): about -45 at the nape, -80 at the
     /// chin, -200 at the shoulders; lower still, it falls over them.
     pub end: f32,
-    /// 0 straight (long parallel locks) .. 1 tight curls (short locks in narrow rows).
+    /// 0 straight (long parallel locks) .. 1 tight curls (short locks in narrow rows, or
+    /// smaller snail curls).
     pub curl: f32,
+    /// How the hair's surface is cut: locks, snail curls or a stippled crop.
+    pub carving: HairCarving,
     /// How thick the beard stands over the chin, mm (0: none; carved on the face by
     /// [`super::face::facial_hair`]).
     pub beard: f32,
@@ -110,6 +113,7 @@ impl Default for HairStyle {
             volume: 11.0,
             end: -45.0,
             curl: 0.5,
+            carving: HairCarving::Locks,
             beard: 0.0,
             beard_jaw: 0.0,
             moustache: 0.0,
@@ -122,7 +126,32 @@ impl Default for HairStyle {
     }
 }
 
+/// How a head of hair's surface is cut (`../shared/docs/cameo.md` section 5: cutters carve
+/// locks as ridges with grooves along the hair's flow, curls as drilled spirals, short crops
+/// as a fine stippled cap).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HairCarving {
+    /// Locks: ridges with grooves along the hair's flow (straight and wavy hair).
+    #[default]
+    Locks,
+    /// Snail curls: rounded bosses in staggered rows, each with a drilled centre and a groove
+    /// spiralling out from it (curly hair).
+    Curls,
+    /// A stippled cap hugging the skull (hair clipped close).
+    Stippled,
+}
+
 impl HairStyle {
+    /// The surface cut into the hair at (u, v), mm (about -2..5, as [`lock`]): `locks` is the
+    /// locks' relief there (computed only when the hair is carved in locks).
+    fn carved(&self, u: f32, v: f32, locks: impl FnOnce() -> f32) -> f32 {
+        match self.carving {
+            HairCarving::Locks => locks(),
+            HairCarving::Curls => snail_curls(u, v, 20.0 - 6.0 * self.curl.clamp(0.0, 1.0)),
+            HairCarving::Stippled => stipple(u, v),
+        }
+    }
+
     /// Rows of locks (mm across), lock length (radians of arc) and wave (mm) for its curl:
     /// the default's 15 mm rows of 62-degree locks at 0.5.
     fn locks(&self) -> (f32, f32, f32) {
@@ -253,6 +282,66 @@ fn swept_locks(
     let j = a.floor();
     let t = a - j;
     lock(s, t, hash2(row as i32, j as i32))
+}
+
+/// The nearest of a staggered grid's centres to (u, v): the grid `size` mm apart (rows
+/// `0.87 size` apart, every other one shifted half a step), each centre moved by up to
+/// `jitter` of a step; returns the offset from it and its row and column.
+fn nearest_centre(u: f32, v: f32, size: f32, jitter: f32) -> ([f32; 2], i32, i32) {
+    let row_h = 0.866 * size;
+    let r0 = (v / row_h).floor() as i32;
+    let mut best = ([f32::INFINITY; 2], 0, 0);
+    for row in r0 - 1..=r0 + 1 {
+        let shift = if row.rem_euclid(2) == 1 {
+            0.5 * size
+        } else {
+            0.0
+        };
+        let c0 = ((u - shift) / size).floor() as i32;
+        for col in c0 - 1..=c0 + 1 {
+            let cu = col as f32 * size + shift + jitter * size * (hash2(row, col) - 0.5);
+            let cv = row as f32 * row_h + jitter * size * (hash2(col, row ^ 0x55) - 0.5);
+            let d = [u - cu, v - cv];
+            if d[0].hypot(d[1]) < best.0[0].hypot(best.0[1]) {
+                best = (d, row, col);
+            }
+        }
+    }
+    best
+}
+
+/// Snail curls `size` mm apart at (u, v), mm: rounded bosses in staggered rows, each with a
+/// drilled centre and a groove turning once round it (at a cameo's scale a curl is a few
+/// relief cells across: the drill hole and the groove's crescent are what read). The same
+/// range as [`lock`]. Continuous: between two curls the ground is the same for both, and
+/// what turns with the angle fades out before a curl's edge.
+fn snail_curls(u: f32, v: f32, size: f32) -> f32 {
+    let ([du, dv], row, col) = nearest_centre(u, v, size, 0.12);
+    let radius = 0.5 * size;
+    let r = du.hypot(dv) / radius;
+    // Rounded, meeting the ground without a wall (a vertical edge would alias).
+    let boss = smoothstep(1.0, 0.15, r);
+    // Each curl turns its own way (a carver alternates them), its groove starting anywhere.
+    let sense = if hash2(row, col ^ 0x33) < 0.5 {
+        1.0
+    } else {
+        -1.0
+    };
+    let start = std::f32::consts::TAU * hash2(col, row ^ 0x77);
+    let phase = sense * dv.atan2(du) + std::f32::consts::TAU * r + start;
+    let groove =
+        smoothstep(0.3, 1.0, phase.cos()) * smoothstep(0.8, 0.55, r) * smoothstep(0.1, 0.3, r);
+    let drill = (-(r / 0.2).powi(2)).exp();
+    -2.0 + 7.0 * boss - 2.5 * groove - 5.0 * drill
+}
+
+/// A stippled cap at (u, v), mm: rounded points 8 mm apart (four relief cells: finer would
+/// average away), standing a millimetre and a half (hair clipped close: no locks, the skull's
+/// shape shows).
+fn stipple(u: f32, v: f32) -> f32 {
+    let ([du, dv], _, _) = nearest_centre(u, v, 8.0, 0.35);
+    let r = du.hypot(dv) / 3.6;
+    -0.5 + 2.0 * smoothstep(1.0, 0.2, r)
 }
 
 /// Locks hanging down in rows across `x` (mm; each row `width` across, waving by `wave` mm
@@ -482,7 +571,10 @@ fn profile(style: &HairStyle, u: f32, v: f32) -> Sample {
     );
     let locks = style.locks();
     let mut hair = (envelope > 0.0 && profile_hair_region(u, v)).then(|| {
-        0.93 * envelope + swept_locks(u, v, [128.0, 22.0], 1.0, std::f32::consts::PI, locks)
+        0.93 * envelope
+            + style.carved(u, v, || {
+                swept_locks(u, v, [128.0, 22.0], 1.0, std::f32::consts::PI, locks)
+            })
     });
     // Long hair: a fall of locks from the nape, standing over neck and shoulders.
     if let Some((front, back)) = profile_fall(style, v)
@@ -497,7 +589,9 @@ fn profile(style: &HairStyle, u: f32, v: f32) -> Sample {
         // Locks run down the fall: rows across u, each lock `seg` x 60 mm long.
         let fall = under
             + (14.0 + 0.6 * style.volume) * round * taper
-            + hanging_locks(u, v, w, 60.0 * seg, (wave, 25.0), 11);
+            + style.carved(u, v, || {
+                hanging_locks(u, v, w, 60.0 * seg, (wave, 25.0), 11)
+            });
         hair = Some(hair.map_or(fall, |h| h.max(fall)));
     }
     with_hair(height, hair)
@@ -647,7 +741,7 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
         8.0 - 0.2 * u.abs()
     };
     let mut hair = (envelope > 0.0 && v > lowest).then(|| {
-        let full = 0.9 * envelope + frontal_locks(u, v, locks);
+        let full = 0.9 * envelope + style.carved(u, v, || frontal_locks(u, v, locks));
         if style.ears_shown {
             // Cut short, the hair thins onto the skin at its edge rather than ending in a
             // ledge (over 6 mm).
@@ -674,7 +768,9 @@ fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
             let (w, seg, wave) = locks;
             let fall = height.max(30.0)
                 + (16.0 + 0.6 * style.volume) * round * taper
-                + hanging_locks(a, v, w, 60.0 * seg, (wave, 25.0), 13);
+                + style.carved(u, v, || {
+                    hanging_locks(a, v, w, 60.0 * seg, (wave, 25.0), 13)
+                });
             hair = Some(hair.map_or(fall, |h| h.max(fall)));
         }
     }
@@ -699,7 +795,9 @@ pub fn fringe(style: &HairStyle, u: f32, v: f32) -> f32 {
     }
     let (w, seg, wave) = style.locks();
     // Locks hanging down over the forehead, narrower and shorter than the head's.
-    let texture = hanging_locks(u, v, 0.6 * w, 30.0 * seg, (wave, 25.0), 31);
+    let texture = style.carved(u, v, || {
+        hanging_locks(u, v, 0.6 * w, 30.0 * seg, (wave, 25.0), 31)
+    });
     let ramp = smoothstep(0.0, 6.0, d) * brows;
     (ramp * (3.0 + 0.3 * style.volume + 0.5 * texture)).max(0.0)
 }
@@ -730,12 +828,20 @@ fn silhouette_hair(
     let mass = peak * (1.0 - (1.0 - x) * (1.0 - x)).sqrt();
     let layer = height + (3.0 + 0.5 * style.volume) * ramp;
     let locks = style.locks();
-    let swept = frontal_locks(u, v, locks);
-    let (w, seg, wave) = locks;
-    let hanging = hanging_locks(u.abs(), v, w, 60.0 * seg, (wave, 25.0), 13);
-    let below = smoothstep(20.0, -20.0, v);
-    let texture = swept + below * (hanging - swept);
-    Some(mass.max(layer) + ramp * texture)
+    let texture = style.carved(u, v, || {
+        let swept = frontal_locks(u, v, locks);
+        let (w, seg, wave) = locks;
+        let hanging = hanging_locks(u.abs(), v, w, 60.0 * seg, (wave, 25.0), 13);
+        let below = smoothstep(20.0, -20.0, v);
+        swept + below * (hanging - swept)
+    });
+    // A crop hugs the skull: the layer alone, no mass standing out.
+    let body = if style.carving == HairCarving::Stippled {
+        layer
+    } else {
+        mass.max(layer)
+    };
+    Some(body + ramp * texture)
 }
 
 #[cfg(test)]
@@ -1027,5 +1133,89 @@ mod tests {
         let hollow = ear(121.0 - 4.0, 8.0 - 1.0).unwrap();
         assert!(rim > hollow + 4.0, "rim {rim} hollow {hollow}");
         assert!(ear(121.0 + 30.0, 8.0).is_none());
+    }
+
+    /// Snail curls and the stipple stay within a lock's range and are continuous (no step
+    /// between neighbouring samples, which the relief would show as a seam), and each curl
+    /// has its drilled centre below its rim.
+    #[test]
+    fn curls_and_stipple_are_continuous_and_in_range() {
+        for size in [14.0f32, 17.0, 20.0] {
+            let (mut lo, mut hi, mut jump) = (f32::INFINITY, f32::NEG_INFINITY, 0f32);
+            for row in 0..40 {
+                let v = -100.0 + 5.3 * row as f32;
+                let mut last = snail_curls(-100.0, v, size);
+                for k in 1..4000 {
+                    let h = snail_curls(-100.0 + 0.05 * k as f32, v, size);
+                    (lo, hi) = (lo.min(h), hi.max(h));
+                    jump = jump.max((h - last).abs());
+                    last = h;
+                }
+            }
+            assert!(lo >= -6.0 && hi <= 5.5, "size {size}: {lo:.2}..{hi:.2}");
+            assert!(jump < 0.8, "size {size}: a step of {jump:.2} mm in 0.05 mm");
+            // A curl's centre (the grid's, unjittered at most 12 % of a step) is drilled.
+            let ([du, dv], _, _) = nearest_centre(3.0, 4.0, size, 0.12);
+            let (cu, cv) = (3.0 - du, 4.0 - dv);
+            let rim = (0..12)
+                .map(|k| {
+                    let a = std::f32::consts::TAU * k as f32 / 12.0;
+                    snail_curls(cu + 0.15 * size * a.cos(), cv + 0.15 * size * a.sin(), size)
+                })
+                .fold(f32::NEG_INFINITY, f32::max);
+            assert!(snail_curls(cu, cv, size) < rim - 1.0, "size {size}");
+        }
+        let (mut lo, mut hi, mut jump) = (f32::INFINITY, f32::NEG_INFINITY, 0f32);
+        let mut last = stipple(0.0, 7.0);
+        for k in 1..4000 {
+            let h = stipple(0.05 * k as f32, 7.0);
+            (lo, hi) = (lo.min(h), hi.max(h));
+            jump = jump.max((h - last).abs());
+            last = h;
+        }
+        assert!(lo >= -0.6 && hi <= 1.6 && hi - lo > 1.0, "{lo:.2}..{hi:.2}");
+        assert!(jump < 0.3, "{jump:.2}");
+    }
+
+    /// The carving changes the hair's surface only: the same hair outline in every view,
+    /// the face and bust untouched, and a crop standing lower than curls.
+    #[test]
+    fn the_carving_changes_only_the_hairs_surface() {
+        let locks = HairStyle::default();
+        let curls = HairStyle {
+            carving: HairCarving::Curls,
+            ..locks
+        };
+        let crop = HairStyle {
+            carving: HairCarving::Stippled,
+            volume: 4.0,
+            ..locks
+        };
+        for view in [View::Profile, View::Frontal] {
+            let (mut differ, mut hair) = (0, 0);
+            for v in (-250..250).step_by(5) {
+                for u in (-200..300).step_by(5) {
+                    let (u, v) = (u as f32, v as f32);
+                    let (a, b) = (sample(view, &locks, u, v), sample(view, &curls, u, v));
+                    if a.hair == 0.0 && b.hair == 0.0 {
+                        assert_eq!(a.height, b.height, "{view:?} off the hair at {u}, {v}");
+                    } else {
+                        hair += 1;
+                        differ += usize::from((a.height - b.height).abs() > 0.1);
+                    }
+                }
+            }
+            assert!(
+                differ > hair / 2,
+                "{view:?}: {differ} of {hair} hair samples differ"
+            );
+        }
+        let top = |style: &HairStyle| sample(View::Frontal, style, 0.0, 140.0).height;
+        assert!(
+            top(&crop) < top(&curls),
+            "crop {} curls {}",
+            top(&crop),
+            top(&curls)
+        );
     }
 }

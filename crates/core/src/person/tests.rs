@@ -585,3 +585,76 @@ fn the_frontal_hair_outline_is_measured_against_the_photo() {
     let carved = frontal_hair_iou(&bald.labels, &HairStyle::default(), None).unwrap_or(0.0);
     assert!(carved < 0.1, "hair carved on a bald head: {carved:.2}");
 }
+
+/// [`photo`] with its hair's brightness varied by `texture(x, y)` (a factor about 1).
+fn textured(hair: impl Fn(f32, f32) -> bool, texture: impl Fn(f32, f32) -> f32) -> RgbImage {
+    let mut img = photo(&hair, BROWN, false);
+    for (x, y, px) in img.enumerate_pixels_mut() {
+        if hair(x as f32, y as f32) {
+            let k = texture(x as f32, y as f32);
+            px.0 = px.0.map(|v| (f32::from(v) * k).clamp(0.0, 255.0) as u8);
+        }
+    }
+    img
+}
+
+/// Strands running down the head: light and dark lines 5 px apart (eyes 60 px apart).
+fn strands(x: f32, _y: f32) -> f32 {
+    1.0 + 0.45 * (std::f32::consts::TAU * x / 5.0).sin()
+}
+
+/// Curls: in each 9 px cell of a staggered grid, rings round its centre.
+fn curls(x: f32, y: f32) -> f32 {
+    let row = (y / 9.0).floor();
+    let shift = if row as i32 % 2 == 0 { 0.0 } else { 4.5 };
+    let (cx, cy) = (
+        ((x - shift) / 9.0).floor() * 9.0 + 4.5 + shift,
+        row * 9.0 + 4.5,
+    );
+    let r = (x - cx).hypot(y - cy);
+    1.0 + 0.45 * (std::f32::consts::TAU * r / 4.5).cos()
+}
+
+/// The hair's kind (issue #38): strands side by side are straight and carved in locks, curls
+/// standing out are curly and carved as snail curls, curls clipped to a thin layer are a crop
+/// carved stippled and close; a bald head is bald.
+#[test]
+fn the_hairs_kind_is_read_from_its_texture() {
+    use crate::gem::{HairCarving, hair_style};
+    let lm = landmarks();
+    let read = |img: &RgbImage| analyse(img, &lm).unwrap();
+    let straight = read(&textured(hair_to(14.0, 0.0), strands));
+    let curly = read(&textured(hair_to(16.0, 0.0), curls));
+    let cropped = read(&textured(hair_to(0.0, 0.0), curls));
+    let bald = read(&photo(|_, _| false, BROWN, false));
+    let coherence = |p: &Person| p.hair.map_or(f32::NAN, |h| h.texture.coherence);
+    assert!(
+        coherence(&straight) > 0.8 && coherence(&curly) < TEXTURED,
+        "straight {:.2}, curly {:.2}",
+        coherence(&straight),
+        coherence(&curly)
+    );
+    assert!(curly.hair.unwrap().curl > straight.hair.unwrap().curl + 0.5);
+    let kinds = [&straight, &curly, &cropped, &bald].map(|p| p.hair_kind());
+    assert_eq!(
+        kinds,
+        [
+            HairKind::Straight,
+            HairKind::Curly,
+            HairKind::Cropped,
+            HairKind::Bald
+        ],
+        "{:?}",
+        [&straight, &curly, &cropped].map(|p| p.hair.map(|h| (h.top, h.sides, h.texture)))
+    );
+    let carving = [&straight, &curly, &cropped].map(|p| hair_style(p).carving);
+    assert_eq!(
+        carving,
+        [
+            HairCarving::Locks,
+            HairCarving::Curls,
+            HairCarving::Stippled
+        ]
+    );
+    assert!(hair_style(&cropped).volume <= 4.0);
+}
