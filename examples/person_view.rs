@@ -66,7 +66,7 @@ fn main() -> Result<()> {
             &glyptic::assets::onnxruntime_lib(),
         )?)
     };
-    let header = "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip | hair iou | kind | coherence | iod px |";
+    let header = "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip | hair iou | kind | coherence | iod px | hat |";
     println!("{header}");
     println!("{}|", "|---".repeat(header.matches('|').count() - 1));
     for photo in &photos {
@@ -145,6 +145,7 @@ fn main() -> Result<()> {
                     Label::Skin => [232.0, 200.0, 170.0],
                     Label::Background => [70.0, 84.0, 110.0],
                     Label::Outside => [25.0, 25.0, 30.0],
+                    Label::Hat => [150.0, 60.0, 170.0],
                 }
             } else {
                 match label {
@@ -152,6 +153,11 @@ fn main() -> Result<()> {
                     Label::Skin => [r, g, b],
                     Label::Background => [0.35 * r, 0.35 * g, 0.35 * b + 60.0],
                     Label::Outside => [0.2 * r, 0.2 * g, 0.2 * b],
+                    Label::Hat => [
+                        0.35 * r + 0.65 * 150.0,
+                        0.35 * g + 0.65 * 60.0,
+                        0.35 * b + 0.65 * 170.0,
+                    ],
                 }
             };
             px.0 = c.map(|v| v.clamp(0.0, 255.0) as u8);
@@ -195,7 +201,7 @@ fn main() -> Result<()> {
         let h = p.hair;
         let h_mask = h.map(|h| h.mask);
         println!(
-            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {ms:.0} | {:.1} | {:.2} | {:.2} | {} | {} | {} | {} |",
+            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {ms:.0} | {:.1} | {:.2} | {:.2} | {} | {} | {} | {} | {:.0} |",
             f(h.map(|h| h.crown)),
             f(h.map(|h| h.top)),
             f(h.map(|h| h.sides)),
@@ -218,6 +224,7 @@ fn main() -> Result<()> {
             p.hair_kind().as_str(),
             f(h.map(|h| h.texture.coherence)),
             f(h.map(|h| h.texture.iod)),
+            p.hat,
         );
         if iou_pictures {
             // The frontal gem's hair against the photo's, in the head frame scaled by the

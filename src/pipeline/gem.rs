@@ -530,8 +530,16 @@ fn describe_person(p: &crate::person::Person) -> String {
         ),
         None => "hair bald".into(),
     };
+    let hat = if p.has_hat() {
+        format!(
+            "; a hat, left out of the hair (colour {:.0} from the hair's)",
+            p.hat
+        )
+    } else {
+        String::new()
+    };
     format!(
-        "{hair}; beard {} ({:.0} %), moustache {} ({:.0} %), glasses {} (bridge {:.1})",
+        "{hair}{hat}; beard {} ({:.0} %), moustache {} ({:.0} %), glasses {} (bridge {:.1})",
         yes(p.has_beard()),
         100.0 * p.beard,
         yes(p.has_moustache()),
@@ -566,6 +574,7 @@ pub fn person_json(p: &crate::person::Person) -> serde_json::Value {
         },
         "beard": { "found": p.has_beard(), "chin_share": p.beard, "jaw_share": p.beard_jaw },
         "moustache": { "found": p.has_moustache(), "lip_share": p.moustache },
+        "hat": { "found": p.has_hat(), "chroma_from_hair": p.hat },
         "glasses": {
             "found": p.has_glasses(),
             "bridge_line": p.glasses.bridge,

@@ -1445,6 +1445,11 @@ fn photo_and_render_report_in_json() {
     let person = &json["person"];
     assert_eq!(person["hair"]["length"], "short", "{person}");
     assert!(
+        ["straight", "curly", "cropped"].contains(&person["hair"]["kind"].as_str().unwrap_or("")),
+        "{person}"
+    );
+    assert_eq!(person["hat"]["found"], false, "{person}");
+    assert!(
         person["hair"]["measures"]["ends_face_lengths"].is_number(),
         "{person}"
     );
@@ -1455,6 +1460,7 @@ fn photo_and_render_report_in_json() {
         ("beard", "chin_share"),
         ("moustache", "lip_share"),
         ("glasses", "bridge_line"),
+        ("hat", "chroma_from_hair"),
     ] {
         assert!(person[what][measure].is_number(), "{what}: {person}");
     }

@@ -363,7 +363,7 @@ pub fn frontal_hair_cells(
             let s = -HAIR_IOU_S + (i as f32 + 0.5) * HAIR_IOU_STEP;
             let p = [s * chin, t * chin];
             let label = labels.at_head(p);
-            if label == Label::Outside || labels.in_face(p) {
+            if matches!(label, Label::Outside | Label::Hat) || labels.in_face(p) {
                 continue;
             }
             let photo = label == Label::Hair;

@@ -21,6 +21,7 @@
 
 mod colour;
 mod glasses;
+mod hat;
 mod kind;
 mod silhouette;
 mod traits;
@@ -30,6 +31,7 @@ use image::RgbImage;
 pub(crate) use colour::inside;
 use colour::*;
 pub use glasses::{DARK_LENSES, GLASSES_BRIDGE, GLASSES_DIP, Glasses};
+pub use hat::HAT;
 pub use kind::{CROP_SIDES, CROP_TOP, HairKind, TEXTURED, Texture};
 pub use silhouette::{HairMask, MASK_COLS, MASK_ROWS, MASK_S, MASK_STEP, MASK_T};
 pub(crate) use traits::median;
@@ -139,6 +141,9 @@ pub struct Person {
     /// What was measured for glasses (the bridge's thin line, dark lenses, a thick frame's
     /// dark bar); [`Glasses::found`] decides.
     pub glasses: Glasses,
+    /// How unlike the hair beside the temples what covers the crown is (`hat`; over
+    /// [`HAT`]: a hat, labelled [`Label::Hat`] and left out of the hair).
+    pub hat: f32,
     /// The labelled canvas, for pictures and measurement.
     pub labels: Labels,
 }
@@ -167,6 +172,10 @@ impl Person {
             Some(h) => kind::kind(&h.texture, h.top, h.sides, h.length),
         }
     }
+    /// Whether a hat covers the crown (its pixels are [`Label::Hat`], not hair).
+    pub fn has_hat(&self) -> bool {
+        self.hat > HAT
+    }
     /// Whether the person wears glasses ([`Glasses::found`]).
     pub fn has_glasses(&self) -> bool {
         self.glasses.found()
@@ -180,6 +189,8 @@ pub enum Label {
     Background,
     Skin,
     Hair,
+    /// Something worn over the hair (`hat`): the hair under it is not seen.
+    Hat,
 }
 
 /// The head frame's canvas with a label per pixel, and the way back to the photo.
@@ -777,6 +788,26 @@ pub fn analyse_shaded(
             in_face[i] || (beard > BEARD_SHARE && p[1] > cheeks && p[0].abs() < 1.15 * half)
         })
         .collect();
+    // A hat over the hair: its pixels leave the hair (the hair under it is not seen).
+    let canvas = Canvas {
+        labels: &labels,
+        w,
+        h,
+        pos: &pos,
+        in_face: &not_scalp,
+        skull: &skull,
+        chin,
+        half,
+    };
+    let hat = hat::distance(&canvas, &col);
+    let worn = if hat > HAT {
+        hat::mark(&canvas, &col)
+    } else {
+        Vec::new()
+    };
+    for i in worn {
+        labels[i] = Label::Hat;
+    }
     // Hair over less than a third of the crown: a bald head (perhaps with a fringe of hair
     // at the sides, which a carver leaves out at this size).
     let hair_traits = (!bald)
@@ -818,6 +849,7 @@ pub fn analyse_shaded(
         beard_jaw,
         moustache,
         glasses,
+        hat,
         labels: Labels {
             width: w,
             height: h,

@@ -99,7 +99,8 @@ pub(super) fn hair_mask(canvas: &super::traits::Canvas, decided: &Decided) -> Ha
     let mut beyond = vec![0u32; MASK_COLS * MASK_ROWS];
     for i in 0..w * h {
         let Some(k) = cell_of(pos(i)) else { continue };
-        if labels[i] == Label::Outside {
+        // Beyond the photo or under a hat: not seen.
+        if matches!(labels[i], Label::Outside | Label::Hat) {
             beyond[k] += 1;
             continue;
         }

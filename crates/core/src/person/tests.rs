@@ -658,3 +658,31 @@ fn the_hairs_kind_is_read_from_its_texture() {
     );
     assert!(hair_style(&cropped).volume <= 4.0);
 }
+
+/// A hat is not hair (issue #38): a red hat with a brim over short brown hair is found, its
+/// pixels labelled `Hat`, and the hair is still the person's own (short, not bald); grey
+/// temples under dark hair (a difference of lightness, not of colour) are no hat.
+#[test]
+fn a_hat_is_left_out_of_the_hair() {
+    let lm = landmarks();
+    let hat = |x: f32, y: f32| {
+        let crown = ((x - 200.0) / 80.0).powi(2) + ((y - 120.0) / 75.0).powi(2) < 1.0 && y < 128.0;
+        crown || (x - 200.0).abs() < 118.0 && (118.0..134.0).contains(&y)
+    };
+    let hatted = paint(&photo(hair_to(8.0, 0.0), BROWN, false), [150, 40, 45], hat);
+    let p = analyse(&hatted, &lm).unwrap();
+    assert!(p.has_hat(), "hat measure {:.1}", p.hat);
+    assert!(p.labels.labels.contains(&Label::Hat));
+    assert_eq!(p.labels.at_pixel(200.0, 100.0), Label::Hat);
+    assert_eq!(p.hair_length(), HairLength::Short, "{:?}", p.hair);
+    // Grey temples, dark hair above.
+    let grey = paint(
+        &photo(hair_to(10.0, 0.0), BROWN, false),
+        [150, 150, 148],
+        |x, y| hair_to(10.0, 0.0)(x, y) && y > 135.0,
+    );
+    let p = analyse(&grey, &lm).unwrap();
+    // Compared (both sides read), and apart in lightness only.
+    assert!(p.hat > 0.0 && !p.has_hat(), "hat measure {:.1}", p.hat);
+    assert!(!p.labels.labels.contains(&Label::Hat));
+}

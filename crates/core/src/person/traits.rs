@@ -76,7 +76,7 @@ pub(super) fn traits(canvas: &Canvas, col: &[Colour]) -> Option<Hair> {
     let mut crown_px = 0usize;
     for i in 0..w * h {
         let p = pos(i);
-        if labels[i] == Label::Outside
+        if matches!(labels[i], Label::Outside | Label::Hat)
             || in_face[i]
             || p[1] > -0.75 * chin
             || p[0].abs() > 0.8 * half
