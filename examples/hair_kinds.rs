@@ -5,7 +5,8 @@
 //! moustached face with glasses. The styles are what `gem::hair_style` makes of a
 //! photo's readings (issue #38); the picture shows what each reading turns into.
 //!
-//! `cargo run --release --example hair_kinds -- OUT.png`
+//! `cargo run --release --example hair_kinds -- OUT.png` (it prints each kind's builder time:
+//! what a new hair style costs a kiosk rebuild).
 
 use anyhow::{Context, Result};
 use glyptic::gem::{self, HairCarving, HairStyle, View};
@@ -122,6 +123,17 @@ fn main() -> Result<()> {
             hair: *style,
             ..View::Frontal.cameo()
         };
+        // What a new hair style costs the kiosk: the builder (head, hair and bezel sampled
+        // from the template), the median of three, one thread.
+        let mut times: Vec<f64> = (0..3)
+            .map(|_| {
+                let t = std::time::Instant::now();
+                let builder = gem::CameoBuilder::new(&cameo);
+                std::hint::black_box(builder.is_ok());
+                t.elapsed().as_secs_f64() * 1e3
+            })
+            .collect();
+        times.sort_by(f64::total_cmp);
         let mesh = gem::build_cameo(&mean, triangles, &cameo)?;
         let rgba = renderer.render(&mesh, &params)?;
         let rgb = image::DynamicImage::ImageRgba8(rgba).into_rgb8();
@@ -131,7 +143,7 @@ fn main() -> Result<()> {
             i64::from(k as u32 * (params.width + gap)),
             0,
         );
-        println!("{k}: {name}");
+        println!("{k}: {name} (builder {:.1} ms)", times[1]);
     }
     sheet.save(&out).with_context(|| out.clone())?;
     println!("wrote {out}");
