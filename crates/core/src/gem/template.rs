@@ -539,6 +539,11 @@ fn profile_fall(style: &HairStyle, v: f32) -> Option<(f32, f32)> {
     Some((front, back))
 }
 
+/// The profile hair's envelope: its centre's height (canonical v) and its least half-height
+/// (its crown 6 mm over the cranium's top at v = 152).
+const PROFILE_HAIR_CENTRE_V: f32 = 55.0;
+const PROFILE_CROWN_MIN: f32 = 103.0;
+
 fn profile(style: &HairStyle, u: f32, v: f32) -> Sample {
     let cranium = dome(u - 112.0, v - 52.0, 98.0, 100.0, 77.0);
     let mut body = if above_truncation(u, v) {
@@ -560,13 +565,23 @@ fn profile(style: &HairStyle, u: f32, v: f32) -> Sample {
         return with_hair(height, None);
     }
     // The envelope over the cranium: the default style's 108 x 112 x 90 mm stands about 11 mm
-    // above the skull.
+    // above the skull. Its crown as high as the photo's hair where it was read (the
+    // silhouette's top, else the outline's: a head's height is the same seen from the front
+    // and the side), at least 6 mm over the cranium.
     let extra = style.volume - 11.0;
+    let photo_top = style
+        .silhouette
+        .as_ref()
+        .and_then(|s| s.top())
+        .or(style.outline.map(|o| o[1]));
+    let half_height = photo_top.map_or(112.0 + extra, |top| {
+        (top - PROFILE_HAIR_CENTRE_V).clamp(PROFILE_CROWN_MIN, 150.0)
+    });
     let envelope = dome(
         u - 114.0 - 0.3 * extra,
-        v - 55.0,
+        v - PROFILE_HAIR_CENTRE_V,
         108.0 + extra,
-        112.0 + extra,
+        half_height,
         90.0 + 0.8 * extra,
     );
     let locks = style.locks();
@@ -1217,5 +1232,32 @@ mod tests {
             top(&crop),
             top(&curls)
         );
+    }
+
+    /// In profile the crown stands as high as the photo's hair (its outline's top), never
+    /// lower than just over the cranium; without a photo, by the volume as before.
+    #[test]
+    fn the_profile_crown_follows_the_photos_hair_top() {
+        let top_of = |style: &HairStyle| {
+            (0..400)
+                .map(|k| k as f32 * 0.5)
+                .filter(|&v| {
+                    (60..200).any(|u| sample(View::Profile, style, u as f32, v).hair > 0.0)
+                })
+                .fold(f32::NEG_INFINITY, f32::max)
+        };
+        let plain = HairStyle::default();
+        let tall = HairStyle {
+            outline: Some([100.0, 195.0]),
+            ..plain
+        };
+        let flat = HairStyle {
+            outline: Some([90.0, 120.0]),
+            ..plain
+        };
+        assert!((top_of(&plain) - 167.0).abs() < 3.0, "{}", top_of(&plain));
+        assert!((top_of(&tall) - 195.0).abs() < 3.0, "{}", top_of(&tall));
+        let least = PROFILE_HAIR_CENTRE_V + PROFILE_CROWN_MIN;
+        assert!((top_of(&flat) - least).abs() < 3.0, "{}", top_of(&flat));
     }
 }
