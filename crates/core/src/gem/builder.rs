@@ -281,14 +281,15 @@ impl CameoBuilder {
                 if p.hair.glasses {
                     carved += face::glasses(&eyes, view, u, v);
                 }
-                // Facial hair carved in locks, as deep as it is thick (up to 4 mm).
+                // Facial hair carved as the hair is cut (`template::beard_texture`), as deep as
+                // it is thick (up to 4 mm).
                 let thick = fuzz.get(i).copied().unwrap_or(0.0);
                 // The photo's detail, except under a beard (carved as locks instead).
                 if let Some(d) = &photo {
                     carved += d[i] * (1.0 - template::smoothstep(0.5, 2.0, thick));
                 }
                 let locks = if thick > 0.05 {
-                    (thick / 4.0).min(1.0) * template::beard_locks(u, v, p.hair.curl)
+                    (thick / 4.0).min(1.0) * template::beard_texture(&p.hair, u, v)
                 } else {
                     0.0
                 };
@@ -334,7 +335,7 @@ impl CameoBuilder {
                     }
                     let s = k as f32 / (reach + 1) as f32;
                     let [u, v] = canonical(i);
-                    let locks = (thick / 4.0).min(1.0) * template::beard_locks(u, v, p.hair.curl);
+                    let locks = (thick / 4.0).min(1.0) * template::beard_texture(&p.hair, u, v);
                     let below = if mask[i] { portrait[i] } else { 0.0 };
                     let hanging = portrait[top] * (1.0 - 0.6 * s * s) + (1.0 - s) * locks;
                     if hanging > below {

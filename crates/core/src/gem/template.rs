@@ -339,8 +339,13 @@ fn snail_curls(u: f32, v: f32, size: f32) -> f32 {
 /// average away), standing a millimetre and a half (hair clipped close: no locks, the skull's
 /// shape shows).
 fn stipple(u: f32, v: f32) -> f32 {
-    let ([du, dv], _, _) = nearest_centre(u, v, 8.0, 0.35);
-    let r = du.hypot(dv) / 3.6;
+    stipple_at(u, v, 8.0)
+}
+
+/// Stippled points `size` mm apart, about -0.5..1.5 mm.
+fn stipple_at(u: f32, v: f32, size: f32) -> f32 {
+    let ([du, dv], _, _) = nearest_centre(u, v, size, 0.35);
+    let r = du.hypot(dv) / (0.45 * size);
     -0.5 + 2.0 * smoothstep(1.0, 0.2, r)
 }
 
@@ -377,10 +382,26 @@ fn frontal_locks(u: f32, v: f32, locks: (f32, f32, f32)) -> f32 {
 /// A beard's or moustache's locks at canonical (u, v), mm (about -0.8..2 around 0): rows of
 /// short locks hanging down, narrower and shorter the curlier the hair (`curl` as
 /// [`HairStyle::curl`]).
-pub fn beard_locks(u: f32, v: f32, curl: f32) -> f32 {
+fn beard_locks(u: f32, v: f32, curl: f32) -> f32 {
     let c = curl.clamp(0.0, 1.0);
     let (width, length, wave) = (7.0 - 3.0 * c, 16.0 - 8.0 * c, 0.5 + 2.0 * c);
     0.4 * hanging_locks(u, v, width, length, (wave, 6.0), 23)
+}
+
+/// A beard no thicker than this (mm) is stubble-length: stippled, not in locks.
+pub const STUBBLE_MM: f32 = 4.0;
+
+/// Facial hair's surface at canonical (u, v), mm (about -0.8..2 around 0), as the person's
+/// hair is cut: a short beard stippled, curly hair's beard in small drilled curls, otherwise
+/// [`beard_locks`].
+pub fn beard_texture(style: &HairStyle, u: f32, v: f32) -> f32 {
+    if style.beard > 0.0 && style.beard <= STUBBLE_MM {
+        0.5 * stipple_at(u, v, 6.0)
+    } else if style.carving == HairCarving::Curls {
+        0.3 * snail_curls(u, v, 9.0)
+    } else {
+        beard_locks(u, v, style.curl)
+    }
 }
 
 /// The template at canonical point (u, v).
@@ -1259,5 +1280,39 @@ mod tests {
         assert!((top_of(&tall) - 195.0).abs() < 3.0, "{}", top_of(&tall));
         let least = PROFILE_HAIR_CENTRE_V + PROFILE_CROWN_MIN;
         assert!((top_of(&flat) - least).abs() < 3.0, "{}", top_of(&flat));
+    }
+
+    /// Facial hair is cut as the hair is: a stubble-length beard stippled, curly hair's beard
+    /// in curls, otherwise locks; each within the few millimetres a beard's surface carries.
+    #[test]
+    fn the_beard_is_cut_as_the_hair_is() {
+        let locks = HairStyle {
+            beard: 9.0,
+            ..HairStyle::default()
+        };
+        let curls = HairStyle {
+            carving: HairCarving::Curls,
+            ..locks
+        };
+        let stubble = HairStyle {
+            beard: 3.0,
+            ..curls
+        };
+        let along = |style: &HairStyle| -> Vec<f32> {
+            (0..400)
+                .map(|k| beard_texture(style, -20.0 + 0.1 * k as f32, -60.0 + 0.037 * k as f32))
+                .collect()
+        };
+        let (l, c, s) = (along(&locks), along(&curls), along(&stubble));
+        for v in l.iter().chain(&c).chain(&s) {
+            assert!((-1.5..=2.5).contains(v), "{v}");
+        }
+        let differ = |a: &[f32], b: &[f32]| {
+            a.iter()
+                .zip(b)
+                .filter(|(x, y)| (*x - *y).abs() > 0.2)
+                .count()
+        };
+        assert!(differ(&l, &c) > 100 && differ(&c, &s) > 100 && differ(&l, &s) > 100);
     }
 }
