@@ -653,19 +653,23 @@ fn with_hair(height: f32, hair: Option<f32>) -> Sample {
 /// trapezius slopes to the shoulders, a broad chest, the two sternocleidomastoids in a V, and
 /// the mantle from a brooch on the viewer's right shoulder.
 fn frontal_body(u: f32, v: f32) -> f32 {
-    if v > -20.0 || v < -330.0 + 30.0 * (u / 150.0).powi(2) {
+    // The truncation: a rounded lower edge (a wall there aliases into a saw-tooth).
+    let cut = -330.0 + 30.0 * (u / 150.0).powi(2);
+    if v > -20.0 || v < cut {
         return 0.0;
     }
+    let truncation = smoothstep(cut, cut + 16.0, v).sqrt();
     let neck = dome(u, 0.0, 54.0, 1.0, 1.0) * 38.0 + if u.abs() < 54.0 { 8.0 } else { 0.0 };
     let neck = if v < 10.0 { neck } else { 0.0 };
     // Shoulders: from the neck's sides down to the shoulder tips, a smooth ramp.
-    // The trapezius droops from the neck in a curve to the rounded shoulder.
+    // The trapezius droops from the neck in a curve to the rounded shoulder, which falls to
+    // the ground at its outer edge in a quarter-round (a deltoid, not a wall).
     let shoulder_line = -105.0 - 0.0042 * (u.abs() - 45.0).max(0.0).powi(2);
     let breadth = 150.0;
     let shoulders = if v < shoulder_line && u.abs() < breadth {
-        let edge = (1.0 - (u / breadth).powi(2)).max(0.0).sqrt();
+        let edge = (1.0 - (u / breadth).powi(4)).max(0.0).sqrt();
         let top = smoothstep(shoulder_line, shoulder_line - 30.0, v);
-        (30.0 + 28.0 * edge) * top.sqrt()
+        58.0 * edge * top.sqrt()
     } else {
         0.0
     };
@@ -678,16 +682,22 @@ fn frontal_body(u: f32, v: f32) -> f32 {
         let (d, s) = segment([u, v], [side * 66.0, -25.0], [side * 14.0, -185.0]);
         body +=
             6.0 * (-(d / 10.0).powi(2)).exp() * (std::f32::consts::PI * s).sin().max(0.0).sqrt();
-        // The clavicle, a soft ridge (a hard bar reads as a yoke from the front).
-        let (d2, s2) = segment([u, v], [side * 16.0, -196.0], [side * 110.0, -188.0]);
+        // The clavicle, a soft ridge bowed up towards the shoulder (a straight bar reads as
+        // a yoke from the front).
+        let (_, s2) = segment([u, v], [side * 18.0, -200.0], [side * 108.0, -180.0]);
+        let bow = 6.0 * (std::f32::consts::PI * s2).sin();
+        let (d2, _) = segment([u, v - bow], [side * 18.0, -200.0], [side * 108.0, -180.0]);
         body +=
-            3.0 * (-(d2 / 8.0).powi(2)).exp() * (std::f32::consts::PI * s2).sin().max(0.0).sqrt();
+            2.5 * (-(d2 / 8.0).powi(2)).exp() * (std::f32::consts::PI * s2).sin().max(0.0).sqrt();
     }
-    // The mantle: over the viewer's right shoulder and across the chest below a neckline.
+    // The pit between the clavicles, at the neck's foot.
+    body -= 5.0 * (-((u / 14.0).powi(2) + ((v + 196.0) / 11.0).powi(2))).exp();
+    // The mantle: over the viewer's right shoulder, pinned by a brooch, and across the chest
+    // below a neckline.
     let neckline = -250.0 + 0.9 * (u - 40.0);
+    let brooch = [118.0, -228.0];
     if v < neckline {
-        let b = [118.0, -228.0];
-        let (d, _) = segment([u, v], b, [-150.0, -300.0]);
+        let (d, _) = segment([u, v], brooch, [-150.0, -300.0]);
         let psi = d / 15.0;
         let f = psi - psi.floor();
         let ridge = if f < 0.75 {
@@ -698,13 +708,13 @@ fn frontal_body(u: f32, v: f32) -> f32 {
         body += 5.0 + 6.0 * smoothstep(5.0, 30.0, d) * (ridge - 0.5);
     }
     body += 5.0 * (-((v - neckline) / 5.0).powi(2)).exp() * smoothstep(-160.0, -120.0, u);
-    let dr = (u - 118.0).hypot(v + 228.0);
+    let dr = (u - brooch[0]).hypot(v - brooch[1]);
     if dr < 20.0 {
         let ring = 5.0 * (-((dr - 17.0) / 2.5).powi(2)).exp();
-        let boss = dome(u - 118.0, v + 228.0, 16.0, 16.0, 12.0);
+        let boss = dome(u - brooch[0], v - brooch[1], 16.0, 16.0, 12.0);
         body = body.max(chest.max(30.0) + 10.0 + boss.max(ring));
     }
-    body.max(0.0)
+    (body * truncation).max(0.0)
 }
 
 /// The fall's inner and outer reach at canonical height `v` (mm), between the rows' middles;
