@@ -177,9 +177,10 @@ pub struct ChoiceArgs {
     pub detail: f32,
     /// How many faces the likeness search draws and judges with the face-recognition network
     /// (the portrait's identity steered towards the photo, within the face model's prior);
-    /// 0 keeps the landmark fit's identity. About 13 ms a face on two CPU cores (the default
-    /// adds about 270 ms to a photo).
-    #[arg(long, value_name = "FACES", default_value_t = 11,
+    /// 0 (the default) keeps the landmark fit's identity: on the whole gem the search no
+    /// longer brings the gems nearer their people (BENCHMARKS.md, issue #37, measured twice).
+    /// About 13 ms a face on two CPU cores plus the network's start (11 faces: about 270 ms).
+    #[arg(long, value_name = "FACES", default_value_t = 0,
           value_parser = clap::value_parser!(u32).range(0..=2000))]
     pub likeness_search: u32,
     /// How strongly the face's shape read from the photo's shading is carved (the cheeks,

@@ -347,7 +347,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 expression: glyptic::pipeline::PORTRAIT_EXPRESSION,
                 glasses: GlassesArg::Carve,
                 detail: 1.0,
-                likeness_search: 11,
+                likeness_search: 0,
                 shading: 1.0,
             },
             landmarks_out: None,
