@@ -75,17 +75,8 @@ pub(super) fn measure(frame: Frame, iod: f32, lightness: &dyn Fn(f32, f32) -> f3
     let mut canvas = vec![0f32; w * h];
     for r in 0..h {
         for c in 0..w {
-            let (s, t) = (-S_SPAN + c as f32 * RES, T_TOP + r as f32 * RES);
-            let mut sum = 0.0;
-            for i in 0..k {
-                for j in 0..k {
-                    let ds = ((i as f32 + 0.5) / k as f32 - 0.5) * RES;
-                    let dt = ((j as f32 + 0.5) / k as f32 - 0.5) * RES;
-                    let [x, y] = frame.to_pixel([s + ds, t + dt]);
-                    sum += lightness(x, y);
-                }
-            }
-            canvas[r * w + c] = sum / (k * k) as f32;
+            let p = [-S_SPAN + c as f32 * RES, T_TOP + r as f32 * RES];
+            canvas[r * w + c] = frame.cell_mean(p, RES, k, lightness);
         }
     }
     let row = |t: f32| ((t - T_TOP) / RES).round() as usize;

@@ -154,17 +154,7 @@ pub(super) fn measure(
     let mut canvas = vec![0f32; cw * ch];
     for r in 0..ch {
         for c in 0..cw {
-            let [s, t] = at(c0 + c, r0 + r);
-            let mut sum = 0.0;
-            for i in 0..k {
-                for j in 0..k {
-                    let ds = ((i as f32 + 0.5) / k as f32 - 0.5) * RES;
-                    let dt = ((j as f32 + 0.5) / k as f32 - 0.5) * RES;
-                    let [x, y] = frame.to_pixel([s + ds, t + dt]);
-                    sum += lightness(x, y);
-                }
-            }
-            canvas[r * cw + c] = sum / (k * k) as f32;
+            canvas[r * cw + c] = frame.cell_mean(at(c0 + c, r0 + r), RES, k, lightness);
         }
     }
     let inside: Vec<usize> = (0..cw * ch)

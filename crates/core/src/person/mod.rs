@@ -341,6 +341,28 @@ impl Frame {
             self.origin[1] + s * ay + t * ax,
         ]
     }
+    /// The photo's mean `lightness` over the square head-frame cell of side `res` (IOD)
+    /// centred at `p`, from `k` x `k` sub-samples: a large photo seen at a canvas's resolution
+    /// without aliasing, a small one interpolated.
+    fn cell_mean(
+        self,
+        [s, t]: [f32; 2],
+        res: f32,
+        k: usize,
+        lightness: &dyn Fn(f32, f32) -> f32,
+    ) -> f32 {
+        let k = k.max(1);
+        let mut sum = 0.0;
+        for i in 0..k {
+            for j in 0..k {
+                let ds = ((i as f32 + 0.5) / k as f32 - 0.5) * res;
+                let dt = ((j as f32 + 0.5) / k as f32 - 0.5) * res;
+                let [x, y] = self.to_pixel([s + ds, t + dt]);
+                sum += lightness(x, y);
+            }
+        }
+        sum / (k * k) as f32
+    }
     fn to_head(self, [x, y]: [f32; 2]) -> [f32; 2] {
         let [ax, ay] = self.axis;
         let n = ax * ax + ay * ay;
