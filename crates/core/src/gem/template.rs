@@ -148,7 +148,8 @@ impl HairStyle {
         match self.carving {
             HairCarving::Locks => locks(),
             HairCarving::Curls => snail_curls(u, v, 20.0 - 6.0 * self.curl.clamp(0.0, 1.0)),
-            HairCarving::Stippled => stipple(u, v),
+            // 8 mm: four relief cells (finer points would average away).
+            HairCarving::Stippled => stipple(u, v, 8.0),
         }
     }
 
@@ -335,15 +336,9 @@ fn snail_curls(u: f32, v: f32, size: f32) -> f32 {
     -2.0 + 7.0 * boss - 2.5 * groove - 5.0 * drill
 }
 
-/// A stippled cap at (u, v), mm: rounded points 8 mm apart (four relief cells: finer would
-/// average away), standing a millimetre and a half (hair clipped close: no locks, the skull's
-/// shape shows).
-fn stipple(u: f32, v: f32) -> f32 {
-    stipple_at(u, v, 8.0)
-}
-
-/// Stippled points `size` mm apart, about -0.5..1.5 mm.
-fn stipple_at(u: f32, v: f32, size: f32) -> f32 {
+/// Stippled points `size` mm apart at (u, v), mm, standing a millimetre and a half (about
+/// -0.5..1.5): a crop's cap (no locks, the skull's shape shows) or stubble.
+fn stipple(u: f32, v: f32, size: f32) -> f32 {
     let ([du, dv], _, _) = nearest_centre(u, v, size, 0.35);
     let r = du.hypot(dv) / (0.45 * size);
     -0.5 + 2.0 * smoothstep(1.0, 0.2, r)
@@ -396,7 +391,7 @@ pub const STUBBLE_MM: f32 = 4.0;
 /// [`beard_locks`].
 pub fn beard_texture(style: &HairStyle, u: f32, v: f32) -> f32 {
     if style.beard > 0.0 && style.beard <= STUBBLE_MM {
-        0.5 * stipple_at(u, v, 6.0)
+        0.5 * stipple(u, v, 6.0)
     } else if style.carving == HairCarving::Curls {
         0.3 * snail_curls(u, v, 9.0)
     } else {
@@ -1212,9 +1207,9 @@ mod tests {
             assert!(snail_curls(cu, cv, size) < rim - 1.0, "size {size}");
         }
         let (mut lo, mut hi, mut jump) = (f32::INFINITY, f32::NEG_INFINITY, 0f32);
-        let mut last = stipple(0.0, 7.0);
+        let mut last = stipple(0.0, 7.0, 8.0);
         for k in 1..4000 {
-            let h = stipple(0.05 * k as f32, 7.0);
+            let h = stipple(0.05 * k as f32, 7.0, 8.0);
             (lo, hi) = (lo.min(h), hi.max(h));
             jump = jump.max((h - last).abs());
             last = h;

@@ -25,9 +25,10 @@ pub const HAT: f32 = 36.0;
 /// The fewest pixels on each side of the comparison.
 const ENOUGH: usize = 40;
 
-/// The crown's colour against the temples' hair: the distance of their medians' chroma
-/// ([`HAT`]; 0 where either is too small to tell).
-pub(super) fn distance(canvas: &Canvas, col: &[Colour]) -> f32 {
+/// The crown's colour against the temples' hair, the distance of their medians' chroma
+/// ([`HAT`]; 0 where either is too small to tell), and over [`HAT`] the hat's pixels: the
+/// hair-labelled ones above the brows nearer the crown's colours than the temples' hair.
+pub(super) fn read(canvas: &Canvas, col: &[Colour]) -> (f32, Vec<usize>) {
     let Canvas {
         labels,
         w,
@@ -39,59 +40,32 @@ pub(super) fn distance(canvas: &Canvas, col: &[Colour]) -> f32 {
         ..
     } = *canvas;
     let hair = |i: usize| labels[i] == Label::Hair && !in_face[i];
-    // Beside the temples, from a little above the brows to the eyes: under a brim.
-    let side: Vec<Colour> = (0..w * h)
-        .filter(|&i| {
-            let p = pos(i);
-            hair(i)
-                && (0.95 * half..1.5 * half).contains(&p[0].abs())
-                && (-0.45 * chin..0.1 * chin).contains(&p[1])
-        })
-        .map(|i| col[i])
-        .collect();
-    let top: Vec<Colour> = (0..w * h)
-        .filter(|&i| {
-            let p = pos(i);
-            hair(i) && p[1] < -0.85 * chin && p[0].abs() < 0.8 * half
-        })
-        .map(|i| col[i])
-        .collect();
-    if side.len() < ENOUGH || top.len() < ENOUGH {
-        return 0.0;
-    }
-    let mid = |v: &[Colour], k: usize| median(v.iter().map(|c| c[k]).collect()).unwrap_or(0.0);
-    100.0 * (mid(&top, 1) - mid(&side, 1)).hypot(mid(&top, 2) - mid(&side, 2))
-}
-
-/// The hat's pixels: the hair-labelled ones above the brows nearer the crown's colours than
-/// the temples' hair.
-pub(super) fn mark(canvas: &Canvas, col: &[Colour]) -> Vec<usize> {
-    let Canvas {
-        w,
-        h,
-        pos,
-        in_face,
-        chin,
-        half,
-        ..
-    } = *canvas;
-    let hair = |i: usize| canvas.labels[i] == Label::Hair && !in_face[i];
     let of = |keep: &dyn Fn([f32; 2]) -> bool| -> Vec<Colour> {
         (0..w * h)
             .filter(|&i| hair(i) && keep(pos(i)))
             .map(|i| col[i])
             .collect()
     };
+    // Beside the temples, from a little above the brows to the eyes: under a brim.
     let side = of(&|p| {
         (0.95 * half..1.5 * half).contains(&p[0].abs())
             && (-0.45 * chin..0.1 * chin).contains(&p[1])
     });
     let top = of(&|p| p[1] < -0.85 * chin && p[0].abs() < 0.8 * half);
+    if side.len() < ENOUGH || top.len() < ENOUGH {
+        return (0.0, Vec::new());
+    }
+    let mid = |v: &[Colour], k: usize| median(v.iter().map(|c| c[k]).collect()).unwrap_or(0.0);
+    let distance = 100.0 * (mid(&top, 1) - mid(&side, 1)).hypot(mid(&top, 2) - mid(&side, 2));
+    if distance <= HAT {
+        return (distance, Vec::new());
+    }
     let (Some(own), Some(worn)) = (Gmm::fit(&side, 1), Gmm::fit(&top, 2)) else {
-        return Vec::new();
+        return (distance, Vec::new());
     };
     // Above the brows' level: a hat does not hang beside the face.
-    (0..w * h)
+    let pixels = (0..w * h)
         .filter(|&i| hair(i) && pos(i)[1] < -0.3 * chin && worn.d2(col[i]) < own.d2(col[i]))
-        .collect()
+        .collect();
+    (distance, pixels)
 }

@@ -214,19 +214,22 @@ impl Labels {
     }
 
     /// The label at head-frame point `[s, t]` (IOD; `Outside` beyond the canvas).
-    pub fn at_head(&self, [s, t]: [f32; 2]) -> Label {
-        let c = ((s - S_RANGE.0) / RES).floor();
-        let r = ((t - T_RANGE.0) / RES).floor();
-        if !(c >= 0.0 && r >= 0.0 && c < self.width as f32 && r < self.height as f32) {
-            return Label::Outside;
-        }
-        self.labels[r as usize * self.width + c as usize]
+    pub fn at_head(&self, p: [f32; 2]) -> Label {
+        canvas_index(self.width, self.height, p).map_or(Label::Outside, |i| self.labels[i])
     }
 
     /// Whether head-frame point `p` (IOD) is inside the face's outline.
     pub fn in_face(&self, p: [f32; 2]) -> bool {
         inside(&self.face, p)
     }
+}
+
+/// The index of the analysis canvas's pixel (`w` x `h`, row-major) at head-frame point
+/// `[s, t]` (IOD); `None` beyond it.
+fn canvas_index(w: usize, h: usize, [s, t]: [f32; 2]) -> Option<usize> {
+    let c = ((s - S_RANGE.0) / RES).floor();
+    let r = ((t - T_RANGE.0) / RES).floor();
+    (c >= 0.0 && r >= 0.0 && c < w as f32 && r < h as f32).then(|| r as usize * w + c as usize)
 }
 
 /// Where the person (head, hair, body, hat, hands) is in the photo as opposed to the background,
@@ -821,12 +824,7 @@ pub fn analyse_shaded(
         chin,
         half,
     };
-    let hat = hat::distance(&canvas, &col);
-    let worn = if hat > HAT {
-        hat::mark(&canvas, &col)
-    } else {
-        Vec::new()
-    };
+    let (hat, worn) = hat::read(&canvas, &col);
     for i in worn {
         labels[i] = Label::Hat;
     }
@@ -850,13 +848,7 @@ pub fn analyse_shaded(
         .filter(|h| h.crown >= 0.33)
         .map(|found| {
             let scalp_hair = |p: [f32; 2]| {
-                let c = ((p[0] - S_RANGE.0) / RES).floor();
-                let r = ((p[1] - T_RANGE.0) / RES).floor();
-                if !(c >= 0.0 && r >= 0.0 && c < w as f32 && r < h as f32) {
-                    return false;
-                }
-                let i = r as usize * w + c as usize;
-                labels[i] == Label::Hair && !not_scalp[i]
+                canvas_index(w, h, p).is_some_and(|i| labels[i] == Label::Hair && !not_scalp[i])
             };
             let texture = kind::measure(frame, iod, &lightness, &scalp_hair);
             Hair {
