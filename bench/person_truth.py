@@ -8,7 +8,8 @@ labelled kind of hair.
 
 Usage: bench/person_truth.py LABELS.tsv TABLE.md [TABLE.md ...]
 TABLE.md: what `cargo run --release --example person_view -- OUT PHOTO...` prints.
-The thresholds are glyptic's own: beard share above 0.55, moustache above 0.5 (crates/core/src/person/mod.rs);
+The thresholds are glyptic's own: beard share above 0.55, moustache above 0.5 (crates/core/src/person/mod.rs),
+or the chin's / upper lip's stubble ratio above 3 (person/stubble.rs);
 glasses as `person_view` decided them (1 or 0); hair longer than one face length below the eyes is long.
 Standard library only."""
 import sys
@@ -41,8 +42,13 @@ def main():
             curl = None if cells[6] == '-' else float(cells[6])
             iou = float(cells[17]) if len(cells) > 17 and cells[17] not in ('-', '') else None
             kind = cells[18] if len(cells) > 18 else None
-            read[name] = dict(hair=hair, curl=curl, iou=iou, kind=kind, beard='1' if beard > 0.55 else '0',
-                              moustache='1' if moustache > 0.5 else '0',
+            # Stubble (columns 23 and 25, where the table has them): the chin's or the upper
+            # lip's fine detail over 3 times the cheeks' (person::STUBBLE).
+            chin_stubble = float(cells[22]) if len(cells) > 24 else 0.0
+            lip_stubble = float(cells[24]) if len(cells) > 24 else 0.0
+            read[name] = dict(hair=hair, curl=curl, iou=iou, kind=kind,
+                              beard='1' if beard > 0.55 or chin_stubble > 3.0 else '0',
+                              moustache='1' if moustache > 0.5 or lip_stubble > 3.0 else '0',
                               glasses='1' if glasses > 0.5 else '0')
     both = [p for p in labels if p in read]
     print(f'{len(both)} labelled photos read ({len(labels)} labelled, '

@@ -66,7 +66,7 @@ fn main() -> Result<()> {
             &glyptic::assets::onnxruntime_lib(),
         )?)
     };
-    let header = "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip | hair iou | kind | coherence | iod px | hat |";
+    let header = "| photo | hair | crown | top | sides | length | curl | brightness | beard | jaw | moustache | glasses | curtain | ms | bridge | lenses | dip | hair iou | kind | coherence | iod px | hat | stubble | chin detail | lip stubble |";
     println!("{header}");
     println!("{}|", "|---".repeat(header.matches('|').count() - 1));
     for photo in &photos {
@@ -201,7 +201,7 @@ fn main() -> Result<()> {
         let h = p.hair;
         let h_mask = h.map(|h| h.mask);
         println!(
-            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {ms:.0} | {:.1} | {:.2} | {:.2} | {} | {} | {} | {} | {:.0} |",
+            "| {name} | {hair} | {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {ms:.0} | {:.1} | {:.2} | {:.2} | {} | {} | {} | {} | {:.0} | {:.2} | {:.4} | {:.2} |",
             f(h.map(|h| h.crown)),
             f(h.map(|h| h.top)),
             f(h.map(|h| h.sides)),
@@ -225,6 +225,9 @@ fn main() -> Result<()> {
             f(h.map(|h| h.texture.coherence)),
             f(h.map(|h| h.texture.iod)),
             p.hat,
+            p.stubble.ratio(),
+            p.stubble.chin,
+            p.stubble.lip_ratio(),
         );
         if iou_pictures {
             // The frontal gem's hair against the photo's, in the head frame scaled by the

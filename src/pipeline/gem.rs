@@ -538,12 +538,19 @@ fn describe_person(p: &crate::person::Person) -> String {
     } else {
         String::new()
     };
+    // "beard stubble" where only the texture found it; the stubble's ratio beside the share.
+    let beard = if p.stubble_only() {
+        "stubble"
+    } else {
+        yes(p.has_beard())
+    };
     format!(
-        "{hair}{hat}; beard {} ({:.0} %), moustache {} ({:.0} %), glasses {} (bridge {:.1})",
-        yes(p.has_beard()),
+        "{hair}{hat}; beard {beard} ({:.0} %, stubble {:.1}), moustache {} ({:.0} %, stubble {:.1}), glasses {} (bridge {:.1})",
         100.0 * p.beard,
+        p.stubble.ratio(),
         yes(p.has_moustache()),
         100.0 * p.moustache,
+        p.stubble.lip_ratio(),
         yes(p.has_glasses()),
         p.glasses.bridge,
     )
@@ -572,8 +579,18 @@ pub fn person_json(p: &crate::person::Person) -> serde_json::Value {
             "kind": p.hair_kind().as_str(),
             "measures": hair,
         },
-        "beard": { "found": p.has_beard(), "chin_share": p.beard, "jaw_share": p.beard_jaw },
-        "moustache": { "found": p.has_moustache(), "lip_share": p.moustache },
+        "beard": {
+            "found": p.has_beard(),
+            "stubble_only": p.stubble_only(),
+            "chin_share": p.beard,
+            "jaw_share": p.beard_jaw,
+            "chin_stubble": p.stubble.ratio(),
+        },
+        "moustache": {
+            "found": p.has_moustache(),
+            "lip_share": p.moustache,
+            "lip_stubble": p.stubble.lip_ratio(),
+        },
         "hat": { "found": p.has_hat(), "chroma_from_hair": p.hat },
         "glasses": {
             "found": p.has_glasses(),

@@ -1454,11 +1454,14 @@ fn photo_and_render_report_in_json() {
         "{person}"
     );
     assert_eq!(person["beard"]["found"], false, "{person}");
+    assert_eq!(person["beard"]["stubble_only"], false, "{person}");
     assert_eq!(person["glasses"]["found"], false, "{person}");
     assert!(person["moustache"]["found"].is_boolean(), "{person}");
     for (what, measure) in [
         ("beard", "chin_share"),
+        ("beard", "chin_stubble"),
         ("moustache", "lip_share"),
+        ("moustache", "lip_stubble"),
         ("glasses", "bridge_line"),
         ("hat", "chroma_from_hair"),
     ] {

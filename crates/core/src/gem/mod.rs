@@ -233,6 +233,10 @@ pub const FACE_LENGTH_MM: f32 = 115.0;
 pub const EYES_V: f32 = 30.0;
 /// How far a crop stands over the skull, canonical mm.
 const CROP_VOLUME: f32 = 4.0;
+/// A stubble beard's thickness (mm, under [`template::STUBBLE_MM`]: stippled) and how far over
+/// the jaw it is carved (0 chin alone .. 1 the whole jaw).
+const STUBBLE_BEARD: f32 = 2.5;
+const STUBBLE_JAW: f32 = 0.6;
 /// Hair ending no further below the eyes than this (face lengths) is cut above the ears.
 const SHORT_HAIR: f32 = 0.6 + 1e-3;
 
@@ -245,7 +249,12 @@ pub fn hair_style(person: &crate::person::Person) -> HairStyle {
     let smooth = template::smoothstep;
     // Facial hair: a beard as thick as it is full (3 mm of stubble-length beard on a chin
     // alone, 12 mm when it covers the whole jaw densely), a moustache a little thinner.
-    let (beard, beard_jaw) = if person.has_beard() {
+    // A beard found only by its stubble's texture is stubble-length (stippled) and, as
+    // stubble grows, over the jaw as well as the chin (its extent is not measured: the lower
+    // cheeks' detail told shaven from stubbled jaws no better than chance).
+    let (beard, beard_jaw) = if person.stubble_only() {
+        (STUBBLE_BEARD, STUBBLE_JAW)
+    } else if person.has_beard() {
         (
             3.0 + 9.0 * smooth(0.6, 0.95, person.beard_jaw),
             smooth(0.4, 0.8, person.beard_jaw),

@@ -24,6 +24,7 @@ mod glasses;
 mod hat;
 mod kind;
 mod silhouette;
+mod stubble;
 mod traits;
 
 use image::RgbImage;
@@ -34,6 +35,7 @@ pub use glasses::{DARK_LENSES, GLASSES_BRIDGE, GLASSES_DIP, Glasses};
 pub use hat::HAT;
 pub use kind::{CROP_SIDES, CROP_TOP, HairKind, TEXTURED, Texture};
 pub use silhouette::{HairMask, MASK_COLS, MASK_ROWS, MASK_S, MASK_STEP, MASK_T};
+pub use stubble::{STUBBLE, Stubble};
 pub(crate) use traits::median;
 use traits::*;
 pub use traits::{CURTAIN, FALL_ROWS, FALL_STEP, FALL_TOP};
@@ -144,18 +146,26 @@ pub struct Person {
     /// How unlike the hair beside the temples what covers the crown is (`hat`; over
     /// [`HAT`]: a hat, labelled [`Label::Hat`] and left out of the hair).
     pub hat: f32,
+    /// The chin's fine detail against the cheeks' (`stubble`).
+    pub stubble: Stubble,
     /// The labelled canvas, for pictures and measurement.
     pub labels: Labels,
 }
 
 impl Person {
-    /// Whether a beard is carved (more than [`BEARD_SHARE`] of the chin).
+    /// Whether a beard is carved: more than [`BEARD_SHARE`] of the chin is hair-coloured,
+    /// or the chin is stubbled ([`Stubble::on_chin`]).
     pub fn has_beard(&self) -> bool {
-        self.beard > BEARD_SHARE
+        self.beard > BEARD_SHARE || self.stubble.on_chin()
     }
-    /// Whether a moustache is carved (more than [`MOUSTACHE_SHARE`] of the upper lip).
+    /// Whether the beard is stubble only: found by its texture, not its colour.
+    pub fn stubble_only(&self) -> bool {
+        self.beard <= BEARD_SHARE && self.stubble.on_chin()
+    }
+    /// Whether a moustache is carved: more than [`MOUSTACHE_SHARE`] of the upper lip, or a
+    /// stubbled one.
     pub fn has_moustache(&self) -> bool {
-        self.moustache > MOUSTACHE_SHARE
+        self.moustache > MOUSTACHE_SHARE || self.stubble.on_lip()
     }
     /// The hair's length as decided.
     pub fn hair_length(&self) -> HairLength {
@@ -802,6 +812,24 @@ pub fn analyse_shaded(
         dip,
         ..glasses::measure(frame, iod, &lightness)
     };
+    // Stubble: the chin's fine detail against the upper cheeks' (beside the nose, below the
+    // eyes' shadow, above where a beard grows).
+    let chin_region = |p: [f32; 2]| inside(&chin_poly, p);
+    let cheek_region = |p: [f32; 2]| {
+        inside(&face_poly, p)
+            && (0.3..0.6 * half).contains(&p[0].abs())
+            && p[1] > 0.35
+            && p[1] < nose_base
+    };
+    let lip_region = |p: [f32; 2]| inside(&lip_poly, p);
+    let stubble = stubble::measure(
+        frame,
+        iod,
+        &lightness,
+        &chin_region,
+        &lip_region,
+        &cheek_region,
+    );
 
     // The scalp's hair is measured without the face, nor a beard's (below the nose's base,
     // within the jaw's breadth, where it joins the sideburns and hangs under the chin; long
@@ -864,6 +892,7 @@ pub fn analyse_shaded(
         moustache,
         glasses,
         hat,
+        stubble,
         labels: Labels {
             width: w,
             height: h,
