@@ -5,6 +5,7 @@
 //!
 //! `cargo run --release --example bench_render -- [FRAMES]` (scripts/bench-render.sh runs it and
 //! writes bench/results/render.md). Needs the Surrey model from scripts/setup.sh.
+//! `GLYPTIC_BENCH_SIZES=1920x1080,3840x2160` adds frame sizes to the passes' table (on a GPU).
 
 use std::time::Instant;
 
@@ -154,7 +155,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "| size | material | SSS | scene ms | SSS ms | composite ms | frame ms | SSS / scene |"
     );
     println!("|---|---|---|---|---|---|---|---|");
-    for (w, h) in [(640, 400), (1280, 800)] {
+    // Larger frames where a GPU can afford them: `GLYPTIC_BENCH_SIZES=1920x1080,3840x2160`.
+    let mut sizes = vec![(640u32, 400u32), (1280, 800)];
+    for item in std::env::var("GLYPTIC_BENCH_SIZES")
+        .unwrap_or_default()
+        .split(',')
+        .filter(|s| !s.trim().is_empty())
+    {
+        let parsed = item
+            .trim()
+            .split_once('x')
+            .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)));
+        sizes.push(parsed.ok_or_else(|| format!("GLYPTIC_BENCH_SIZES: {item:?} is not WxH"))?);
+    }
+    for &(w, h) in &sizes {
         for material in [Material::Marble, Material::Agate] {
             for sss in [None, Some(SssParams::default())] {
                 let p = RenderParams {
@@ -181,6 +195,30 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     wall,
                 );
             }
+        }
+    }
+    // The SSS blur as two fragment passes against one compute pass per direction, frame by
+    // frame in turn at each size (marble, 21 taps).
+    if renderer.sss_compute() {
+        println!(
+            "\n# SSS: fragment passes against compute passes (marble, 21 taps, 4x MSAA)\n\nThe same blur (identical pixels; `cameo` test). GPU times from timestamp queries (lavapipe stamps a compute pass before its work is done: compare the frames there).\n\n| size | SSS ms, fragment | SSS ms, compute | frame ms, fragment | frame ms, compute |\n|---|---|---|---|---|"
+        );
+        for &(w, h) in &sizes {
+            let p = RenderParams {
+                width: w,
+                height: h,
+                ..RenderParams::default()
+            };
+            let mut out = [[0.0; 5]; 2];
+            for (k, compute) in [false, true].into_iter().enumerate() {
+                renderer.set_sss_compute(compute);
+                out[k] = pass_medians(&mut renderer, &mesh, &p, frames)?;
+            }
+            renderer.set_sss_compute(true);
+            println!(
+                "| {w}x{h} | {:.2} | {:.2} | {:.1} | {:.1} |",
+                out[0][1], out[1][1], out[0][4], out[1][4]
+            );
         }
     }
     // Antialiasing and size: 4x MSAA against one sample a pixel, and the kiosk's frames (the

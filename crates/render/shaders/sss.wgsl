@@ -41,9 +41,8 @@ fn depth_mask_at(texel: vec2<i32>) -> vec3<f32> {
     return vec3<f32>(depth, clamp(dm.g / coverage, 0.0, 1.0), coverage);
 }
 
-@fragment
-fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
-    let texel = vec2<i32>(pos.xy);
+// The blurred value of the pixel `texel` (centre `pos`, pixels).
+fn sss_at(texel: vec2<i32>, pos: vec2<f32>) -> vec4<f32> {
     let centre = textureLoad(colour_tex, texel, 0);
     let here = depth_mask_at(texel);
     let mask = here.y;
@@ -59,7 +58,7 @@ fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     let taps = min(u32(sss.dir.z), MAX_TAPS);
     for (var i = 1u; i < taps; i = i + 1u) {
         let tap = sss.kernel[i];
-        let p = pos.xy + tap.w * step;
+        let p = pos + tap.w * step;
         let s = textureSampleLevel(colour_tex, linear_clamp, p / size, 0.0);
         var sample = colour;
         if s.a > 0.0 {
@@ -71,4 +70,24 @@ fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
         blurred += tap.rgb * sample;
     }
     return vec4<f32>(blurred * centre.a, centre.a);
+}
+
+@fragment
+fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
+    return sss_at(vec2<i32>(pos.xy), pos.xy);
+}
+
+// The same blur as a compute pass (one invocation a pixel, 8 x 8 a workgroup), writing
+// `sss_out_tex`: on GPUs whose graphics units are few (data-centre chips) a full-screen
+// fragment pass runs far slower than the same work in a compute shader.
+@group(0) @binding(4) var sss_out_tex: texture_storage_2d<rgba16float, write>;
+
+@compute @workgroup_size(8, 8)
+fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = textureDimensions(colour_tex);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    // The pixel's centre, as the fragment stage's position gives it.
+    textureStore(sss_out_tex, vec2<i32>(id.xy), sss_at(vec2<i32>(id.xy), vec2<f32>(id.xy) + 0.5));
 }

@@ -46,6 +46,9 @@ impl<'a> Stamps<'a> {
     fn writes(&mut self, pass: TimedPass) -> Option<wgpu::RenderPassTimestampWrites<'a>> {
         self.timer.map(|t| t.writes(&mut self.passes, pass))
     }
+    fn compute_writes(&mut self, pass: TimedPass) -> Option<wgpu::ComputePassTimestampWrites<'a>> {
+        self.timer.map(|t| t.compute_writes(&mut self.passes, pass))
+    }
 }
 
 /// What the passes read, borrowed from the renderer for one frame.
@@ -130,7 +133,15 @@ impl Renderer {
         let engraved = detail.band_mm.map(|_| detail.engraved);
         scene_pass(encoder, &frame, detail.plain, engraved, &mut stamps)?;
         if sss {
-            sss_passes(encoder, &frame, &mut stamps);
+            match (
+                &self.pipelines.sss_compute,
+                &targets.sss_compute_bind_groups,
+            ) {
+                (Some((pipeline, _)), Some(groups)) if self.sss_compute => {
+                    sss_compute_passes(encoder, targets, pipeline, groups, &mut stamps)
+                }
+                _ => sss_passes(encoder, &frame, &mut stamps),
+            }
         }
         let final_view = match output {
             Output::Image => &targets.output_view,
@@ -630,6 +641,26 @@ fn sss_passes(encoder: &mut wgpu::CommandEncoder, frame: &Frame<'_>, stamps: &mu
         pass.set_pipeline(&frame.pipelines.sss);
         pass.set_bind_group(0, group, &[]);
         pass.draw(0..3, 0..1);
+    }
+}
+
+/// Pass 2 as compute passes (8 x 8 pixels a workgroup), writing the same images.
+fn sss_compute_passes(
+    encoder: &mut wgpu::CommandEncoder,
+    targets: &Targets,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[wgpu::BindGroup; 2],
+    stamps: &mut Stamps<'_>,
+) {
+    let [w, h] = targets.scene;
+    for group in groups {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("glyptic sss compute pass"),
+            timestamp_writes: stamps.compute_writes(TimedPass::Sss),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
     }
 }
 

@@ -300,6 +300,8 @@ pub struct Renderer {
     last_pass_times: Option<PassTimes>,
     /// The passes the last frame timed, in query-slot order.
     timed_passes: Vec<TimedPass>,
+    /// Whether the SSS blur runs as a compute pass (where the device has one built).
+    sss_compute: bool,
 }
 
 impl Renderer {
@@ -362,8 +364,18 @@ impl Renderer {
         } else {
             1
         };
+        // The SSS blur as a compute pass where the adapter has compute shaders and storage
+        // images of its format (not on downlevel GL without them).
+        let compute = adapter
+            .get_downlevel_capabilities()
+            .flags
+            .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
+            && adapter
+                .get_texture_format_features(gpu::SSS_FORMAT)
+                .allowed_usages
+                .contains(wgpu::TextureUsages::STORAGE_BINDING);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let pipelines = Pipelines::new(&device, samples);
+        let pipelines = Pipelines::new(&device, samples, compute);
         let surface = gpu::SurfaceMaps::new(&device, &queue, &pipelines);
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!("building the pipelines: {error}")));
@@ -371,6 +383,7 @@ impl Renderer {
         let timer = features
             .contains(wgpu::Features::TIMESTAMP_QUERY)
             .then(|| PassTimer::new(&device, &queue));
+        let sss_compute = compute && info.device_type != wgpu::DeviceType::Cpu;
         Ok(Self {
             adapter,
             device,
@@ -387,7 +400,24 @@ impl Renderer {
             timer,
             last_pass_times: None,
             timed_passes: Vec::new(),
+            // Compute on GPUs; a CPU rasteriser (lavapipe) runs both at the same speed
+            // (BENCHMARKS.md) and stamps compute passes before their work is done, so its
+            // pass times stay truthful with the fragment passes.
+            sss_compute,
         })
+    }
+
+    /// Whether the SSS blur runs as a compute pass (the default on a GPU that has one) or as
+    /// two full-screen fragment passes (the default on a CPU rasteriser). Both give the same image; asking for compute on a
+    /// device without it keeps the fragment passes. Returns what is now used.
+    pub fn set_sss_compute(&mut self, on: bool) -> bool {
+        self.sss_compute = on && self.pipelines.sss_compute.is_some();
+        self.sss_compute
+    }
+
+    /// Whether the SSS blur runs as a compute pass.
+    pub fn sss_compute(&self) -> bool {
+        self.sss_compute
     }
 
     /// Adapter, backend and driver, for logs and benchmark tables.

@@ -85,6 +85,21 @@ impl PassTimer {
             end_of_pass_write_index: Some(2 * index + 1),
         }
     }
+
+    /// As [`PassTimer::writes`], for a compute pass.
+    pub(crate) fn compute_writes(
+        &self,
+        passes: &mut Vec<TimedPass>,
+        pass: TimedPass,
+    ) -> wgpu::ComputePassTimestampWrites<'_> {
+        let index = passes.len() as u32;
+        passes.push(pass);
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: Some(2 * index),
+            end_of_pass_write_index: Some(2 * index + 1),
+        }
+    }
 }
 
 impl Renderer {

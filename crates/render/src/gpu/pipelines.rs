@@ -33,6 +33,9 @@ pub(crate) struct Pipelines {
     pub composite_uniform: wgpu::Buffer,
     pub sss: wgpu::RenderPipeline,
     pub sss_layout: wgpu::BindGroupLayout,
+    /// The same blur as a compute pass and its layout (the fragment pass's bindings and the
+    /// storage image it writes), where the device has compute shaders.
+    pub sss_compute: Option<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
     /// Horizontal and vertical pass uniforms.
     pub sss_uniforms: [wgpu::Buffer; 2],
     pub linear_clamp: wgpu::Sampler,
@@ -234,7 +237,7 @@ pub(super) fn scene_pipeline(
 }
 
 impl Pipelines {
-    pub fn new(device: &wgpu::Device, samples: u32) -> Self {
+    pub fn new(device: &wgpu::Device, samples: u32, compute: bool) -> Self {
         let scene_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("glyptic scene"),
             source: wgpu::ShaderSource::Wgsl(shaders::SCENE.into()),
@@ -452,6 +455,7 @@ impl Pipelines {
             SSS_FORMAT,
             &[],
         );
+        let sss_compute = compute.then(|| sss_compute_pipeline(device, &sss_module));
         let sss_uniform = |label| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -543,6 +547,7 @@ impl Pipelines {
             composite_uniform,
             sss,
             sss_layout,
+            sss_compute,
             sss_uniforms,
             linear_clamp,
             edge_aa_layout,
@@ -554,6 +559,57 @@ impl Pipelines {
             style_uniforms,
         }
     }
+}
+
+/// The SSS blur's compute pipeline (`cs_main` in `sss.wgsl`) and its layout: the fragment
+/// pass's uniform, colour, depth and sampler, and the Rgba16Float image it writes.
+fn sss_compute_pipeline(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+) -> (wgpu::ComputePipeline, wgpu::BindGroupLayout) {
+    let compute = wgpu::ShaderStages::COMPUTE;
+    let texture = |binding, filterable| wgpu::BindGroupLayoutEntry {
+        visibility: compute,
+        ..texture_entry(binding, filterable)
+    };
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("glyptic sss compute layout"),
+        entries: &[
+            uniform_entry(0, compute),
+            texture(1, true),
+            texture(2, false),
+            wgpu::BindGroupLayoutEntry {
+                binding: 3,
+                visibility: compute,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+            wgpu::BindGroupLayoutEntry {
+                binding: 4,
+                visibility: compute,
+                ty: wgpu::BindingType::StorageTexture {
+                    access: wgpu::StorageTextureAccess::WriteOnly,
+                    format: SSS_FORMAT,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                },
+                count: None,
+            },
+        ],
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("glyptic sss compute"),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("glyptic sss compute"),
+        layout: Some(&pipeline_layout),
+        module,
+        entry_point: Some("cs_main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    (pipeline, layout)
 }
 
 impl Pipelines {

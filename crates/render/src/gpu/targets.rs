@@ -81,6 +81,8 @@ pub(crate) struct Targets {
     pub sss_out: wgpu::TextureView,
     /// SSS horizontal (diffuse -> temp) and vertical (temp -> out) inputs.
     pub sss_bind_groups: [wgpu::BindGroup; 2],
+    /// The same for the compute pass, each with its output image (where it is built).
+    pub sss_compute_bind_groups: Option<[wgpu::BindGroup; 2]>,
     /// Composite reading the blurred diffuse (SSS on).
     pub composite_sss_bind_group: wgpu::BindGroup,
 }
@@ -319,8 +321,28 @@ impl Targets {
             })
         };
         let composite_bind_group = composite_group("glyptic composite bind group", &diffuse.view);
-        let sss_temp = pass_image(device, "glyptic sss temp", SSS_FORMAT, size);
-        let sss_out = pass_image(device, "glyptic sss out", SSS_FORMAT, size);
+        // Written as storage images where the blur can run as a compute pass.
+        let sss_image = |label| {
+            let mut usage =
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING;
+            if pipelines.sss_compute.is_some() {
+                usage |= wgpu::TextureUsages::STORAGE_BINDING;
+            }
+            device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: SSS_FORMAT,
+                    usage,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default())
+        };
+        let sss_temp = sss_image("glyptic sss temp");
+        let sss_out = sss_image("glyptic sss out");
         let sss_group = |label, uniform: &wgpu::Buffer, colour: &wgpu::TextureView| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(label),
@@ -350,6 +372,45 @@ impl Targets {
             sss_group("glyptic sss horizontal", uh, &diffuse.view),
             sss_group("glyptic sss vertical", uv, &sss_temp),
         ];
+        let sss_compute_bind_groups = pipelines.sss_compute.as_ref().map(|(_, layout)| {
+            let group = |label, uniform: &wgpu::Buffer, colour, output| {
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(label),
+                    layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: uniform.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: wgpu::BindingResource::TextureView(colour),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: wgpu::BindingResource::TextureView(&depth_mask.view),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 3,
+                            resource: wgpu::BindingResource::Sampler(&pipelines.linear_clamp),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 4,
+                            resource: wgpu::BindingResource::TextureView(output),
+                        },
+                    ],
+                })
+            };
+            [
+                group(
+                    "glyptic sss compute horizontal",
+                    uh,
+                    &diffuse.view,
+                    &sss_temp,
+                ),
+                group("glyptic sss compute vertical", uv, &sss_temp, &sss_out),
+            ]
+        });
         let composite_sss_bind_group = composite_group("glyptic composite (sss)", &sss_out);
         Self {
             width,
@@ -369,6 +430,7 @@ impl Targets {
             sss_temp,
             sss_out,
             sss_bind_groups,
+            sss_compute_bind_groups,
             composite_sss_bind_group,
         }
     }

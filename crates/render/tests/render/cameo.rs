@@ -258,6 +258,42 @@ fn cameo_has_no_holes_and_matches_its_golden_images() {
             renders.push(((mname, sname), img));
         }
     }
+    // The SSS blur as a compute pass and as two fragment passes: the same image (the golden
+    // above was drawn with whichever this device uses by default).
+    let default_compute = renderer.sss_compute();
+    let sss_p = RenderParams {
+        width: 160,
+        height: 200,
+        yaw_deg: -15.0,
+        ..RenderParams::default()
+    };
+    let mut by_pass = Vec::new();
+    for compute in [true, false] {
+        let used = renderer.set_sss_compute(compute);
+        by_pass.push((
+            used,
+            renderer.render(&mean, &sss_p).expect("sss pass render"),
+        ));
+    }
+    renderer.set_sss_compute(default_compute);
+    println!(
+        "SSS as compute: {} on this device (default {default_compute})",
+        by_pass[0].0
+    );
+    assert!(!by_pass[1].0, "the fragment passes can always be chosen");
+    let (a, b) = (&by_pass[0].1, &by_pass[1].1);
+    let worst = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(x, y)| x.abs_diff(*y))
+        .max()
+        .unwrap_or(0);
+    println!("SSS compute vs fragment: largest difference {worst} of 255");
+    assert!(
+        worst <= 1,
+        "the compute SSS differs from the fragment passes by {worst}"
+    );
     // The surface effects (engraved border, lamp with shadows) at twice the size: the border's
     // grooves are a fraction of a millimetre.
     let surface = RenderParams {
