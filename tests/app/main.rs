@@ -9,6 +9,7 @@ mod capture;
 mod cli;
 mod corpus;
 mod detect;
+mod docs;
 mod kiosk;
 mod likeness;
 mod pipeline;
