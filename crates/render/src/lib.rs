@@ -64,7 +64,7 @@ use std::sync::{Arc, Mutex};
 use self::gpu::{MeshBuffers, Pipelines, Targets};
 
 pub use self::camera::{FOV_Y_DEG, ZOOM_RANGE};
-pub use self::timing::PassTimes;
+pub use self::timing::{InitTimes, PassTimes};
 use self::timing::{PassTimer, TimedPass};
 pub use glyptic_core::scene::{
     KEY_LIGHT_AZIMUTH_DEG, KEY_LIGHT_ELEVATION_DEG, Mesh, Region, Vertex, key_light_dir,
@@ -302,6 +302,7 @@ pub struct Renderer {
     timed_passes: Vec<TimedPass>,
     /// Whether the SSS blur runs as a compute pass (where the device has one built).
     sss_compute: bool,
+    init: InitTimes,
 }
 
 impl Renderer {
@@ -313,10 +314,30 @@ impl Renderer {
 
     /// As [`Renderer::new_headless`], choosing whether to antialias. Without MSAA a frame costs
     /// about half as much on a CPU rasteriser (for previews), at the price of jagged silhouettes.
+    ///
+    /// The primary backends (Vulkan, Metal, DX12) are tried first and GL only where none of
+    /// them has an adapter: an instance without GL's EGL start comes up 7-10 ms sooner
+    /// (BENCHMARKS.md). `WGPU_BACKEND`, when set, decides alone.
     pub fn new_headless_with(msaa: bool) -> Result<Self, RenderError> {
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle().with_env());
-        Self::on_adapter(&instance, None, msaa)
+        let chosen = std::env::var_os("WGPU_BACKEND").is_some();
+        let mut instance_ms = 0.0;
+        let mut last = None;
+        for backends in [wgpu::Backends::PRIMARY, wgpu::Backends::all()] {
+            let t = std::time::Instant::now();
+            let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
+            descriptor.backends = backends;
+            let instance = wgpu::Instance::new(descriptor.with_env());
+            instance_ms += t.elapsed().as_secs_f64() * 1e3;
+            match Self::on_adapter(&instance, None, msaa) {
+                Ok(mut renderer) => {
+                    renderer.init.instance_ms = instance_ms;
+                    return Ok(renderer);
+                }
+                Err(e @ RenderError::NoAdapter(_)) if !chosen => last = Some(e),
+                Err(e) => return Err(e),
+            }
+        }
+        Err(last.unwrap_or_else(|| RenderError::NoAdapter("no backend".into())))
     }
 
     /// A renderer on an adapter that can present to `surface` (made by `instance`), for a
@@ -334,10 +355,15 @@ impl Renderer {
         surface: Option<&wgpu::Surface<'_>>,
         msaa: bool,
     ) -> Result<Self, RenderError> {
+        let ms = |t: std::time::Instant| t.elapsed().as_secs_f64() * 1e3;
+        let mut init = InitTimes::default();
+        let t = std::time::Instant::now();
         let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
             instance, surface,
         ))
         .map_err(|e| RenderError::NoAdapter(e.to_string()))?;
+        init.adapter_ms = ms(t);
+        let t = std::time::Instant::now();
         let info = adapter.get_info();
         // Ask for what the adapter has: bigger images and meshes than WebGPU's defaults.
         let limits = adapter.limits();
@@ -359,6 +385,8 @@ impl Renderer {
             }
         }));
 
+        init.device_ms = ms(t);
+        let t = std::time::Instant::now();
         let samples = if msaa {
             gpu::choose_sample_count(&adapter, device.features())
         } else {
@@ -376,6 +404,8 @@ impl Renderer {
                 .contains(wgpu::TextureUsages::STORAGE_BINDING);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let pipelines = Pipelines::new(&device, samples, compute);
+        init.pipelines_ms = ms(t);
+        let t = std::time::Instant::now();
         let surface = gpu::SurfaceMaps::new(&device, &queue, &pipelines);
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(format!("building the pipelines: {error}")));
@@ -384,6 +414,7 @@ impl Renderer {
             .contains(wgpu::Features::TIMESTAMP_QUERY)
             .then(|| PassTimer::new(&device, &queue));
         let sss_compute = compute && info.device_type != wgpu::DeviceType::Cpu;
+        init.rest_ms = ms(t);
         Ok(Self {
             adapter,
             device,
@@ -404,7 +435,13 @@ impl Renderer {
             // (BENCHMARKS.md) and stamps compute passes before their work is done, so its
             // pass times stay truthful with the fragment passes.
             sss_compute,
+            init,
         })
+    }
+
+    /// Where this renderer's start went.
+    pub fn init_times(&self) -> InitTimes {
+        self.init
     }
 
     /// Whether the SSS blur runs as a compute pass (the default on a GPU that has one) or as

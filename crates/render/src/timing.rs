@@ -20,6 +20,28 @@ pub struct PassTimes {
     pub edge_aa_ms: Option<f64>,
 }
 
+/// Where a renderer's start went (wall time, ms): the API's instance, the adapter's choice
+/// (the driver's load included), the device, the pipelines built up front, the surface maps and timer.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct InitTimes {
+    /// The graphics API's instance (the Vulkan loader and its drivers' manifests).
+    pub instance_ms: f64,
+    pub adapter_ms: f64,
+    pub device_ms: f64,
+    pub pipelines_ms: f64,
+    pub rest_ms: f64,
+}
+
+impl std::fmt::Display for InitTimes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "instance {:.0} ms, adapter {:.0} ms, device {:.0} ms, pipelines {:.0} ms, maps {:.0} ms",
+            self.instance_ms, self.adapter_ms, self.device_ms, self.pipelines_ms, self.rest_ms
+        )
+    }
+}
+
 /// A pass with timestamp queries, in the order the frame ran them (its query slots).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum TimedPass {

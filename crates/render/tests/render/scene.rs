@@ -294,6 +294,13 @@ fn renderer_end_to_end() {
     };
     let start = Instant::now();
     let mut renderer = crate::renderer();
+    // The start's stages are timed (the instance on the primary backends, Vulkan here).
+    let init = renderer.init_times();
+    println!("start: {init}");
+    assert!(
+        init.instance_ms > 0.0 && init.device_ms > 0.0 && init.pipelines_ms > 0.0,
+        "{init:?}"
+    );
     println!(
         "adapter: {} (device in {:?})",
         renderer.adapter_info(),

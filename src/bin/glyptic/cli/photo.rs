@@ -321,7 +321,11 @@ pub(super) fn join_renderer(start: RendererStart) -> Result<Renderer> {
     print_stages(&[Stage {
         name: "gpu init",
         ms: init_ms,
-        detail: format!("{} (in parallel)", renderer.adapter_info()),
+        detail: format!(
+            "{} (in parallel; {})",
+            renderer.adapter_info(),
+            renderer.init_times()
+        ),
     }]);
     Ok(renderer)
 }
