@@ -197,11 +197,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
-    // The SSS blur as two fragment passes against one compute pass per direction, frame by
-    // frame in turn at each size (marble, 21 taps).
-    if renderer.sss_compute() {
+    // The full-screen passes (the SSS blur, the composite) as fragment passes against compute
+    // passes, frame by frame in turn at each size (marble, 21 taps).
+    if renderer.compute_passes() {
         println!(
-            "\n# SSS: fragment passes against compute passes (marble, 21 taps, 4x MSAA)\n\nThe same blur (identical pixels; `cameo` test). GPU times from timestamp queries (lavapipe stamps a compute pass before its work is done: compare the frames there).\n\n| size | SSS ms, fragment | SSS ms, compute | frame ms, fragment | frame ms, compute |\n|---|---|---|---|---|"
+            "\n# Full-screen passes: fragment against compute (marble, 21-tap SSS, 4x MSAA)\n\nThe same pixels (`cameo` test). GPU times from timestamp queries (lavapipe stamps a compute pass before its work is done: compare the frames there).\n\n| size | SSS ms, fragment | SSS ms, compute | composite ms, fragment | composite ms, compute | frame ms, fragment | frame ms, compute |\n|---|---|---|---|---|---|---|"
         );
         for &(w, h) in &sizes {
             let p = RenderParams {
@@ -211,13 +211,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             };
             let mut out = [[0.0; 5]; 2];
             for (k, compute) in [false, true].into_iter().enumerate() {
-                renderer.set_sss_compute(compute);
+                renderer.set_compute_passes(compute);
                 out[k] = pass_medians(&mut renderer, &mesh, &p, frames)?;
             }
-            renderer.set_sss_compute(true);
+            renderer.set_compute_passes(true);
             println!(
-                "| {w}x{h} | {:.2} | {:.2} | {:.1} | {:.1} |",
-                out[0][1], out[1][1], out[0][4], out[1][4]
+                "| {w}x{h} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} |",
+                out[0][1], out[1][1], out[0][2], out[1][2], out[0][4], out[1][4]
             );
         }
     }

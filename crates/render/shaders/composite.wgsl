@@ -51,10 +51,10 @@ fn dither(p: vec2<f32>) -> f32 {
     return fract(52.9829189 * fract(dot(p, vec2<f32>(0.06711056, 0.00583715)))) - 0.5;
 }
 
-@fragment
-fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
+// The output pixel whose centre is `pos` (frame pixels).
+fn composite_at(pos: vec2<f32>) -> vec4<f32> {
     let size = comp.size.xy;
-    let local = pos.xy - comp.crop.xy;
+    let local = pos - comp.crop.xy;
     var diffuse = vec4<f32>(0.0);
     var specular = vec4<f32>(0.0);
     if all(local >= vec2<f32>(0.0)) && all(local < comp.crop.zw) {
@@ -65,7 +65,7 @@ fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     let coverage = clamp(diffuse.a, 0.0, 1.0);
 
     // Backdrop: lighter towards the top, darker towards the corners, as under a gallery spot.
-    let uv = pos.xy / size;
+    let uv = pos / size;
     let aspect = size.x / max(size.y, 1.0);
     let gradient = 1.0 + comp.params.z * (0.5 - uv.y);
     let centred = (uv - vec2<f32>(0.5, 0.45)) * vec2<f32>(aspect, 1.0);
@@ -82,6 +82,24 @@ fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
     }
     let radiance = (diffuse.rgb + specular.rgb) * comp.params.x + (1.0 - coverage) * backdrop;
     let encoded = linear_to_srgb(shoulder(max(radiance, vec3<f32>(0.0))));
-    let noisy = encoded + vec3<f32>(dither(pos.xy) * comp.params.w / 255.0);
+    let noisy = encoded + vec3<f32>(dither(pos) * comp.params.w / 255.0);
     return vec4<f32>(clamp(noisy, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0);
+}
+
+@fragment
+fn fs_main(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<f32> {
+    return composite_at(pos.xy);
+}
+
+// The same as a compute pass (8 x 8 pixels a workgroup) writing the output image: on GPUs with
+// few graphics units a full-screen fragment pass is many times slower than this.
+@group(0) @binding(3) var out_tex: texture_storage_2d<rgba8unorm, write>;
+
+@compute @workgroup_size(8, 8)
+fn cs_main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = vec2<u32>(comp.size.xy);
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    textureStore(out_tex, vec2<i32>(id.xy), composite_at(vec2<f32>(id.xy) + 0.5));
 }

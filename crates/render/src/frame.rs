@@ -137,7 +137,7 @@ impl Renderer {
                 &self.pipelines.sss_compute,
                 &targets.sss_compute_bind_groups,
             ) {
-                (Some((pipeline, _)), Some(groups)) if self.sss_compute => {
+                (Some((pipeline, _)), Some(groups)) if self.compute_passes => {
                     sss_compute_passes(encoder, targets, pipeline, groups, &mut stamps)
                 }
                 _ => sss_passes(encoder, &frame, &mut stamps),
@@ -154,15 +154,37 @@ impl Renderer {
             .filter(|_| !styles.is_empty() || edge_aa);
         // With passes after it the composite writes the chain's first image.
         let composite_view = style_targets.map_or(final_view, |st| &st.views[0]);
-        composite_pass(
-            encoder,
-            &frame,
-            format,
-            composite_view,
-            sss,
-            params.transparent,
-            &mut stamps,
-        )?;
+        // Into the output image alone, it may run as a compute pass.
+        let compute_composite = match (
+            &output,
+            style_targets,
+            self.pipelines.composite_compute(params.transparent),
+            &targets.composite_compute_bind_groups,
+        ) {
+            (Output::Image, None, Some(pipeline), Some(groups)) if self.compute_passes => {
+                Some((pipeline, &groups[usize::from(sss)]))
+            }
+            _ => None,
+        };
+        if let Some((pipeline, group)) = compute_composite {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("glyptic composite compute pass"),
+                timestamp_writes: stamps.compute_writes(TimedPass::Composite),
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(targets.width.div_ceil(8), targets.height.div_ceil(8), 1);
+        } else {
+            composite_pass(
+                encoder,
+                &frame,
+                format,
+                composite_view,
+                sss,
+                params.transparent,
+                &mut stamps,
+            )?;
+        }
         if let Some(st) = style_targets {
             let chain = Chain {
                 styles,
@@ -192,6 +214,10 @@ impl Renderer {
         let (w, h) = (params.width, params.height);
         self.pipelines
             .ensure_composite(&self.device, format, params.transparent);
+        if self.compute_passes && matches!(output, Output::Image) {
+            self.pipelines
+                .ensure_composite_compute(&self.device, params.transparent);
+        }
         let samples = self.frame_samples(params);
         let scene = Crop::size_for(mesh_box, w, h);
         // The scene images are kept while the mesh's box fits them and they are no more than

@@ -300,8 +300,9 @@ pub struct Renderer {
     last_pass_times: Option<PassTimes>,
     /// The passes the last frame timed, in query-slot order.
     timed_passes: Vec<TimedPass>,
-    /// Whether the SSS blur runs as a compute pass (where the device has one built).
-    sss_compute: bool,
+    /// Whether the full-screen passes that have a compute form (the SSS blur; the composite
+    /// into an image) run as compute passes, where the device has them.
+    compute_passes: bool,
     init: InitTimes,
 }
 
@@ -413,7 +414,7 @@ impl Renderer {
         let timer = features
             .contains(wgpu::Features::TIMESTAMP_QUERY)
             .then(|| PassTimer::new(&device, &queue));
-        let sss_compute = compute && info.device_type != wgpu::DeviceType::Cpu;
+        let compute_passes = compute && info.device_type != wgpu::DeviceType::Cpu;
         init.rest_ms = ms(t);
         Ok(Self {
             adapter,
@@ -434,7 +435,7 @@ impl Renderer {
             // Compute on GPUs; a CPU rasteriser (lavapipe) runs both at the same speed
             // (BENCHMARKS.md) and stamps compute passes before their work is done, so its
             // pass times stay truthful with the fragment passes.
-            sss_compute,
+            compute_passes,
             init,
         })
     }
@@ -444,17 +445,18 @@ impl Renderer {
         self.init
     }
 
-    /// Whether the SSS blur runs as a compute pass (the default on a GPU that has one) or as
-    /// two full-screen fragment passes (the default on a CPU rasteriser). Both give the same image; asking for compute on a
-    /// device without it keeps the fragment passes. Returns what is now used.
-    pub fn set_sss_compute(&mut self, on: bool) -> bool {
-        self.sss_compute = on && self.pipelines.sss_compute.is_some();
-        self.sss_compute
+    /// Whether the full-screen passes run as compute passes where they have that form (the
+    /// SSS blur, the composite into an image: the default on a GPU that has compute) or as
+    /// fragment passes (the default on a CPU rasteriser). Both give the same image; asking for
+    /// compute on a device without it keeps the fragment passes. Returns what is now used.
+    pub fn set_compute_passes(&mut self, on: bool) -> bool {
+        self.compute_passes = on && self.pipelines.sss_compute.is_some();
+        self.compute_passes
     }
 
-    /// Whether the SSS blur runs as a compute pass.
-    pub fn sss_compute(&self) -> bool {
-        self.sss_compute
+    /// Whether the full-screen passes run as compute passes.
+    pub fn compute_passes(&self) -> bool {
+        self.compute_passes
     }
 
     /// Adapter, backend and driver, for logs and benchmark tables.

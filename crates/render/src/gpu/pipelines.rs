@@ -31,6 +31,11 @@ pub(crate) struct Pipelines {
     composite_module: wgpu::ShaderModule,
     pub composite_layout: wgpu::BindGroupLayout,
     pub composite_uniform: wgpu::Buffer,
+    /// The composite as a compute pass writing the output image (where the device has
+    /// compute): its layout, made with the device, and its pipelines by transparency, built on
+    /// first use.
+    pub composite_compute_layout: Option<wgpu::BindGroupLayout>,
+    composite_compute: Vec<(bool, wgpu::ComputePipeline)>,
     pub sss: wgpu::RenderPipeline,
     pub sss_layout: wgpu::BindGroupLayout,
     /// The same blur as a compute pass and its layout (the fragment pass's bindings and the
@@ -429,6 +434,34 @@ impl Pipelines {
             ),
         )];
 
+        let composite_compute_layout = compute.then(|| {
+            let c = wgpu::ShaderStages::COMPUTE;
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("glyptic composite compute layout"),
+                entries: &[
+                    uniform_entry(0, c),
+                    wgpu::BindGroupLayoutEntry {
+                        visibility: c,
+                        ..texture_entry(1, false)
+                    },
+                    wgpu::BindGroupLayoutEntry {
+                        visibility: c,
+                        ..texture_entry(2, false)
+                    },
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 3,
+                        visibility: c,
+                        ty: wgpu::BindingType::StorageTexture {
+                            access: wgpu::StorageTextureAccess::WriteOnly,
+                            format: OUTPUT_FORMAT,
+                            view_dimension: wgpu::TextureViewDimension::D2,
+                        },
+                        count: None,
+                    },
+                ],
+            })
+        });
+
         let sss_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("glyptic sss"),
             source: wgpu::ShaderSource::Wgsl(shaders::SSS.into()),
@@ -545,6 +578,8 @@ impl Pipelines {
             composite_module,
             composite_layout,
             composite_uniform,
+            composite_compute_layout,
+            composite_compute: Vec::new(),
             sss,
             sss_layout,
             sss_compute,
@@ -656,6 +691,46 @@ impl Pipelines {
             );
             self.composite.push(((format, transparent), pipeline));
         }
+    }
+
+    /// Builds the compute composite (`transparent` or not) if there is none yet and the
+    /// device has compute.
+    pub fn ensure_composite_compute(&mut self, device: &wgpu::Device, transparent: bool) {
+        let Some(layout) = &self.composite_compute_layout else {
+            return;
+        };
+        if self
+            .composite_compute
+            .iter()
+            .any(|(t, _)| *t == transparent)
+        {
+            return;
+        }
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("glyptic composite compute"),
+            bind_group_layouts: &[Some(layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("glyptic composite compute"),
+            layout: Some(&pipeline_layout),
+            module: &self.composite_module,
+            entry_point: Some("cs_main"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &[("TRANSPARENT", f64::from(u8::from(transparent)))],
+                ..Default::default()
+            },
+            cache: None,
+        });
+        self.composite_compute.push((transparent, pipeline));
+    }
+
+    /// The compute composite, if built.
+    pub fn composite_compute(&self, transparent: bool) -> Option<&wgpu::ComputePipeline> {
+        self.composite_compute
+            .iter()
+            .find(|(t, _)| *t == transparent)
+            .map(|(_, p)| p)
     }
 
     /// Builds the pass of `style` writing `format` if there is none yet and the style has a

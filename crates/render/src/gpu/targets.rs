@@ -85,6 +85,8 @@ pub(crate) struct Targets {
     pub sss_compute_bind_groups: Option<[wgpu::BindGroup; 2]>,
     /// Composite reading the blurred diffuse (SSS on).
     pub composite_sss_bind_group: wgpu::BindGroup,
+    /// The compute composite's, SSS off and on, each writing `output` (where it is built).
+    pub composite_compute_bind_groups: Option<[wgpu::BindGroup; 2]>,
 }
 
 /// An image one pass writes and the next reads (single sample): the scene pass's resolved
@@ -289,7 +291,14 @@ impl Targets {
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: OUTPUT_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            // Written as a storage image by the compute composite where there is one.
+            usage: if pipelines.composite_compute_layout.is_some() {
+                wgpu::TextureUsages::RENDER_ATTACHMENT
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::STORAGE_BINDING
+            } else {
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC
+            },
             view_formats: &[],
         });
         let output_view = output.create_view(&Default::default());
@@ -412,6 +421,37 @@ impl Targets {
             ]
         });
         let composite_sss_bind_group = composite_group("glyptic composite (sss)", &sss_out);
+        let composite_compute_bind_groups =
+            pipelines.composite_compute_layout.as_ref().map(|layout| {
+                let group = |label, diffuse_view: &wgpu::TextureView| {
+                    device.create_bind_group(&wgpu::BindGroupDescriptor {
+                        label: Some(label),
+                        layout,
+                        entries: &[
+                            wgpu::BindGroupEntry {
+                                binding: 0,
+                                resource: pipelines.composite_uniform.as_entire_binding(),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 1,
+                                resource: wgpu::BindingResource::TextureView(diffuse_view),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 2,
+                                resource: wgpu::BindingResource::TextureView(&specular.view),
+                            },
+                            wgpu::BindGroupEntry {
+                                binding: 3,
+                                resource: wgpu::BindingResource::TextureView(&output_view),
+                            },
+                        ],
+                    })
+                };
+                [
+                    group("glyptic composite compute", &diffuse.view),
+                    group("glyptic composite compute (sss)", &sss_out),
+                ]
+            });
         Self {
             width,
             height,
@@ -432,6 +472,7 @@ impl Targets {
             sss_bind_groups,
             sss_compute_bind_groups,
             composite_sss_bind_group,
+            composite_compute_bind_groups,
         }
     }
 }

@@ -258,42 +258,47 @@ fn cameo_has_no_holes_and_matches_its_golden_images() {
             renders.push(((mname, sname), img));
         }
     }
-    // The SSS blur as a compute pass and as two fragment passes: the same image (the golden
-    // above was drawn with whichever this device uses by default).
-    let default_compute = renderer.sss_compute();
-    let sss_p = RenderParams {
+    // The full-screen passes (SSS blur, composite) as compute passes and as fragment passes:
+    // the same image (the golden above was drawn with whichever this device uses by default).
+    let default_compute = renderer.compute_passes();
+    let opaque = RenderParams {
         width: 160,
         height: 200,
         yaw_deg: -15.0,
         ..RenderParams::default()
     };
-    let mut by_pass = Vec::new();
-    for compute in [true, false] {
-        let used = renderer.set_sss_compute(compute);
-        by_pass.push((
-            used,
-            renderer.render(&mean, &sss_p).expect("sss pass render"),
-        ));
+    // Transparent (the composite's other variant), without SSS.
+    let clear = RenderParams {
+        transparent: true,
+        sss: None,
+        ..opaque.clone()
+    };
+    for (what, p) in [("opaque, SSS", &opaque), ("transparent, no SSS", &clear)] {
+        let mut by_pass = Vec::new();
+        for compute in [true, false] {
+            let used = renderer.set_compute_passes(compute);
+            by_pass.push((used, renderer.render(&mean, p).expect("pass render")));
+        }
+        println!(
+            "{what}: compute passes {} on this device (default {default_compute})",
+            by_pass[0].0
+        );
+        assert!(!by_pass[1].0, "the fragment passes can always be chosen");
+        let (a, b) = (&by_pass[0].1, &by_pass[1].1);
+        let worst = a
+            .as_raw()
+            .iter()
+            .zip(b.as_raw())
+            .map(|(x, y)| x.abs_diff(*y))
+            .max()
+            .unwrap_or(0);
+        println!("{what}: compute vs fragment passes, largest difference {worst} of 255");
+        assert!(
+            worst <= 1,
+            "{what}: the compute passes differ from the fragment passes by {worst}"
+        );
     }
-    renderer.set_sss_compute(default_compute);
-    println!(
-        "SSS as compute: {} on this device (default {default_compute})",
-        by_pass[0].0
-    );
-    assert!(!by_pass[1].0, "the fragment passes can always be chosen");
-    let (a, b) = (&by_pass[0].1, &by_pass[1].1);
-    let worst = a
-        .as_raw()
-        .iter()
-        .zip(b.as_raw())
-        .map(|(x, y)| x.abs_diff(*y))
-        .max()
-        .unwrap_or(0);
-    println!("SSS compute vs fragment: largest difference {worst} of 255");
-    assert!(
-        worst <= 1,
-        "the compute SSS differs from the fragment passes by {worst}"
-    );
+    renderer.set_compute_passes(default_compute);
     // The surface effects (engraved border, lamp with shadows) at twice the size: the border's
     // grooves are a fraction of a millimetre.
     let surface = RenderParams {
