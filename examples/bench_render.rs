@@ -199,7 +199,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     // The full-screen passes (the SSS blur, the composite) as fragment passes against compute
     // passes, frame by frame in turn at each size (marble, 21 taps).
-    if renderer.compute_passes() {
+    // Where the device has compute at all (on a CPU rasteriser too, though it is not the
+    // default there); the device's default is restored after.
+    let default_compute = renderer.compute_passes();
+    if renderer.set_compute_passes(true) {
         println!(
             "\n# Full-screen passes: fragment against compute (marble, 21-tap SSS, 4x MSAA)\n\nThe same pixels (`cameo` test). GPU times from timestamp queries (lavapipe stamps a compute pass before its work is done: compare the frames there).\n\n| size | SSS ms, fragment | SSS ms, compute | composite ms, fragment | composite ms, compute | frame ms, fragment | frame ms, compute |\n|---|---|---|---|---|---|---|"
         );
@@ -214,13 +217,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 renderer.set_compute_passes(compute);
                 out[k] = pass_medians(&mut renderer, &mesh, &p, frames)?;
             }
-            renderer.set_compute_passes(true);
             println!(
                 "| {w}x{h} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} |",
                 out[0][1], out[1][1], out[0][2], out[1][2], out[0][4], out[1][4]
             );
         }
     }
+    renderer.set_compute_passes(default_compute);
     // Antialiasing and size: 4x MSAA against one sample a pixel, and the kiosk's frames (the
     // still gem at 800x1000 with MSAA; while it moves, half the size per side without MSAA,
     // egui scaling the layer up). Frames per second from the frame's wall time.
