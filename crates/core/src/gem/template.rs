@@ -167,6 +167,13 @@ pub(crate) fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// Polynomial smooth minimum of width `k` (equals `min` when `a`, `b` differ by more than `k`;
+/// below both within it, as a rounded corner's distance is).
+fn smooth_min(a: f32, b: f32, k: f32) -> f32 {
+    let h = (0.5 + 0.5 * (b - a) / k).clamp(0.0, 1.0);
+    b + h * (a - b) - k * h * (1.0 - h)
+}
+
 /// Polynomial smooth maximum of width `k` (equals `max` when `a`, `b` differ by more than `k`).
 /// The width shrinks near the ground so that two zero heights stay zero (the plain formula
 /// would lift the whole ground by `k / 4`).
@@ -659,15 +666,13 @@ fn frontal_body(u: f32, v: f32) -> f32 {
     // Shoulders: from the neck's sides down to the shoulder tips, a smooth ramp.
     // The trapezius droops from the neck in a curve to the rounded shoulder, which falls to
     // the ground at its outer edge in a quarter-round (a deltoid, not a wall).
+    // Seen from the front the shoulder is one rounded mass: the height rises as a quarter-round
+    // with the distance inside its outline, the top (trapezius) and the outer side (deltoid)
+    // joined by a 40 mm round (the product of a top ramp and a side ramp left a boxy corner).
     let shoulder_line = -105.0 - 0.0042 * (u.abs() - 45.0).max(0.0).powi(2);
     let breadth = 150.0;
-    let shoulders = if v < shoulder_line && u.abs() < breadth {
-        let edge = (1.0 - (u / breadth).powi(4)).max(0.0).sqrt();
-        let top = smoothstep(shoulder_line, shoulder_line - 30.0, v);
-        58.0 * edge * top.sqrt()
-    } else {
-        0.0
-    };
+    let inside = smooth_min(shoulder_line - v, breadth - u.abs(), 40.0);
+    let shoulders = 58.0 * smoothstep(0.0, 30.0, inside).sqrt();
     let chest = dome(u, v + 270.0, 150.0, 125.0, 62.0);
     let mut body = smooth_max(smooth_max(neck, shoulders, 20.0), chest, 20.0);
     if body <= 0.5 {
@@ -1319,5 +1324,34 @@ mod tests {
                 .count()
         };
         assert!(differ(&l, &c) > 100 && differ(&c, &s) > 100 && differ(&l, &s) > 100);
+    }
+}
+
+#[cfg(test)]
+mod shoulder_tests {
+    use super::*;
+
+    /// The smooth minimum is the minimum away from the corner and rounds it within `k`.
+    #[test]
+    fn smooth_min_rounds_only_the_corner() {
+        assert_eq!(smooth_min(10.0, 80.0, 40.0), 10.0);
+        assert_eq!(smooth_min(80.0, 10.0, 40.0), 10.0);
+        assert!(smooth_min(20.0, 20.0, 40.0) < 20.0 - 5.0);
+        assert!(smooth_min(20.0, 30.0, 40.0) < 20.0);
+    }
+
+    /// The frontal shoulder's outer top corner is rounded: 12 mm inside both its top line and
+    /// its side it stands under 0.4 of its height 12 mm inside the top line alone, nearer the neck (a box's
+    /// corner would stand as high).
+    #[test]
+    fn the_frontal_shoulder_has_a_rounded_corner() {
+        let line = |u: f32| -105.0 - 0.0042 * (u.abs() - 45.0).max(0.0).powi(2);
+        let corner = frontal_body(150.0 - 12.0, line(138.0) - 12.0);
+        let top = frontal_body(115.0, line(115.0) - 12.0);
+        println!("corner {corner:.1} mm, top {top:.1} mm");
+        assert!(
+            corner > 0.0 && corner < 0.4 * top,
+            "corner {corner}, top {top}"
+        );
     }
 }
