@@ -99,13 +99,18 @@ impl PassTimer {
         passes: &mut Vec<TimedPass>,
         pass: TimedPass,
     ) -> wgpu::RenderPassTimestampWrites<'_> {
-        let index = passes.len() as u32;
-        passes.push(pass);
+        let index = Self::slot(passes, pass);
         wgpu::RenderPassTimestampWrites {
             query_set: &self.queries,
             beginning_of_pass_write_index: Some(2 * index),
             end_of_pass_write_index: Some(2 * index + 1),
         }
+    }
+
+    /// The next pass's slot, recorded in `passes`.
+    fn slot(passes: &mut Vec<TimedPass>, pass: TimedPass) -> u32 {
+        passes.push(pass);
+        passes.len() as u32 - 1
     }
 
     /// As [`PassTimer::writes`], for a compute pass.
@@ -114,8 +119,7 @@ impl PassTimer {
         passes: &mut Vec<TimedPass>,
         pass: TimedPass,
     ) -> wgpu::ComputePassTimestampWrites<'_> {
-        let index = passes.len() as u32;
-        passes.push(pass);
+        let index = Self::slot(passes, pass);
         wgpu::ComputePassTimestampWrites {
             query_set: &self.queries,
             beginning_of_pass_write_index: Some(2 * index),

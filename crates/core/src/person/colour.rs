@@ -155,6 +155,26 @@ pub(crate) fn inside(poly: &[[f32; 2]], p: [f32; 2]) -> bool {
 }
 
 /// Box blur of a canvas field, radius `r` pixels, edges renormalised.
+/// Whether `p` and the points `inset` away from it in the four directions and the diagonals
+/// (0.7 of it) all lie in `region` (head frame, IOD): a cell that far inside a region's
+/// outline, so the outline's own edge is not read as the region's texture.
+pub(super) fn inside_by(region: &dyn Fn([f32; 2]) -> bool, p: [f32; 2], inset: f32) -> bool {
+    let (d, e) = (inset, 0.7 * inset);
+    [
+        [0.0, 0.0],
+        [d, 0.0],
+        [-d, 0.0],
+        [0.0, d],
+        [0.0, -d],
+        [e, e],
+        [-e, e],
+        [e, -e],
+        [-e, -e],
+    ]
+    .iter()
+    .all(|o| region([p[0] + o[0], p[1] + o[1]]))
+}
+
 pub(super) fn box_blur(f: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
     let pass = |src: &[f32], horizontal: bool| {
         let mut out = vec![0f32; src.len()];

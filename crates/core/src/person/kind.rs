@@ -112,24 +112,8 @@ pub(super) fn measure(
     let h = ((T_BOTTOM - T_TOP) / RES).round() as usize + 1;
     let at = |c: usize, r: usize| [-S_SPAN + c as f32 * RES, T_TOP + r as f32 * RES];
     // Which cells are read: hair, and hair INSET away in the four directions and diagonals.
-    let d = INSET;
-    let e = 0.7 * INSET;
-    let offsets = [
-        [0.0, 0.0],
-        [d, 0.0],
-        [-d, 0.0],
-        [0.0, d],
-        [0.0, -d],
-        [e, e],
-        [-e, e],
-        [e, -e],
-        [-e, -e],
-    ];
     let read: Vec<bool> = (0..w * h)
-        .map(|i| {
-            let p = at(i % w, i / w);
-            offsets.iter().all(|o| hair([p[0] + o[0], p[1] + o[1]]))
-        })
+        .map(|i| super::colour::inside_by(hair, at(i % w, i / w), INSET))
         .collect();
     let cells = read.iter().filter(|&&r| r).count();
     if cells < MIN_CELLS {

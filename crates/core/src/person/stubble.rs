@@ -103,35 +103,22 @@ fn detail(
     let w = ((s1 - s0) / RES) as usize;
     let h = ((t1 - t0) / RES) as usize;
     let at = |c: usize, r: usize| [s0 + (c as f32 + 0.5) * RES, t0 + (r as f32 + 0.5) * RES];
-    let d = inset;
-    let e = 0.7 * inset;
-    let offsets = [
-        [0.0, 0.0],
-        [d, 0.0],
-        [-d, 0.0],
-        [0.0, d],
-        [0.0, -d],
-        [e, e],
-        [-e, e],
-        [e, -e],
-        [-e, -e],
-    ];
     let read: Vec<(usize, usize)> = (1..h - 1)
         .flat_map(|r| (1..w - 1).map(move |c| (c, r)))
-        .filter(|&(c, r)| {
-            let p = at(c, r);
-            offsets.iter().all(|o| region([p[0] + o[0], p[1] + o[1]]))
-        })
+        .filter(|&(c, r)| super::colour::inside_by(region, at(c, r), inset))
         .collect();
     if read.len() < MIN_CELLS {
         return None;
     }
     let k = ((RES * iod).ceil() as usize).clamp(1, 3);
-    let mut cache = std::collections::HashMap::new();
+    // Each cell sampled once (a read cell and its neighbours overlap); NaN: not yet.
+    let mut cache = vec![f32::NAN; w * h];
     let mut value = |c: usize, r: usize| -> f32 {
-        *cache
-            .entry((c, r))
-            .or_insert_with(|| frame.cell_mean(at(c, r), RES, k, lightness))
+        let slot = &mut cache[r * w + c];
+        if slot.is_nan() {
+            *slot = frame.cell_mean(at(c, r), RES, k, lightness);
+        }
+        *slot
     };
     let (mut diff, mut mean) = (0.0f64, 0.0f64);
     for &(c, r) in &read {

@@ -631,20 +631,35 @@ fn sss_compute_pipeline(
             },
         ],
     });
+    let pipeline = compute_pipeline(device, "glyptic sss compute", module, &layout, &[]);
+    (pipeline, layout)
+}
+
+/// A compute pipeline of `module`'s `cs_main` over one bind group of `layout`, with its
+/// override `constants`.
+fn compute_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    module: &wgpu::ShaderModule,
+    layout: &wgpu::BindGroupLayout,
+    constants: &[(&str, f64)],
+) -> wgpu::ComputePipeline {
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("glyptic sss compute"),
-        bind_group_layouts: &[Some(&layout)],
+        label: Some(label),
+        bind_group_layouts: &[Some(layout)],
         immediate_size: 0,
     });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("glyptic sss compute"),
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
         layout: Some(&pipeline_layout),
         module,
         entry_point: Some("cs_main"),
-        compilation_options: Default::default(),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            ..Default::default()
+        },
         cache: None,
-    });
-    (pipeline, layout)
+    })
 }
 
 impl Pipelines {
@@ -706,22 +721,13 @@ impl Pipelines {
         {
             return;
         }
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("glyptic composite compute"),
-            bind_group_layouts: &[Some(layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("glyptic composite compute"),
-            layout: Some(&pipeline_layout),
-            module: &self.composite_module,
-            entry_point: Some("cs_main"),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants: &[("TRANSPARENT", f64::from(u8::from(transparent)))],
-                ..Default::default()
-            },
-            cache: None,
-        });
+        let pipeline = compute_pipeline(
+            device,
+            "glyptic composite compute",
+            &self.composite_module,
+            layout,
+            &[("TRANSPARENT", f64::from(u8::from(transparent)))],
+        );
         self.composite_compute.push((transparent, pipeline));
     }
 
@@ -841,19 +847,7 @@ impl Pipelines {
                     },
                 ],
             });
-            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("glyptic noise volume"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("glyptic noise volume"),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some("cs_main"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+            let pipeline = compute_pipeline(device, "glyptic noise volume", &module, &layout, &[]);
             (pipeline, layout)
         })
     }

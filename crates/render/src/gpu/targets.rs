@@ -309,27 +309,41 @@ impl Targets {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let composite_group = |label, diffuse_view: &wgpu::TextureView| {
+        // The composite's inputs; the compute form also binds the image it writes (3).
+        let composite_group = |label,
+                               layout: &wgpu::BindGroupLayout,
+                               diffuse_view: &wgpu::TextureView,
+                               output: Option<&wgpu::TextureView>| {
+            let mut entries = vec![
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: pipelines.composite_uniform.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(diffuse_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&specular.view),
+                },
+            ];
+            entries.extend(output.map(|view| wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::TextureView(view),
+            }));
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(label),
-                layout: &pipelines.composite_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: pipelines.composite_uniform.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(diffuse_view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::TextureView(&specular.view),
-                    },
-                ],
+                layout,
+                entries: &entries,
             })
         };
-        let composite_bind_group = composite_group("glyptic composite bind group", &diffuse.view);
+        let composite_bind_group = composite_group(
+            "glyptic composite bind group",
+            &pipelines.composite_layout,
+            &diffuse.view,
+            None,
+        );
         // Written as storage images where the blur can run as a compute pass.
         let sss_image = |label| {
             let mut usage =
@@ -352,104 +366,85 @@ impl Targets {
         };
         let sss_temp = sss_image("glyptic sss temp");
         let sss_out = sss_image("glyptic sss out");
-        let sss_group = |label, uniform: &wgpu::Buffer, colour: &wgpu::TextureView| {
+        // The blur's inputs; the compute form also binds the image it writes (4).
+        let sss_group = |label,
+                         layout: &wgpu::BindGroupLayout,
+                         uniform: &wgpu::Buffer,
+                         colour: &wgpu::TextureView,
+                         output: Option<&wgpu::TextureView>| {
+            let mut entries = vec![
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: uniform.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(colour),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&depth_mask.view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: wgpu::BindingResource::Sampler(&pipelines.linear_clamp),
+                },
+            ];
+            entries.extend(output.map(|view| wgpu::BindGroupEntry {
+                binding: 4,
+                resource: wgpu::BindingResource::TextureView(view),
+            }));
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some(label),
-                layout: &pipelines.sss_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: uniform.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: wgpu::BindingResource::TextureView(colour),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::TextureView(&depth_mask.view),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: wgpu::BindingResource::Sampler(&pipelines.linear_clamp),
-                    },
-                ],
+                layout,
+                entries: &entries,
             })
         };
         let [uh, uv] = &pipelines.sss_uniforms;
+        let fragment = &pipelines.sss_layout;
         let sss_bind_groups = [
-            sss_group("glyptic sss horizontal", uh, &diffuse.view),
-            sss_group("glyptic sss vertical", uv, &sss_temp),
+            sss_group("glyptic sss horizontal", fragment, uh, &diffuse.view, None),
+            sss_group("glyptic sss vertical", fragment, uv, &sss_temp, None),
         ];
         let sss_compute_bind_groups = pipelines.sss_compute.as_ref().map(|(_, layout)| {
-            let group = |label, uniform: &wgpu::Buffer, colour, output| {
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some(label),
-                    layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: uniform.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: wgpu::BindingResource::TextureView(colour),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: wgpu::BindingResource::TextureView(&depth_mask.view),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 3,
-                            resource: wgpu::BindingResource::Sampler(&pipelines.linear_clamp),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 4,
-                            resource: wgpu::BindingResource::TextureView(output),
-                        },
-                    ],
-                })
-            };
             [
-                group(
+                sss_group(
                     "glyptic sss compute horizontal",
+                    layout,
                     uh,
                     &diffuse.view,
-                    &sss_temp,
+                    Some(&sss_temp),
                 ),
-                group("glyptic sss compute vertical", uv, &sss_temp, &sss_out),
+                sss_group(
+                    "glyptic sss compute vertical",
+                    layout,
+                    uv,
+                    &sss_temp,
+                    Some(&sss_out),
+                ),
             ]
         });
-        let composite_sss_bind_group = composite_group("glyptic composite (sss)", &sss_out);
+        let composite_sss_bind_group = composite_group(
+            "glyptic composite (sss)",
+            &pipelines.composite_layout,
+            &sss_out,
+            None,
+        );
         let composite_compute_bind_groups =
             pipelines.composite_compute_layout.as_ref().map(|layout| {
-                let group = |label, diffuse_view: &wgpu::TextureView| {
-                    device.create_bind_group(&wgpu::BindGroupDescriptor {
-                        label: Some(label),
-                        layout,
-                        entries: &[
-                            wgpu::BindGroupEntry {
-                                binding: 0,
-                                resource: pipelines.composite_uniform.as_entire_binding(),
-                            },
-                            wgpu::BindGroupEntry {
-                                binding: 1,
-                                resource: wgpu::BindingResource::TextureView(diffuse_view),
-                            },
-                            wgpu::BindGroupEntry {
-                                binding: 2,
-                                resource: wgpu::BindingResource::TextureView(&specular.view),
-                            },
-                            wgpu::BindGroupEntry {
-                                binding: 3,
-                                resource: wgpu::BindingResource::TextureView(&output_view),
-                            },
-                        ],
-                    })
-                };
                 [
-                    group("glyptic composite compute", &diffuse.view),
-                    group("glyptic composite compute (sss)", &sss_out),
+                    composite_group(
+                        "glyptic composite compute",
+                        layout,
+                        &diffuse.view,
+                        Some(&output_view),
+                    ),
+                    composite_group(
+                        "glyptic composite compute (sss)",
+                        layout,
+                        &sss_out,
+                        Some(&output_view),
+                    ),
                 ]
             });
         Self {
