@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::gem::View;
+use crate::gem::{CameoParams, Setting, View};
 use crate::render::{Material, RenderParams, ZOOM_RANGE};
 use crate::sss::SssParams;
 use crate::styles::Style;
@@ -58,6 +58,10 @@ pub struct KioskConfig {
     pub video: Option<PathBuf>,
     pub material: Material,
     pub portrait: View,
+    /// The gold round the stone (`plain`, `milgrain`, `rope`).
+    pub setting: Setting,
+    /// A ring on the setting's top, as a pendant has.
+    pub bail: bool,
     /// Subsurface scattering on at start.
     pub sss: bool,
     /// SSS strength at start, 0..=1.
@@ -111,6 +115,17 @@ pub struct KioskConfig {
     pub render_scale: f32,
 }
 
+impl KioskConfig {
+    /// The cameo the gem thread builds: the portrait's view in this setting.
+    pub fn cameo(&self) -> CameoParams {
+        CameoParams {
+            setting: self.setting,
+            bail: self.bail,
+            ..self.portrait.cameo()
+        }
+    }
+}
+
 impl Default for KioskConfig {
     fn default() -> Self {
         KioskConfig {
@@ -118,6 +133,8 @@ impl Default for KioskConfig {
             video: None,
             material: Material::Marble,
             portrait: View::Frontal,
+            setting: Setting::Plain,
+            bail: false,
             sss: true,
             sss_strength: DEFAULT_SSS_STRENGTH,
             idle_seconds: 8.0,
@@ -469,7 +486,7 @@ mod tests {
         let c = parse(
             "camera = 2\nmaterial = \"agate\"\nsss = false\nsss_strength = 0.3\n\
              idle_seconds = 5\nfullscreen = true\nportrait = \"frontal\"\nrender_scale = 0.5\n\
-             lamp = true\n",
+             lamp = true\nsetting = \"milgrain\"\nbail = true\n",
         )
         .expect("valid");
         // The lamp reaches the controls and the render; the border stays off.
@@ -485,6 +502,14 @@ mod tests {
         assert_eq!(c.camera, 2);
         assert_eq!(c.material, Material::Agate);
         assert_eq!(c.portrait, View::Frontal);
+        // The setting reaches the gem thread's cameo.
+        let cameo = c.cameo();
+        assert_eq!(
+            (cameo.setting, cameo.bail),
+            (crate::gem::Setting::Milgrain, true)
+        );
+        assert_eq!(cameo.view, View::Frontal);
+        assert!(parse("setting = \"filigree\"\n").is_err());
         assert!(!c.sss && c.fullscreen);
         assert_eq!(
             (c.sss_strength, c.idle_seconds, c.render_scale),

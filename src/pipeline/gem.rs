@@ -621,9 +621,10 @@ pub fn build_gem(
         || gem::build_cameo(face, triangles, cameo),
         |m| {
             format!(
-                "{} vertices, {} triangles",
+                "{} vertices, {} triangles, {}",
                 m.vertices.len(),
-                m.indices.len() / 3
+                m.indices.len() / 3,
+                cameo.mount()
             )
         },
     )
@@ -641,9 +642,10 @@ pub fn build_gem_detailed(
         || gem::build_cameo_detailed(face, triangles, cameo, detail),
         |m| {
             format!(
-                "{} vertices, {} triangles",
+                "{} vertices, {} triangles, {}",
                 m.vertices.len(),
-                m.indices.len() / 3
+                m.indices.len() / 3,
+                cameo.mount()
             )
         },
     )

@@ -384,7 +384,7 @@ fn fs_main(in: VsOut) -> FsOut {
         let h_lamp = normalize(lamp_l + v);
         let highlight = (pow(max(dot(n, h), 0.0), 120.0) * light
             + pow(max(dot(n, h_lamp), 0.0), 120.0) * lamp) * 3.0;
-        specular = fresnel * (0.8 * environment(r) + highlight);
+        specular = fresnel * (0.8 * environment(r) * in.occlusion + highlight);
         sss = 0.0;
     } else if frame.material.x == 0u {
         diffuse = marble_albedo(p) * lit;

@@ -5,8 +5,9 @@
 use crate::scene::Mesh;
 
 use super::detail::FaceDetail;
+use super::setting::add_setting;
 use super::shading::{cavity, light_visibility, smooth_121};
-use super::tessellate::{add_bezel_and_back, add_relief_surface, plan_surface};
+use super::tessellate::{add_relief_surface, plan_surface};
 use super::{
     CameoParams, DEPTH_QUANTILE, GROUND_EPS, GemError, HEAD_EMPHASIS, PORTRAIT_OVAL, Placement,
     Relief, View, basrelief, check_params, face, relief, template,
@@ -115,7 +116,7 @@ impl CameoBuilder {
             template.coverage[i] = inside as f32 / (n_sub * n_sub) as f32;
         }
         let mut base = Mesh::default();
-        add_bezel_and_back(&mut base, p);
+        add_setting(&mut base, p);
         let template_box = Window::of(cols, rows, |i| {
             template.coverage[i] > 0.0 || template.height[i] > 0.0
         });

@@ -1,4 +1,4 @@
-//! The cameo: a portrait relief on an oval stone, a gold bezel around it and a gold back.
+//! The cameo: a portrait relief on an oval stone in a gold setting ([`setting`]).
 //!
 //! Units: gem millimetres. The cameo lies in the XY plane facing +Z, centred on the origin;
 //! the ground (the stone's top where nothing is carved) is at z = 0 and the relief rises above
@@ -29,6 +29,7 @@ pub mod measure;
 mod obj;
 mod poisson;
 pub mod relief;
+pub mod setting;
 mod shading;
 pub mod silhouette;
 pub mod solid;
@@ -41,6 +42,7 @@ pub use builder::CameoBuilder;
 pub use detail::{DetailParams, FaceDetail};
 pub use face::Placement;
 pub use obj::{ObjError, mesh_to_obj, parse_obj, to_obj};
+pub use setting::Setting;
 pub use template::{HairCarving, HairStyle, View};
 
 /// Why a cameo could not be built.
@@ -74,12 +76,30 @@ pub struct CameoParams {
     pub compression: Compression,
     /// The hair: the classical default, or a person's ([`hair_style`]).
     pub hair: HairStyle,
+    /// The gold round the stone.
+    pub setting: Setting,
+    /// A ring on the setting's top for hanging the cameo as a pendant.
+    pub bail: bool,
 }
 
 impl CameoParams {
     /// A frontal portrait (the face looks out of the stone) on the default stone.
     pub fn frontal() -> Self {
         View::Frontal.cameo()
+    }
+
+    /// The setting in words, for reports: "plain bezel", "milgrain collet, bail".
+    pub fn mount(&self) -> String {
+        let setting = match self.setting {
+            Setting::Plain => "plain bezel",
+            Setting::Milgrain => "milgrain collet",
+            Setting::Rope => "rope-twist frame",
+        };
+        if self.bail {
+            format!("{setting}, bail")
+        } else {
+            setting.to_string()
+        }
     }
 }
 
@@ -106,23 +126,12 @@ impl Default for CameoParams {
             view: View::Profile,
             compression: Compression::default(),
             hair: HairStyle::default(),
+            setting: Setting::Plain,
+            bail: false,
         }
     }
 }
 
-/// Bezel cross-section: (offset along the oval's outward normal, height), gem mm, from the
-/// inner foot over the crown to the outer foot.
-const BEZEL_PROFILE: [[f32; 2]; 7] = [
-    [-0.7, -0.3],
-    [-0.7, 0.9],
-    [-0.3, 1.6],
-    [0.4, 1.9],
-    [1.2, 1.55],
-    [1.6, 0.6],
-    [1.6, -3.0],
-];
-/// Segments around the oval for the bezel and the back.
-const RING_SEGMENTS: usize = 360;
 /// Depth of the gold back below the ground, gem mm.
 const BACK_Z: f32 = -3.0;
 /// The portrait stays inside this fraction of the oval (clear of the bezel's foot).

@@ -1,8 +1,8 @@
 //! The relief's height field into triangles: the stone's top simplified into square blocks
 //! where it is flat or evenly sloped (a fan's pattern would show in the shading first), the
-//! walls and the gold bezel and back round it. Gem millimetres.
+//! walls round it (the gold setting is [`super::setting`]'s). Gem millimetres.
 
-use super::{BACK_Z, BEZEL_PROFILE, CameoParams, GROUND_EPS, RING_SEGMENTS, Relief};
+use super::{GROUND_EPS, Relief};
 use crate::scene::{Mesh, Region, Vertex};
 
 /// Largest square of grid cells the stone's top is simplified to, how far (gem mm) a
@@ -242,64 +242,5 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
             mesh.indices
                 .extend_from_slice(&[centre, index[a], index[b]]);
         }
-    }
-}
-
-/// The gold bezel swept around the oval (flat across each profile segment, smooth along the
-/// oval) and the gold back.
-pub(super) fn add_bezel_and_back(mesh: &mut Mesh, p: &CameoParams) {
-    let (a, b) = (p.half_width, p.half_height);
-    let frame = |i: usize| {
-        let t = i as f32 / RING_SEGMENTS as f32 * std::f32::consts::TAU;
-        let (s, c) = t.sin_cos();
-        let n = [b * c, a * s];
-        let l = (n[0] * n[0] + n[1] * n[1]).sqrt();
-        ([a * c, b * s], [n[0] / l, n[1] / l])
-    };
-    let gold = |position: [f32; 3], normal: [f32; 3]| Vertex {
-        position,
-        normal,
-        relief: 0.0,
-        region: Region::Gold as u32,
-        hair: 0.0,
-        occlusion: 1.0,
-        key_light: 1.0,
-    };
-    for seg in BEZEL_PROFILE.windows(2) {
-        let ([d0, z0], [d1, z1]) = (seg[0], seg[1]);
-        let (td, tz) = (d1 - d0, z1 - z0);
-        let l = (td * td + tz * tz).sqrt();
-        let (nd, nz) = (-tz / l, td / l);
-        let base = mesh.vertices.len() as u32;
-        for i in 0..=RING_SEGMENTS {
-            let (e, n) = frame(i % RING_SEGMENTS);
-            let normal = [n[0] * nd, n[1] * nd, nz];
-            for (d, z) in [(d0, z0), (d1, z1)] {
-                mesh.vertices
-                    .push(gold([e[0] + n[0] * d, e[1] + n[1] * d, z], normal));
-            }
-        }
-        for i in 0..RING_SEGMENTS as u32 {
-            let (p0, p1) = (base + 2 * i, base + 2 * i + 1);
-            let (q0, q1) = (p0 + 2, p1 + 2);
-            // Counter-clockwise seen from the side the normal points to.
-            mesh.indices.extend_from_slice(&[p0, q0, q1, p0, q1, p1]);
-        }
-    }
-    let outer = BEZEL_PROFILE[BEZEL_PROFILE.len() - 1][0];
-    let centre = mesh.vertices.len() as u32;
-    mesh.vertices
-        .push(gold([0.0, 0.0, BACK_Z], [0.0, 0.0, -1.0]));
-    for i in 0..RING_SEGMENTS {
-        let (e, n) = frame(i);
-        mesh.vertices.push(gold(
-            [e[0] + n[0] * outer, e[1] + n[1] * outer, BACK_Z],
-            [0.0, 0.0, -1.0],
-        ));
-    }
-    for i in 0..RING_SEGMENTS as u32 {
-        let next = (i + 1) % RING_SEGMENTS as u32;
-        mesh.indices
-            .extend_from_slice(&[centre, centre + 1 + next, centre + 1 + i]);
     }
 }

@@ -3,7 +3,9 @@
 //! triangle can poke through another), and golden images per material with SSS on and off,
 //! compared with NVIDIA's FLIP so that lavapipe (Vulkan) and llvmpipe (GL) both pass.
 //!
-//! One test function; the binary's one device (see main.rs). `GLYPTIC_BLESS=1` rewrites the golden
+//! The settings (milgrain with a bail, rope) against goldens of their own.
+//!
+//! The binary's one device (see main.rs). `GLYPTIC_BLESS=1` rewrites the golden
 //! images in tests/golden/ (then look at them before committing).
 
 use glyptic_core::gem::{self, CameoBuilder, CameoParams};
@@ -347,6 +349,55 @@ fn cameo_has_no_holes_and_matches_its_golden_images() {
         sss_vs_off > 2.0 * GOLDEN_MEAN && stones > 2.0 * GOLDEN_MEAN,
         "the golden tolerance would not notice SSS ({sss_vs_off}) or the material ({stones})"
     );
+    assert!(
+        failures.is_empty(),
+        "golden images differ:\n{}",
+        failures.join("\n")
+    );
+}
+
+/// The settings (milgrain collet with a bail, rope twist) on the mean face, at a size where a
+/// bead is a few pixels across: each against its golden, and each far enough from the plain
+/// bezel that the tolerance would see it go.
+#[test]
+fn settings_match_their_golden_images() {
+    let model =
+        SurreyModel::load_dir(&crate::common::sfm_dir()).expect("run scripts/setup.sh first");
+    let mean = model.instance(&[], &[]);
+    let mut renderer = crate::renderer();
+    let p = RenderParams {
+        width: 320,
+        height: 400,
+        yaw_deg: -15.0,
+        pitch_deg: 10.0,
+        ..RenderParams::default()
+    };
+    let render = |renderer: &mut glyptic_render::Renderer, setting, bail| {
+        let cameo = CameoParams {
+            setting,
+            bail,
+            ..CameoParams::default()
+        };
+        let mesh = gem::build_cameo(&mean, &model.shape.triangles, &cameo).expect("cameo");
+        renderer.render(&mesh, &p).expect("render")
+    };
+    let plain = render(&mut renderer, gem::Setting::Plain, false);
+    let mut failures = Vec::new();
+    for (setting, bail, name) in [
+        (gem::Setting::Milgrain, true, "cameo-milgrain-bail"),
+        (gem::Setting::Rope, false, "cameo-rope"),
+    ] {
+        let img = render(&mut renderer, setting, bail);
+        if let Err(e) = check_golden(&img, name) {
+            failures.push(e);
+        }
+        let (apart, _) = flip_mean(&plain, &img);
+        println!("FLIP mean, {name} vs the plain bezel {apart:.4}");
+        assert!(
+            apart > 2.0 * GOLDEN_MEAN,
+            "{name}: the golden tolerance would not notice the setting ({apart})"
+        );
+    }
     assert!(
         failures.is_empty(),
         "golden images differ:\n{}",

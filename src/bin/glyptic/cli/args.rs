@@ -30,6 +30,13 @@ pub struct ViewArgs {
     /// (the classic cameo).
     #[arg(long, value_enum, default_value_t = gem::View::Frontal)]
     pub portrait: gem::View,
+    /// The gold round the stone: a plain bezel, a milgrain collet (its rim a row of beads) or
+    /// the bezel framed by a rope of two twisted wires.
+    #[arg(long, value_enum, default_value_t = gem::Setting::Plain)]
+    pub setting: gem::Setting,
+    /// A ring on the setting's top for wearing the cameo as a pendant.
+    #[arg(long, value_enum, default_value_t = OnOff::Off)]
+    pub bail: OnOff,
     #[command(flatten)]
     pub sss: SssArgs,
     /// Gallery styles after the render, in order: toon, dither, painterly, fisheye, chromatic
@@ -120,6 +127,15 @@ impl SssArgs {
 }
 
 impl ViewArgs {
+    /// The cameo: the portrait's view in the chosen setting.
+    pub fn cameo(&self) -> gem::CameoParams {
+        gem::CameoParams {
+            setting: self.setting,
+            bail: self.bail == OnOff::On,
+            ..self.portrait.cameo()
+        }
+    }
+
     pub(super) fn params(&self) -> Result<RenderParams> {
         Ok(RenderParams {
             width: self.size.width,
@@ -264,7 +280,7 @@ impl ChoiceArgs {
     pub fn gem_pipeline(&self, view: &ViewArgs) -> Result<glyptic::pipeline::GemPipeline> {
         let mut p = glyptic::pipeline::GemPipeline::load_with(
             &glyptic::assets::ModelPaths::locate(),
-            view.portrait.cameo(),
+            view.cameo(),
             self.hair,
             self.likeness_search > 0,
         )?;

@@ -392,7 +392,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 (model.instance(&[], &[]), model.shape.triangles.clone())
             }
         };
-        let cameo = args.view.portrait.cameo();
+        let cameo = args.view.cameo();
         let mesh = glyptic::pipeline::gem::build_gem(&face, &triangles, &cameo)?;
         Ok((mesh, face, triangles, cameo))
     });

@@ -7,7 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 
 use glyptic::capture::latest::{LatestReceiver, LatestSender, latest};
-use glyptic::gem::{CameoBuilder, CameoParams, HairStyle, View};
+use glyptic::gem::{CameoBuilder, CameoParams, HairStyle};
 use glyptic::render::Mesh;
 
 /// A cameo built by the gem thread.
@@ -57,7 +57,7 @@ impl GemThread {
     /// Starts the thread. Its first cameo is `first` (a restarted thread carries on with the
     /// last face it was given) or the model's mean face.
     pub(super) fn spawn(
-        portrait: View,
+        params: CameoParams,
         first: Option<GemJob>,
         fault: Option<GemFault>,
     ) -> Result<Self> {
@@ -69,7 +69,7 @@ impl GemThread {
             .spawn(move || {
                 let died = note_tx.clone();
                 let run = std::panic::AssertUnwindSafe(|| {
-                    work(portrait, first, fault, &jobs, &send, &note_tx)
+                    work(params, first, fault, &jobs, &send, &note_tx)
                 });
                 if let Err(panic) = std::panic::catch_unwind(run) {
                     let why = panic
@@ -87,14 +87,13 @@ impl GemThread {
 
 /// The gem thread's work: load the model, then one cameo per job until the window goes.
 fn work(
-    portrait: View,
+    params: CameoParams,
     first: Option<GemJob>,
     fault: Option<GemFault>,
     jobs: &LatestReceiver<GemJob>,
     send: &LatestSender<Result<BuiltGem, String>>,
     note_tx: &crossbeam_channel::Sender<GemNote>,
 ) {
-    let params = portrait.cameo();
     let setup = (|| -> Result<_> {
         let dir = glyptic::assets::sfm_dir();
         let model = glyptic::shapemodel::SurreyModel::load_dir(&dir)

@@ -62,7 +62,7 @@ pub struct KioskArgs {
     /// Fill the screen [config: fullscreen].
     #[arg(long)]
     pub fullscreen: bool,
-    /// Kiosk defaults (TOML): camera, video, material, portrait, sss, sss_strength,
+    /// Kiosk defaults (TOML): camera, video, material, portrait, setting, bail, sss, sss_strength,
     /// idle_seconds, ease_seconds, fullscreen, width, height, render_scale.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,

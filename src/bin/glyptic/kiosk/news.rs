@@ -209,7 +209,7 @@ impl Running {
         }
         self.note_problem(format!("the gem thread died ({why}); restarting it"));
         let fault = self.gem_fault.filter(|f| f.every_thread);
-        match GemThread::spawn(self.portrait, self.last_job.clone(), fault) {
+        match GemThread::spawn(self.cameo.clone(), self.last_job.clone(), fault) {
             Ok(gems) => {
                 self.gems = gems;
                 self.status = format!("gem thread restarted ({why})");

@@ -13,7 +13,7 @@ use anyhow::{Context, Result, anyhow};
 use winit::event_loop::ActiveEventLoop;
 use winit::window::{Fullscreen, Window};
 
-use glyptic::gem::{HairStyle, View};
+use glyptic::gem::HairStyle;
 use glyptic::kiosk::{Controls, KioskConfig, MOVING, Orbit, Presence};
 use glyptic::render::{Mesh, RenderParams, Renderer};
 
@@ -64,7 +64,7 @@ pub(super) struct Running {
     pub(super) gems: GemThread,
     /// The gem thread's portrait, the last job sent to it (a restarted thread carries on
     /// with it), the fault injected for tests, and its restarts.
-    pub(super) portrait: View,
+    pub(super) cameo: glyptic::gem::CameoParams,
     pub(super) last_job: Option<GemJob>,
     pub(super) gem_fault: Option<GemFault>,
     pub(super) gem_restarts: Restarts,
@@ -151,7 +151,7 @@ impl Running {
             Some(super::Fault::Gem(f)) => Some(f),
             _ => None,
         };
-        let gems = GemThread::spawn(config.portrait, None, gem_fault)?;
+        let gems = GemThread::spawn(config.cameo(), None, gem_fault)?;
         #[cfg(feature = "face")]
         let live = super::face_thread::Live::start(
             config,
@@ -216,7 +216,7 @@ impl Running {
             idle_seconds: config.idle_seconds,
             ease_seconds: config.ease_seconds,
             gems,
-            portrait: config.portrait,
+            cameo: config.cameo(),
             last_job: None,
             gem_fault,
             gem_restarts: Restarts::default(),
@@ -224,8 +224,8 @@ impl Running {
             #[cfg(feature = "face")]
             live,
             default_face: None,
-            default_hair: config.portrait.cameo().hair,
-            visitor_hair: config.portrait.cameo().hair,
+            default_hair: config.cameo().hair,
+            visitor_hair: config.cameo().hair,
             carve_glasses: config.glasses,
             last_face: None,
             sent_weight: 1.0,
