@@ -23,7 +23,29 @@ fn main() -> Result<()> {
     let backdrop = image::Rgb([41u8, 46, 56]);
     let mut sheet = image::RgbImage::from_pixel(columns * w, rows * h, backdrop);
     for (k, path) in images.iter().enumerate() {
-        let img = image::open(path).with_context(|| path.clone())?.to_rgb8();
+        let (path, crop) = match path.rsplit_once('@') {
+            Some((file, rect)) if !std::path::Path::new(path).exists() => {
+                let r: Vec<u32> = rect
+                    .split(',')
+                    .map(str::parse)
+                    .collect::<Result<_, _>>()
+                    .with_context(|| format!("{path}: @X,Y,W,H"))?;
+                match r[..] {
+                    [x, y, w, h] if w > 0 && h > 0 => (file, Some((x, y, w, h))),
+                    _ => bail!("{path}: @X,Y,W,H with a positive width and height"),
+                }
+            }
+            _ => (path.as_str(), None),
+        };
+        let mut img = image::open(path)
+            .with_context(|| path.to_string())?
+            .to_rgb8();
+        if let Some((x, y, cw, ch)) = crop {
+            if x.saturating_add(cw) > img.width() || y.saturating_add(ch) > img.height() {
+                bail!("{path}: the part {cw}x{ch} at {x},{y} leaves the picture");
+            }
+            img = image::imageops::crop_imm(&img, x, y, cw, ch).to_image();
+        }
         let scale = (w as f32 / img.width() as f32).min(h as f32 / img.height() as f32);
         let (tw, th) = (
             ((img.width() as f32 * scale).round() as u32).max(1),

@@ -156,18 +156,16 @@ impl Attract {
     }
 
     /// The stone `t_s` seconds into the attract mode: the configured one first, then the
-    /// other, in turn.
+    /// others in [`Material::ALL`]'s order, in turn.
     pub fn material(&self, t_s: f64, configured: Material) -> Material {
-        let other = match configured {
-            Material::Marble => Material::Agate,
-            Material::Agate => Material::Marble,
-        };
         let turn = if t_s.is_finite() && t_s > 0.0 {
             (t_s / self.material_s) as u64
         } else {
             0
         };
-        if turn % 2 == 0 { configured } else { other }
+        let all = Material::ALL;
+        let first = all.iter().position(|&m| m == configured).unwrap_or(0);
+        all[(first + (turn % all.len() as u64) as usize) % all.len()]
     }
 }
 
@@ -316,6 +314,8 @@ impl Texts {
 pub struct Labels {
     pub marble: String,
     pub agate: String,
+    pub shell: String,
+    pub jasperware: String,
     pub glow_on: String,
     pub glow_off: String,
     pub glow_strength: String,
@@ -338,6 +338,8 @@ impl Default for Labels {
         Labels {
             marble: s("Marble"),
             agate: s("Agate"),
+            shell: s("Shell"),
+            jasperware: s("Jasper"),
             glow_on: s("Glow: on"),
             glow_off: s("Glow: off"),
             glow_strength: s("Glow strength"),
@@ -360,11 +362,23 @@ impl Default for Labels {
 pub const MAX_LABEL_CHARS: usize = 40;
 
 impl Labels {
+    /// A stone's button.
+    pub fn stone(&self, material: Material) -> &str {
+        match material {
+            Material::Marble => &self.marble,
+            Material::Agate => &self.agate,
+            Material::Shell => &self.shell,
+            Material::Jasperware => &self.jasperware,
+        }
+    }
+
     /// The first label that is empty or too long, by its key.
     pub fn problem(&self) -> Option<(&'static str, String)> {
         [
             ("marble", &self.marble),
             ("agate", &self.agate),
+            ("shell", &self.shell),
+            ("jasperware", &self.jasperware),
             ("glow_on", &self.glow_on),
             ("glow_off", &self.glow_off),
             ("glow_strength", &self.glow_strength),

@@ -1142,17 +1142,33 @@ fn glb_json(glb: &[u8]) -> serde_json::Value {
     serde_json::from_slice(&glb[20..20 + len]).unwrap()
 }
 
-/// `--gltf` (issue #21): the mean face's cameo as binary glTF, in marble and in agate, passes
-/// Khronos' glTF-Validator without an error; it is one node in metres (the 44 x 56 mm stone
-/// in its 47 x 59 mm bezel), with the stone's and the gold's materials.
+/// `--gltf` (issue #21): the mean face's cameo as binary glTF, in every stone and setting,
+/// passes Khronos' glTF-Validator without an error; it is one node in metres (the 44 x 56 mm
+/// stone in its 47 x 59 mm bezel, wider in a rope frame, taller with a bail), with the
+/// stone's and the gold's materials.
 #[test]
 fn the_cameo_exports_as_gltf_that_passes_the_validator() {
     let dir = scratch("gltf");
-    for (material, materials) in [("marble", 2), ("agate", 3)] {
+    // Stone, its materials, the setting and bail, the half width and the top and bottom (m).
+    for (material, materials, setting, bail, half_x, [top, bottom]) in [
+        ("marble", 2, "plain", "off", 0.0236, [0.0296, -0.0296]),
+        ("agate", 3, "plain", "off", 0.0236, [0.0296, -0.0296]),
+        ("shell", 3, "milgrain", "on", 0.0236, [0.0359, -0.0296]),
+        ("jasperware", 3, "rope", "off", 0.0249, [0.0309, -0.0309]),
+    ] {
         let glb = dir.join(format!("{material}.glb"));
         let run = succeeds(
             glyptic()
-                .args(["render", "--size", "32x40", "--sss", "off", "--material"])
+                .args([
+                    "render",
+                    "--size",
+                    "32x40",
+                    "--sss",
+                    "off",
+                    "--setting",
+                    setting,
+                ])
+                .args(["--bail", bail, "--material"])
                 .arg(material)
                 .arg("-o")
                 .arg(dir.join(format!("{material}.png")))
@@ -1179,7 +1195,7 @@ fn the_cameo_exports_as_gltf_that_passes_the_validator() {
             "{}",
             doc["asset"]
         );
-        // Metres, the stone facing +Z: x within the bezel's 23.5 mm, y within 29.5 mm.
+        // Metres, the stone facing +Z: x within the setting, y to the bail's top.
         let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
         for p in doc["meshes"][0]["primitives"].as_array().unwrap() {
             let a = &doc["accessors"][p["attributes"]["POSITION"].as_u64().unwrap() as usize];
@@ -1189,12 +1205,12 @@ fn the_cameo_exports_as_gltf_that_passes_the_validator() {
             }
         }
         assert!(
-            (hi[0] - 0.0236).abs() < 0.001 && (lo[0] + 0.0236).abs() < 0.001,
-            "{lo:?} {hi:?}"
+            (hi[0] - half_x).abs() < 0.001 && (lo[0] + half_x).abs() < 0.001,
+            "{material}: {lo:?} {hi:?}"
         );
         assert!(
-            (hi[1] - 0.0296).abs() < 0.001 && (lo[1] + 0.0296).abs() < 0.001,
-            "{lo:?} {hi:?}"
+            (hi[1] - top).abs() < 0.001 && (lo[1] - bottom).abs() < 0.001,
+            "{material}: {lo:?} {hi:?}"
         );
         assert!(
             hi[2] > 0.004 && hi[2] < 0.0055 && (lo[2] + 0.003).abs() < 1e-6,

@@ -24,3 +24,4 @@ pub mod raster;
 pub mod scene;
 pub mod shapemodel;
 pub mod smooth;
+pub mod stone;

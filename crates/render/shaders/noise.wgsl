@@ -87,10 +87,15 @@ fn snoise3(v: vec3<f32>) -> f32 {
 }
 
 fn turbulence3(p: vec3<f32>) -> f32 {
+    return turbulence3_octaves(p, 5);
+}
+
+// The same over the first `octaves` octaves (fewer: coarser and cheaper).
+fn turbulence3_octaves(p: vec3<f32>, octaves: i32) -> f32 {
     var sum = 0.0;
     var freq = 1.0;
     var amp = 1.0;
-    for (var octave = 0; octave < 5; octave++) {
+    for (var octave = 0; octave < octaves; octave++) {
         // Each octave is shifted by its own offset: unshifted, all octaves vanish together at
         // the origin and the pattern forms concentric rings around it.
         let shift = vec3<f32>(5.17, 1.31, 7.73) * f32(octave + 1);

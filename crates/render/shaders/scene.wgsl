@@ -27,7 +27,7 @@ struct Frame {
     marble: vec4<f32>,
     // x: near depth (mm), y: 1 / (far - near) (1/mm).
     depth: vec4<f32>,
-    // x: material (0 marble, 1 agate), y: agate hair layer (1 on).
+    // x: material (0 marble, 1 a layered stone), y: the hair cut from its top layer (1 on).
     material: vec4<u32>,
     // The engraving's planar frame: centre x, y and half extents x, y (mm) of the mesh's box.
     planar: vec4<f32>,
@@ -41,6 +41,10 @@ struct Frame {
     // and xyz 1 / its voxel counts.
     volume: vec4<f32>,
     volume_texel: vec4<f32>,
+    // A layered stone (glyptic-core's `Layers::uniforms`): ground rgb + mottling, white rgb +
+    // veil thickness (mm), top rgb + bands, veil tint rgb + grain, polish (Phong exponent,
+    // highlight, reflection, scattering share).
+    layers: array<vec4<f32>, 5>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -140,26 +144,39 @@ fn environment(r: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(room + key + fill);
 }
 
-// White statuary marble: a warm white body with a faint cloudiness and a few quiet veins that
-// run one way across the stone (as marble is sawn along its bedding), thin grey lines warped
-// by turbulence. Their contrast stays well below the relief's own shading under the raking
-// key light, so the carving, not the stone, is what the eye reads. `frame.marble.x` (softness,
-// 0..1) widens the veins; `frame.marble.y` (lightness, 0..1) fades them and the cloudiness
-// (1: a plain white stone).
+// Statuary marble: a warm white body with a faint cloud, and soft grey veins that run roughly
+// one way, about 17 mm apart, wandering without closing into rings. A vein is a thin core in
+// a feathered halo (its edge roughened by fine noise, as veins bleed into the stone), fades
+// in and out along its length, and sends shorter, fainter branches off at an angle. Their
+// contrast stays well below the relief's own shading under the raking key light, so the
+// carving, not the stone, is what the eye reads. `frame.marble.x` (softness, 0..1) widens the
+// veins; `frame.marble.y` (lightness, 0..1) fades them and the cloud (1: a plain white stone).
 fn marble_albedo(p: vec3<f32>) -> vec3<f32> {
     let softness = clamp(frame.marble.x, 0.0, 1.0);
     let lightness = clamp(frame.marble.y, 0.0, 1.0);
     // Texture space: frame.marble.z per mm (1/75: a few veins across a 44 x 56 mm stone).
     let uv = p * frame.marble.z;
     let dir = normalize(vec3<f32>(0.82, -0.5, 0.28));
-    let warp = 2.4 * turbulence3(uv * 2.625);
-    // Main veins about 17 mm apart; a finer, fainter network between them.
+    // Three octaves: the veins' course; the fine noise below roughens their edges.
+    let warp = 1.1 * turbulence3_octaves(uv * 2.625, 3);
+    // Distance to the nearest vein's middle, in spacings (1 is about 17 mm), its edge
+    // roughened at about 1.5 mm.
+    let rough = snoise3(uv * 50.0 + vec3<f32>(3.1, 7.9, 1.3));
     let w1 = dot(uv, dir) * 4.5 + warp;
-    let w2 = dot(uv, normalize(vec3<f32>(0.3, 0.9, 0.3))) * 11.25 + 1.7 * warp + 0.5;
-    let width = mix(0.05, 0.16, softness);
-    let v1 = exp(-pow(sin(3.14159265 * w1) / width, 2.0));
-    let v2 = exp(-pow(sin(3.14159265 * w2) / (0.7 * width), 2.0));
-    let vein = (1.0 - lightness) * (0.085 * v1 + 0.035 * v2);
+    let d1 = abs(fract(w1 + 0.5) - 0.5) * (1.0 + 0.35 * rough);
+    let core = mix(0.012, 0.03, softness);
+    let halo = mix(0.05, 0.12, softness);
+    let c1 = d1 / core;
+    let h1 = d1 / halo;
+    let v1 = 0.6 * exp(-c1 * c1) + 0.4 * exp(-h1 * h1);
+    // Veins thin out and stop, and branches come and go: one slow noise sets both.
+    let course = snoise3(uv * 3.0 + vec3<f32>(11.0, 5.0, 2.0));
+    let along = smoothstep(-0.45, 0.35, course);
+    let w2 = dot(uv, normalize(vec3<f32>(0.3, 0.9, 0.3))) * 9.0 + 1.3 * warp + 0.5;
+    let d2 = abs(fract(w2 + 0.5) - 0.5) * (1.0 + 0.35 * rough);
+    let h2 = d2 / (0.8 * halo);
+    let v2 = exp(-h2 * h2) * smoothstep(0.05, 0.55, course);
+    let vein = (1.0 - lightness) * (0.11 * v1 * along + 0.045 * v2);
     var cloud_noise: f32;
     if BAKED_NOISE {
         cloud_noise = baked_noise(p).r;
@@ -168,51 +185,48 @@ fn marble_albedo(p: vec3<f32>) -> vec3<f32> {
     }
     let cloud = (1.0 - lightness) * cloud_noise;
     let grey = 0.92 * (1.0 - vein) * (1.0 + cloud);
-    return srgb_to_linear(grey * vec3<f32>(1.0, 0.985, 0.955));
+    // The veins are a cool grey in the warm body.
+    let cool = vec3<f32>(1.0 - 0.25 * vein, 1.0, 1.0 + 0.3 * vein);
+    return srgb_to_linear(grey * vec3<f32>(1.0, 0.985, 0.955) * cool);
 }
 
-// The 2021 agate colours (display values).
-const AGATE_RED: vec3<f32> = vec3<f32>(0.0745, 0.0196, 0.0196);
-const AGATE_WHITE: vec3<f32> = vec3<f32>(0.6706, 0.6902, 0.6706);
-const AGATE_BROWN: vec3<f32> = vec3<f32>(0.2863, 0.1137, 0.0078);
-// Display-space gains applied before decoding to linear albedo. The 2021 system lit display
-// values directly and its red ground came out a faint, saturated red; decoded as it is, that red
-// would be black under linear lighting, and used as linear it turns a muddy maroon. Brightening
-// in display space keeps each colour's hue.
-const AGATE_RED_GAIN: f32 = 4.0;
-const AGATE_WHITE_GAIN: f32 = 1.2;
-const AGATE_BROWN_GAIN: f32 = 1.25;
-// Thickness (mm) of white chalcedony over the red that lets through 1/e of the red: where the
-// cutter left the white layer thin (every edge of the relief, the wall's foot, a lock's tip)
-// the ground shows through it as a bluish veil.
-const AGATE_VEIL_MM: f32 = 0.45;
-const AGATE_VEIL_TINT: vec3<f32> = vec3<f32>(0.02, 0.035, 0.07);
-
-// Layered agate: a dark red ground, a grey-white layer carved into the relief whose opacity
-// follows its thickness (the relief's height over the ground), and a brown top layer for the
-// hair (when frame.material.y is 1).
-fn agate_albedo(p: vec3<f32>, relief: f32, hair: f32) -> vec3<f32> {
+// A layered stone (agate, shell, jasperware; their values come from glyptic-core's `stone`
+// module through `frame.layers`): a ground layer, a white layer carved into the relief whose
+// opacity grows with its thickness (the relief's height above the ground), so the ground shows
+// through wherever the cutter left the white thin (every edge of the relief, the wall's foot,
+// a lock's tip), tinted there by the veil; shell's growth bands across the ground; the hair
+// cut from the top layer where the stone has one.
+fn layered_albedo(p: vec3<f32>, relief: f32, hair: f32) -> vec3<f32> {
+    let mottle = frame.layers[0].w;
+    let veil_mm = frame.layers[1].w;
+    let bands = frame.layers[2].w;
+    let grain = frame.layers[3].w;
     let ground_noise = snoise3(p * vec3<f32>(0.09, 0.09, 0.3)) * 0.6 + snoise3(p * 0.35) * 0.4;
-    let ground = srgb_to_linear(AGATE_RED * AGATE_RED_GAIN) * (0.85 + 0.3 * ground_noise);
+    var ground = frame.layers[0].rgb * (1.0 - 0.5 * mottle + mottle * ground_noise);
+    if bands > 0.0 {
+        // A shell's growth lines: gently curved bands about 2.6 mm apart, fading in and out.
+        let fade = 0.5 + 0.5 * snoise3(p * vec3<f32>(0.05, 0.2, 0.2) + vec3<f32>(7.0));
+        ground *= 1.0 + bands * fade * sin(2.4 * p.y + 0.35 * p.x + 2.0 * snoise3(p * 0.06));
+    }
     // The layer boundary is not a perfect plane in a real stone: wobble it a little.
     let wobble = 0.12 * snoise3(p * 0.7);
     let thickness = max(relief + wobble * min(relief, 1.0), 0.0);
-    let white_w = 1.0 - exp(-thickness / AGATE_VEIL_MM);
-    let white = srgb_to_linear(AGATE_WHITE * AGATE_WHITE_GAIN) * (0.97 + 0.03 * snoise3(p * 0.5));
-    var col = mix(ground, white, white_w) + 4.0 * white_w * (1.0 - white_w) * AGATE_VEIL_TINT;
+    let white_w = 1.0 - exp(-thickness / veil_mm);
+    let white = frame.layers[1].rgb * (1.0 - grain + grain * snoise3(p * 0.5));
+    var col = mix(ground, white, white_w) + 4.0 * white_w * (1.0 - white_w) * frame.layers[3].rgb;
     if frame.material.y == 0u {
         return col;
     }
-    // Hair: the brown layer lies over the white, so a thin white edge shows where it starts.
+    // Hair: the top layer lies over the white, so a thin white edge shows where it starts.
     let strands = snoise3(p * vec3<f32>(0.5, 0.5, 1.6));
-    let brown = srgb_to_linear(AGATE_BROWN * AGATE_BROWN_GAIN) * (0.75 + 0.4 * strands);
+    let top = frame.layers[2].rgb * (0.75 + 0.4 * strands);
     // The per-vertex region border follows the triangles; a wide, noisy threshold turns it into
     // a soft, irregular layer edge instead of a saw-tooth.
     // (Noise amplitude below the smoothstep's margins: inside either region the weight stays
     // exactly 0 or 1.)
     let hair_edge = smoothstep(0.15, 0.85, hair + 0.12 * snoise3(p * 0.45));
     let hair_w = hair_edge * smoothstep(0.6, 1.8, relief);
-    return mix(col, brown, hair_w);
+    return mix(col, top, hair_w);
 }
 
 // Distance inside the planar frame's ellipse (the gem's outline), mm, to first order: as
@@ -396,15 +410,17 @@ fn fs_main(in: VsOut) -> FsOut {
         specular = vec3<f32>(0.12 * pow(max(dot(n, h), 0.0), 90.0) * light)
             + 0.35 * fresnel * environment(reflect(-v, n));
     } else {
-        diffuse = agate_albedo(p, in.relief, in.hair) * lit;
-        // Phong, exponent 500 (the 2021 agate), plus a faint Fresnel reflection of the studio
-        // for the polish.
+        diffuse = layered_albedo(p, in.relief, in.hair) * lit;
+        // Phong with the stone's exponent (agate's 500, as in 2021), plus a Fresnel reflection
+        // of the studio for the polish, and the stone's share of the scattering.
+        let polish = frame.layers[4];
         let r = reflect(-v, n);
-        let phong = (pow(max(dot(r, l), 0.0), 500.0) * light
-            + pow(max(dot(r, lamp_l), 0.0), 500.0) * lamp) * 0.9;
+        let phong = (pow(max(dot(r, l), 0.0), polish.x) * light
+            + pow(max(dot(r, lamp_l), 0.0), polish.x) * lamp) * polish.y;
         let ndv = max(dot(n, v), 0.0);
         let fresnel = 0.04 + 0.96 * pow(1.0 - ndv, 5.0);
-        specular = vec3<f32>(phong) + 0.5 * fresnel * environment(r);
+        specular = vec3<f32>(phong) + polish.z * fresnel * environment(r);
+        sss = polish.w;
     }
 
     let view_depth = dot(in.world - frame.eye.xyz, frame.cam_fwd.xyz);

@@ -7,9 +7,9 @@
 use super::camera::{self, Camera, Crop, FOV_Y_DEG};
 use super::gpu::{self, CompositeUniform, FrameUniform, MeshBuffers, Pipelines, Targets};
 use super::{
-    AMBIENT, COMPOSITE_PARAMS, EngravedMesh, LAMP_NEAR_MM, LIGHT_INTENSITY, Lamp, Material, Mesh,
-    Output, PassTimer, RenderError, RenderParams, Renderer, SHADOW_BIAS_MM, SHADOW_PCF_MM,
-    TEXTURE_SCALE, TimedPass, gpu_style_count, mesh, srgb_to_linear, surface,
+    AMBIENT, COMPOSITE_PARAMS, EngravedMesh, LAMP_NEAR_MM, LIGHT_INTENSITY, Lamp, Mesh, Output,
+    PassTimer, RenderError, RenderParams, Renderer, SHADOW_BIAS_MM, SHADOW_PCF_MM, TEXTURE_SCALE,
+    TimedPass, gpu_style_count, mesh, srgb_to_linear, surface,
 };
 
 /// What the frame's steps decided about the surface and the draw.
@@ -439,6 +439,7 @@ impl Renderer {
         let v4 = |v: glam::Vec3, w: f32| v.extend(w).to_array();
         let planar = &detail.planar;
         let (w, h) = (params.width, params.height);
+        let layers = params.material.layers();
         let frame = FrameUniform {
             // Column-major, as WGSL expects; onto the crop's images.
             view_proj: (crop.clip_matrix(w, h) * cam.view_proj).to_cols_array_2d(),
@@ -458,11 +459,8 @@ impl Renderer {
             ],
             depth: [cam.near, 1.0 / (cam.far - cam.near).max(1e-6), 0.0, 0.0],
             material: [
-                match params.material {
-                    Material::Marble => 0,
-                    Material::Agate => 1,
-                },
-                u32::from(params.hair_layer),
+                u32::from(layers.is_some()),
+                u32::from(params.hair_layer && layers.is_some_and(|l| l.top.is_some())),
                 0,
                 0,
             ],
@@ -490,6 +488,7 @@ impl Renderer {
             volume_texel: self.surface.volume_box.map_or([1.0; 4], |v| {
                 [v.dims[0], v.dims[1], v.dims[2], 1].map(|d| 1.0 / d as f32)
             }),
+            layers: layers.map_or([[0.0; 4]; 5], |l| l.uniforms()),
         };
         self.queue
             .write_buffer(&self.pipelines.frame_uniform, 0, bytemuck::bytes_of(&frame));

@@ -22,31 +22,22 @@
 use serde_json::{Value, json};
 
 use crate::scene::{Mesh, Region};
+use crate::stone::{Layers, linear, srgb_to_linear};
 
-/// The renderer's colours and highlights (`crates/render/shaders/scene.wgsl`), mirrored here
-/// because the core cannot read the render crate; glyptic-render's tests check that the shader
-/// still says these numbers. Colours are display (sRGB) values as the shader writes them.
+/// The renderer's marble and gold (`crates/render/shaders/scene.wgsl`), mirrored here because
+/// the core cannot read the render crate; glyptic-render's tests check that the shader still
+/// says these numbers. Colours are display (sRGB) values as the shader writes them. The
+/// layered stones need no mirror: the renderer takes them from [`crate::stone`] too.
 pub mod shader {
     /// Marble: a warm white, `MARBLE_GREY * MARBLE_TINT`.
     pub const MARBLE_GREY: f32 = 0.92;
     pub const MARBLE_TINT: [f32; 3] = [1.0, 0.985, 0.955];
-    /// Agate's three layers and the gains the shader applies before decoding them.
-    pub const AGATE_RED: [f32; 3] = [0.0745, 0.0196, 0.0196];
-    pub const AGATE_WHITE: [f32; 3] = [0.6706, 0.6902, 0.6706];
-    pub const AGATE_BROWN: [f32; 3] = [0.2863, 0.1137, 0.0078];
-    pub const AGATE_RED_GAIN: f32 = 4.0;
-    pub const AGATE_WHITE_GAIN: f32 = 1.2;
-    pub const AGATE_BROWN_GAIN: f32 = 1.25;
-    /// White layer thickness (mm) letting through 1/e of the red, and the bluish veil where
-    /// it is thin (linear).
-    pub const AGATE_VEIL_MM: f32 = 0.45;
-    pub const AGATE_VEIL_TINT: [f32; 3] = [0.02, 0.035, 0.07];
     /// Gold's reflectance at normal incidence (linear).
     pub const GOLD_F0: [f32; 3] = [1.0, 0.71, 0.29];
-    /// The highlights' exponents: Blinn-Phong (n.h) for marble and gold, Phong (r.l) for agate.
+    /// The highlights' exponents: Blinn-Phong (n.h) for marble and gold (the layered
+    /// stones' are in [`crate::stone`], which the renderer reads directly).
     pub const MARBLE_BLINN: f32 = 90.0;
     pub const GOLD_BLINN: f32 = 120.0;
-    pub const AGATE_PHONG: f32 = 500.0;
 }
 
 /// Metres per gem millimetre.
@@ -54,11 +45,13 @@ const METRES_PER_MM: f32 = 0.001;
 
 /// The stone, as the renderer draws it (glyptic-render's `Material` and `hair_layer`; the core
 /// cannot name the render crate's type).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Stone {
     Marble,
-    /// `hair_layer`: the hair cut from the brown top layer (`false`: white like the face).
-    Agate {
+    /// A layered stone ([`crate::stone::AGATE`], `SHELL`, `JASPERWARE`); `hair_layer`: the
+    /// hair cut from its top layer (`false`: white like the face).
+    Layered {
+        layers: &'static Layers,
         hair_layer: bool,
     },
 }
@@ -91,7 +84,7 @@ pub enum GltfError {
 /// A glTF metallic-roughness material (factors only, linear colour).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Pbr {
-    pub name: &'static str,
+    pub name: String,
     pub base_colour: [f32; 4],
     pub metallic: f32,
     pub roughness: f32,
@@ -104,50 +97,13 @@ pub fn roughness_for_blinn(exponent: f32) -> f32 {
     (2.0 / (exponent + 2.0)).sqrt().sqrt()
 }
 
-/// The shader's display-to-linear decoding (sRGB).
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-fn linear(display: [f32; 3], gain: f32) -> [f32; 3] {
-    display.map(|c| srgb_to_linear(c * gain))
-}
-
-fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
-}
-
-/// Agate's colour (linear) at a point `relief` mm above the ground with hair weight `hair`:
-/// the shader's `agate_albedo` without its noise.
-pub fn agate_colour(relief: f32, hair: f32, hair_layer: bool) -> [f32; 3] {
-    use shader::*;
-    let ground = linear(AGATE_RED, AGATE_RED_GAIN);
-    let white = linear(AGATE_WHITE, AGATE_WHITE_GAIN).map(|c| 0.97 * c);
-    let w = 1.0 - (-relief.max(0.0) / AGATE_VEIL_MM).exp();
-    let mut col: [f32; 3] = std::array::from_fn(|k| {
-        ground[k] + (white[k] - ground[k]) * w + 4.0 * w * (1.0 - w) * AGATE_VEIL_TINT[k]
-    });
-    if hair_layer {
-        // The brown's noise (0.75 + 0.4 * strands) averages 0.75.
-        let brown = linear(AGATE_BROWN, AGATE_BROWN_GAIN).map(|c| 0.75 * c);
-        let h = smoothstep(0.15, 0.85, hair.clamp(0.0, 1.0)) * smoothstep(0.6, 1.8, relief);
-        col = std::array::from_fn(|k| col[k] + (brown[k] - col[k]) * h);
-    }
-    col.map(|c| c.clamp(0.0, 1.0))
-}
-
 /// The materials of a stone: ground, portrait, gold. Marble's ground and portrait are one
-/// stone; agate's ground is its red layer and its portrait takes its colours per vertex (so
-/// its base colour is white).
+/// stone; a layered stone's ground is its ground layer and its portrait takes its colours per
+/// vertex (so its base colour is white).
 pub fn materials(stone: Stone) -> [Pbr; 3] {
     use shader::*;
     let gold = Pbr {
-        name: "gold",
+        name: "gold".into(),
         base_colour: [GOLD_F0[0], GOLD_F0[1], GOLD_F0[2], 1.0],
         metallic: 1.0,
         roughness: roughness_for_blinn(GOLD_BLINN),
@@ -156,25 +112,25 @@ pub fn materials(stone: Stone) -> [Pbr; 3] {
         Stone::Marble => {
             let c = MARBLE_TINT.map(|t| srgb_to_linear(MARBLE_GREY * t));
             let marble = Pbr {
-                name: "marble",
+                name: "marble".into(),
                 base_colour: [c[0], c[1], c[2], 1.0],
                 metallic: 0.0,
                 roughness: roughness_for_blinn(MARBLE_BLINN),
             };
             [marble.clone(), marble, gold]
         }
-        Stone::Agate { .. } => {
-            let roughness = roughness_for_blinn(4.0 * AGATE_PHONG);
-            let red = linear(AGATE_RED, AGATE_RED_GAIN);
+        Stone::Layered { layers, .. } => {
+            let roughness = roughness_for_blinn(4.0 * layers.phong);
+            let ground = linear(layers.ground);
             [
                 Pbr {
-                    name: "agate ground (red layer)",
-                    base_colour: [red[0], red[1], red[2], 1.0],
+                    name: format!("{} ground (its ground layer)", layers.name),
+                    base_colour: [ground[0], ground[1], ground[2], 1.0],
                     metallic: 0.0,
                     roughness,
                 },
                 Pbr {
-                    name: "agate portrait (layers in the vertex colours)",
+                    name: format!("{} portrait (layers in the vertex colours)", layers.name),
                     base_colour: [1.0; 4],
                     metallic: 0.0,
                     roughness,
@@ -397,13 +353,13 @@ pub fn to_glb(mesh: &Mesh, options: &GltfOptions) -> Result<Vec<u8>, GltfError> 
         let mut attributes = serde_json::Map::new();
         attributes.insert("POSITION".into(), json!(bin.vec3(&positions, true)));
         attributes.insert("NORMAL".into(), json!(bin.vec3(&part_normals, false)));
-        if let (Stone::Agate { hair_layer }, 1) = (options.stone, k) {
+        if let (Stone::Layered { layers, hair_layer }, 1) = (options.stone, k) {
             let colours: Vec<[f32; 3]> = part
                 .vertices
                 .iter()
                 .map(|&i| {
                     let v = &mesh.vertices[i as usize];
-                    agate_colour(v.relief, v.hair, hair_layer)
+                    layers.colour(v.relief, v.hair, hair_layer)
                 })
                 .collect();
             attributes.insert("COLOR_0".into(), json!(bin.vec3(&colours, false)));
@@ -602,6 +558,11 @@ mod tests {
         values
     }
 
+    const AGATE_HAIR: Stone = Stone::Layered {
+        layers: &crate::stone::AGATE,
+        hair_layer: true,
+    };
+
     fn options(stone: Stone) -> GltfOptions<'static> {
         GltfOptions {
             stone,
@@ -613,7 +574,7 @@ mod tests {
     #[test]
     fn a_glb_holds_the_cameo_in_metres_by_material() {
         let mesh = toy(0);
-        for stone in [Stone::Marble, Stone::Agate { hair_layer: true }] {
+        for stone in [Stone::Marble, AGATE_HAIR] {
             let glb = to_glb(&mesh, &options(stone)).unwrap();
             let (doc, bin) = open(&glb);
             assert_eq!(doc["asset"]["version"], "2.0");
@@ -675,11 +636,12 @@ mod tests {
 
     #[test]
     fn agate_colours_follow_the_layers() {
-        let red = agate_colour(0.0, 0.0, true);
-        let thin = agate_colour(0.2, 0.0, true);
-        let white = agate_colour(4.0, 0.0, true);
-        let hair = agate_colour(4.0, 1.0, true);
-        let no_layer = agate_colour(4.0, 1.0, false);
+        let agate = |relief, hair, layer| crate::stone::AGATE.colour(relief, hair, layer);
+        let red = agate(0.0, 0.0, true);
+        let thin = agate(0.2, 0.0, true);
+        let white = agate(4.0, 0.0, true);
+        let hair = agate(4.0, 1.0, true);
+        let no_layer = agate(4.0, 1.0, false);
         assert!(red[0] > 2.0 * red[2], "red ground {red:?}");
         assert!(white[1] > 0.5 && white[2] > 0.5, "white layer {white:?}");
         // A thin white layer lets the red through (less white than the full layer).
@@ -692,7 +654,7 @@ mod tests {
     fn highlights_become_roughness() {
         // A sharper highlight is a smoother surface; agate's is the sharpest.
         let [marble, _, gold] = materials(Stone::Marble);
-        let [_, agate, _] = materials(Stone::Agate { hair_layer: true });
+        let [_, agate, _] = materials(AGATE_HAIR);
         assert!(agate.roughness < gold.roughness && gold.roughness < marble.roughness);
         assert!((0.1..0.5).contains(&marble.roughness), "{marble:?}");
         assert_eq!(gold.metallic, 1.0);

@@ -81,6 +81,8 @@ pub(crate) struct FrameUniform {
     pub volume: [f32; 4],
     /// xyz: 1 / the volume's voxel counts.
     pub volume_texel: [f32; 4],
+    /// A layered stone's colours and polish ([`glyptic_core::stone::Layers::uniforms`]).
+    pub layers: [[f32; 4]; 5],
 }
 
 /// Uniforms of the noise volume's bake; mirrors `Volume` in `noise_volume.wgsl`.

@@ -143,9 +143,10 @@ pub(super) fn glb(
     params: &RenderParams,
     source: &str,
 ) -> Result<Vec<u8>, gem::gltf::GltfError> {
-    let stone = match params.material {
-        glyptic::render::Material::Marble => gem::gltf::Stone::Marble,
-        glyptic::render::Material::Agate => gem::gltf::Stone::Agate {
+    let stone = match params.material.layers() {
+        None => gem::gltf::Stone::Marble,
+        Some(layers) => gem::gltf::Stone::Layered {
+            layers,
             hair_layer: params.hair_layer,
         },
     };

@@ -3,8 +3,6 @@
 
 use std::time::{Duration, Instant};
 
-use glyptic::render::Material;
-
 use super::window::Running;
 
 /// Times and counts since the kiosk started: the status line's and the trace's figures.
@@ -98,7 +96,7 @@ impl Running {
             "gem_moving": self.drawn_moving,
             "gem_size": self.layer.as_ref().map(|l| l.size),
             "gem_ms": self.timeline.gem_ms,
-            "material": match self.controls.material { Material::Marble => "marble", Material::Agate => "agate" },
+            "material": self.controls.material.name(),
             "sss": self.controls.sss,
             "sss_label": self.controls.sss_label(&self.config.labels),
             "style": self.controls.style.map_or("none", |s| s.name()),

@@ -129,12 +129,10 @@ impl UiFrame<'_> {
             ui.add_space(6.0);
             // Three rows: the stone, the glow, the portrait.
             ui.horizontal(|ui| {
-                for (material, name, key) in [
-                    (Material::Marble, &self.labels.marble, "marble"),
-                    (Material::Agate, &self.labels.agate, "agate"),
-                ] {
+                for material in Material::ALL {
+                    let (name, key) = (self.labels.stone(material), material.name());
                     let on = self.controls.material == material;
-                    let r = ui.add(egui::Button::new(name.as_str()).selected(on));
+                    let r = ui.add(egui::Button::new(name).selected(on));
                     if r.clicked() {
                         self.controls.material = material;
                     }
