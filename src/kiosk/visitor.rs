@@ -568,7 +568,14 @@ mod tests {
         let m = |t| ATTRACT.material(t, Material::Marble);
         assert_eq!(m(0.0), Material::Marble);
         assert_eq!(m(ATTRACT.material_s + 0.1), Material::Agate);
-        assert_eq!(m(2.0 * ATTRACT.material_s + 0.1), Material::Marble);
+        // Every stone in turn, then the configured one again.
+        assert_eq!(m(2.0 * ATTRACT.material_s + 0.1), Material::Shell);
+        assert_eq!(m(3.0 * ATTRACT.material_s + 0.1), Material::Jasperware);
+        assert_eq!(m(4.0 * ATTRACT.material_s + 0.1), Material::Marble);
+        assert_eq!(
+            ATTRACT.material(ATTRACT.material_s + 0.1, Material::Jasperware),
+            Material::Marble
+        );
         assert_eq!(ATTRACT.material(1.0, Material::Agate), Material::Agate);
         assert_eq!(m(f64::NAN), Material::Marble);
     }
