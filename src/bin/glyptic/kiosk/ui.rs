@@ -127,8 +127,9 @@ impl UiFrame<'_> {
         });
         egui::Panel::bottom("controls").show(root, |ui| {
             ui.add_space(6.0);
-            // Three rows: the stone, the glow, the portrait.
-            ui.horizontal(|ui| {
+            // Three rows: the stone, the glow, the portrait. The stones' row wraps (the glow
+            // toggle goes under the four stones) on a narrow window.
+            ui.horizontal_wrapped(|ui| {
                 for material in Material::ALL {
                     let (name, key) = (self.labels.stone(material), material.name());
                     let on = self.controls.material == material;
