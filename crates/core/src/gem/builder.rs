@@ -6,7 +6,7 @@ use crate::scene::Mesh;
 
 use super::detail::FaceDetail;
 use super::setting::add_setting;
-use super::shading::{cavity, light_visibility, smooth_121};
+use super::shading::{cavity, smooth_121, soft_light_visibility};
 use super::tessellate::{add_relief_surface, plan_surface};
 use super::{
     CameoParams, DEPTH_QUANTILE, GROUND_EPS, GemError, HEAD_EMPHASIS, PORTRAIT_OVAL, Placement,
@@ -422,7 +422,7 @@ impl CameoBuilder {
         );
         let mut key_light = vec![1f32; n];
         shadow_box.paste(
-            &light_visibility(
+            &soft_light_visibility(
                 &shadow_box.crop(&height, cols, |h| h),
                 shadow_box.width(),
                 shadow_box.height(),

@@ -14,6 +14,10 @@ const FLAT_TOLERANCE_MM: f32 = 0.004;
 const SLOPE_TOLERANCE: f32 = 0.004;
 /// How far the hair layer's weight may stray from the corners' bilinear patch in a merged square.
 const HAIR_TOLERANCE: f32 = 0.02;
+/// How far the cast shadows' and the cavity's light (0..1) may stray: the renderer
+/// interpolates them like the heights, and a merged square that flattens a penumbra shows as a
+/// rectangular patch at 3840 px.
+const LIGHT_TOLERANCE: f32 = 0.015;
 
 /// One square element of the stone's top: `size` x `size` cells from node (`x`, `y`).
 #[derive(Clone, Copy, Debug)]
@@ -104,6 +108,8 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
         let sx = c.map(|i| slope[i][0]);
         let sy = c.map(|i| slope[i][1]);
         let hair = c.map(|i| relief.hair[i]);
+        let key = c.map(|i| relief.key_light[i]);
+        let cavity = c.map(|i| relief.occlusion[i]);
         let first = region[c[0]];
         let scale = 1.0 / e.size as f32;
         let node_ok = |dx: usize, dy: usize| {
@@ -115,6 +121,8 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
                 && (slope[i][0] - bilinear(sx, u, w)).abs() <= SLOPE_TOLERANCE
                 && (slope[i][1] - bilinear(sy, u, w)).abs() <= SLOPE_TOLERANCE
                 && (relief.hair[i] - bilinear(hair, u, w)).abs() <= HAIR_TOLERANCE
+                && (relief.key_light[i] - bilinear(key, u, w)).abs() <= LIGHT_TOLERANCE
+                && (relief.occlusion[i] - bilinear(cavity, u, w)).abs() <= LIGHT_TOLERANCE
         };
         // The centre and the edges' midpoints stray first on a curved surface: try them first.
         let h = e.size / 2;
