@@ -26,6 +26,10 @@ pub struct Vertex {
     /// How much of the key light reaches this point, 0..1 (cast shadows; see
     /// [`key_light_dir`]).
     pub key_light: f32,
+    /// How much of the key light reaches this point through the stone, 0..1, where the
+    /// relief shadows it: a thin part (an ear's rim, a lock's tip) lets light through and
+    /// glows; a thick one does not. The renderer adds it with the scattering.
+    pub transmit: f32,
 }
 
 /// What a vertex is made of.
@@ -206,6 +210,7 @@ mod tests {
             hair: 0.0,
             occlusion: 1.0,
             key_light: 1.0,
+            transmit: 0.0,
         }
     }
 

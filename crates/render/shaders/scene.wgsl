@@ -25,7 +25,8 @@ struct Frame {
     cam_fwd: vec4<f32>,
     // x: vein softness [0, 1], y: vein lightness [0, 1], z: texture scale (1/mm), w: ambient.
     marble: vec4<f32>,
-    // x: near depth (mm), y: 1 / (far - near) (1/mm).
+    // x: near depth (mm), y: 1 / (far - near) (1/mm), z: the translucency (0 without the
+    // scattering).
     depth: vec4<f32>,
     // x: material (0 marble, 1 a layered stone), y: the hair cut from its top layer (1 on).
     material: vec4<u32>,
@@ -81,6 +82,8 @@ struct VsIn {
     @location(6) occlusion: f32,
     // How much of the key light reaches the point (the relief's cast shadows), 0..1.
     @location(7) key_light: f32,
+    // How much of it reaches the point through the stone where the relief shadows it, 0..1.
+    @location(8) transmit: f32,
 }
 
 struct VsOut {
@@ -95,9 +98,12 @@ struct VsOut {
     @location(5) tangent: vec4<f32>,
     @location(6) occlusion: f32,
     @location(7) key_light: f32,
+    @location(8) transmit: f32,
 }
 
 const REGION_GOLD: u32 = 3u;
+// The colour of light that has travelled a millimetre or two through the stone.
+const GLOW_TINT: vec3<f32> = vec3<f32>(1.0, 0.82, 0.66);
 
 @vertex
 fn vs_main(in: VsIn) -> VsOut {
@@ -111,6 +117,7 @@ fn vs_main(in: VsIn) -> VsOut {
     out.tangent = in.tangent;
     out.occlusion = clamp(in.occlusion, 0.0, 1.0);
     out.key_light = clamp(in.key_light, 0.0, 1.0);
+    out.transmit = clamp(in.transmit, 0.0, 1.0);
     return out;
 }
 
@@ -376,6 +383,9 @@ fn fs_main(in: VsOut) -> FsOut {
     }
     let ndl_lamp = max(dot(n, lamp_l), 0.0);
     let lit = ambient + ndl * light + ndl_lamp * lamp;
+    // The key light that came through a thin part (an ear's rim, a lock) leaves it on every
+    // side, whatever the normal, warmer than it came in (red travels furthest in stone).
+    let glow = frame.depth.z * frame.light_dir.w * in.transmit * GLOW_TINT;
 
     var diffuse: vec3<f32>;
     var specular = vec3<f32>(0.0);
@@ -401,7 +411,7 @@ fn fs_main(in: VsOut) -> FsOut {
         specular = fresnel * (0.8 * environment(r) * in.occlusion + highlight);
         sss = 0.0;
     } else if frame.material.x == 0u {
-        diffuse = marble_albedo(p) * lit;
+        diffuse = marble_albedo(p) * (lit + glow);
         // Polished marble: a faint, sharp highlight and a weak Fresnel reflection of the
         // studio (kept out of the scattering pass, so they stay sharp).
         let h = normalize(l + v);
@@ -410,7 +420,7 @@ fn fs_main(in: VsOut) -> FsOut {
         specular = vec3<f32>(0.12 * pow(max(dot(n, h), 0.0), 90.0) * light)
             + 0.35 * fresnel * environment(reflect(-v, n));
     } else {
-        diffuse = layered_albedo(p, in.relief, in.hair) * lit;
+        diffuse = layered_albedo(p, in.relief, in.hair) * (lit + glow);
         // Phong with the stone's exponent (agate's 500, as in 2021), plus a Fresnel reflection
         // of the studio for the polish, and the stone's share of the scattering.
         let polish = frame.layers[4];

@@ -9,7 +9,7 @@ use super::gpu::{self, CompositeUniform, FrameUniform, MeshBuffers, Pipelines, T
 use super::{
     AMBIENT, COMPOSITE_PARAMS, EngravedMesh, LAMP_NEAR_MM, LIGHT_INTENSITY, Lamp, Mesh, Output,
     PassTimer, RenderError, RenderParams, Renderer, SHADOW_BIAS_MM, SHADOW_PCF_MM, TEXTURE_SCALE,
-    TimedPass, gpu_style_count, mesh, srgb_to_linear, surface,
+    TRANSLUCENCY, TimedPass, gpu_style_count, mesh, srgb_to_linear, surface,
 };
 
 /// What the frame's steps decided about the surface and the draw.
@@ -457,7 +457,18 @@ impl Renderer {
                 TEXTURE_SCALE,
                 AMBIENT,
             ],
-            depth: [cam.near, 1.0 / (cam.far - cam.near).max(1e-6), 0.0, 0.0],
+            // z: how much of the light passing through thin parts shows (with the scattering
+            // only: it is the same light, travelling further).
+            depth: [
+                cam.near,
+                1.0 / (cam.far - cam.near).max(1e-6),
+                params.sss.as_ref().map_or(0.0, |s| {
+                    // The glow follows the scattering's strength (the kiosk's slider).
+                    let share = s.strength[0] / crate::sss::SssParams::default().strength[0];
+                    TRANSLUCENCY * share.clamp(0.0, 2.0) * layers.map_or(1.0, |l| l.scatter)
+                }),
+                0.0,
+            ],
             material: [
                 u32::from(layers.is_some()),
                 u32::from(params.hair_layer && layers.is_some_and(|l| l.top.is_some())),

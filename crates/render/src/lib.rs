@@ -285,6 +285,10 @@ pub enum RenderError {
 
 /// Ambient light (the 2021 system's 0.2).
 const AMBIENT: f32 = 0.2;
+/// How much of the key light that passes through a thin part (the mesh's `transmit`) leaves
+/// it towards the viewer: light lost at entering and leaving, and to the sides; marble's
+/// share, the layered stones' scaled by their scattering.
+const TRANSLUCENCY: f32 = 0.6;
 /// Intensity of the white key light (raking: the flat ground gets sin 20 degrees of it).
 const LIGHT_INTENSITY: f32 = 1.25;
 /// Texture-space units per mm for the marble's veins (a few across a 44 x 56 mm cameo; the

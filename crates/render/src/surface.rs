@@ -465,6 +465,7 @@ mod tests {
             hair: 0.0,
             occlusion: 1.0,
             key_light: 1.0,
+            transmit: 0.0,
         }
     }
 

@@ -6,11 +6,11 @@ use crate::scene::Mesh;
 
 use super::detail::FaceDetail;
 use super::setting::add_setting;
-use super::shading::{cavity, smooth_121, soft_light_visibility};
+use super::shading::{cavity, light_transmission, smooth_121, soft_light_visibility};
 use super::tessellate::{add_relief_surface, plan_surface};
 use super::{
-    CameoParams, DEPTH_QUANTILE, GROUND_EPS, GemError, HEAD_EMPHASIS, PORTRAIT_OVAL, Placement,
-    Relief, View, basrelief, check_params, face, relief, template,
+    CameoParams, DEPTH_QUANTILE, GROUND_EPS, GemError, HEAD_EMPHASIS, MEAN_FREE_MM, PORTRAIT_OVAL,
+    Placement, Relief, View, basrelief, check_params, face, relief, template,
 };
 
 /// Builds cameos for one set of [`CameoParams`]: everything that does not depend on the face
@@ -421,15 +421,15 @@ impl CameoBuilder {
             rows,
         );
         let mut key_light = vec![1f32; n];
+        let mut transmit = vec![0f32; n];
+        let box_height = shadow_box.crop(&height, cols, |h| h);
+        let (bw, bh) = (shadow_box.width(), shadow_box.height());
+        let visible = soft_light_visibility(&box_height, bw, bh, cell, light);
+        let shadow: Vec<f32> = visible.iter().map(|v| 1.0 - v).collect();
+        shadow_box.paste(&visible, &mut key_light, cols);
         shadow_box.paste(
-            &soft_light_visibility(
-                &shadow_box.crop(&height, cols, |h| h),
-                shadow_box.width(),
-                shadow_box.height(),
-                cell,
-                light,
-            ),
-            &mut key_light,
+            &light_transmission(&box_height, bw, bh, cell, light, &shadow, MEAN_FREE_MM),
+            &mut transmit,
             cols,
         );
         Ok(Relief {
@@ -437,6 +437,7 @@ impl CameoBuilder {
             hair,
             occlusion,
             key_light,
+            transmit,
             face,
             portrait,
             face_height,

@@ -461,6 +461,7 @@ mod tests {
             hair: if region == Region::Hair { 1.0 } else { 0.0 },
             occlusion: 1.0,
             key_light: 1.0,
+            transmit: 0.0,
         }
     }
 

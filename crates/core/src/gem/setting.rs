@@ -123,6 +123,7 @@ fn gold(position: [f32; 3], normal: [f32; 3], occlusion: f32) -> Vertex {
         hair: 0.0,
         occlusion,
         key_light: 1.0,
+        transmit: 0.0,
     }
 }
 

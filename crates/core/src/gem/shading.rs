@@ -146,6 +146,70 @@ pub(super) fn light_visibility(
     vis
 }
 
+/// How much of a directional light (unit vector `light` towards it) reaches each shadowed
+/// node through the stone (gem mm heights, `cell` apart): along the ray from the node
+/// towards the light, the length L that runs below the height field (inside the stone) lets
+/// `exp(-L / mean_free_mm)` through; weighted by how much the node is shadowed (`shadow`:
+/// 1 - [`light_visibility`]), so a lit node gets none (its light arrives directly). A thin
+/// part (an ear's rim, a lock, the nose's tip seen against the light) lets much through, the
+/// head's bulk almost nothing.
+pub(super) fn light_transmission(
+    height: &[f32],
+    cols: usize,
+    rows: usize,
+    cell: f32,
+    light: [f32; 3],
+    shadow: &[f32],
+    mean_free_mm: f32,
+) -> Vec<f32> {
+    let n = cols * rows;
+    let plane = light[0].hypot(light[1]);
+    let top = height.iter().copied().fold(0f32, f32::max);
+    if plane < 1e-6 || light[2] <= 0.0 || top <= 0.0 || mean_free_mm <= 0.0 {
+        return vec![0.0; n];
+    }
+    let (dx, dy) = (light[0] / plane, light[1] / plane);
+    let slope = light[2] / plane;
+    // Half-cell steps along the ground; each is this long along the ray.
+    let step = 0.5 * cell;
+    let along_ray = step * (1.0 + slope * slope).sqrt();
+    let sample = |x: f32, y: f32| -> Option<f32> {
+        if x < 0.0 || y < 0.0 || x > (cols - 1) as f32 || y > (rows - 1) as f32 {
+            return None;
+        }
+        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+        let (x1, y1) = ((x0 + 1).min(cols - 1), (y0 + 1).min(rows - 1));
+        let (tx, ty) = (x - x0 as f32, y - y0 as f32);
+        let h = |xx: usize, yy: usize| height[yy * cols + xx];
+        Some(
+            (h(x0, y0) * (1.0 - tx) + h(x1, y0) * tx) * (1.0 - ty)
+                + (h(x0, y1) * (1.0 - tx) + h(x1, y1) * tx) * ty,
+        )
+    };
+    let mut out = vec![0f32; n];
+    for (i, o) in out.iter_mut().enumerate() {
+        let dark = shadow[i].clamp(0.0, 1.0);
+        if dark < 0.01 {
+            continue;
+        }
+        let (x, y, h0) = ((i % cols) as f32, (i / cols) as f32, height[i]);
+        // March until the ray rises above the highest relief.
+        let steps = ((top - h0).max(0.0) / slope / step).ceil() as usize + 1;
+        let mut inside = 0f32;
+        for k in 1..=steps {
+            let t = k as f32 * step;
+            let Some(surface) = sample(x + dx * t / cell, y + dy * t / cell) else {
+                break;
+            };
+            if surface > h0 + t * slope {
+                inside += along_ray;
+            }
+        }
+        *o = dark * (-inside / mean_free_mm).exp();
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

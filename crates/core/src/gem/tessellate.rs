@@ -110,6 +110,7 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
         let hair = c.map(|i| relief.hair[i]);
         let key = c.map(|i| relief.key_light[i]);
         let cavity = c.map(|i| relief.occlusion[i]);
+        let through = c.map(|i| relief.transmit[i]);
         let first = region[c[0]];
         let scale = 1.0 / e.size as f32;
         let node_ok = |dx: usize, dy: usize| {
@@ -123,6 +124,7 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
                 && (relief.hair[i] - bilinear(hair, u, w)).abs() <= HAIR_TOLERANCE
                 && (relief.key_light[i] - bilinear(key, u, w)).abs() <= LIGHT_TOLERANCE
                 && (relief.occlusion[i] - bilinear(cavity, u, w)).abs() <= LIGHT_TOLERANCE
+                && (relief.transmit[i] - bilinear(through, u, w)).abs() <= LIGHT_TOLERANCE
         };
         // The centre and the edges' midpoints stray first on a curved surface: try them first.
         let h = e.size / 2;
@@ -225,6 +227,7 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
             hair: relief.hair[i].clamp(0.0, 1.0),
             occlusion: relief.occlusion[i],
             key_light: relief.key_light[i],
+            transmit: relief.transmit[i],
         });
     }
 

@@ -182,6 +182,7 @@ pub(super) fn scene_pipeline(
         4 => Float32,   // hair
         6 => Float32,   // occlusion
         7 => Float32,   // key light
+        8 => Float32,   // transmitted key light
     ];
     let constants = [
         ("ENGRAVING", f64::from(u8::from(variant.engraving))),

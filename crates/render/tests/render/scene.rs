@@ -52,6 +52,7 @@ impl Builder {
             hair: if region == Region::Hair { 1.0 } else { 0.0 },
             occlusion: 1.0,
             key_light: 1.0,
+            transmit: 0.0,
         });
         (self.mesh.vertices.len() - 1) as u32
     }
@@ -196,6 +197,7 @@ fn speck() -> Mesh {
                 hair: 0.0,
                 occlusion: 1.0,
                 key_light: 1.0,
+                transmit: 0.0,
             };
             3
         ],
