@@ -150,7 +150,8 @@ pub(super) fn light_visibility(
 /// node through the stone (gem mm heights, `cell` apart): along the ray from the node
 /// towards the light, the length L that runs below the height field (inside the stone) lets
 /// `exp(-L / mean_free_mm)` through; weighted by how much the node is shadowed (`shadow`:
-/// 1 - [`light_visibility`]), so a lit node gets none (its light arrives directly). A thin
+/// 1 - [`light_visibility`]), so a lit node gets none (its light arrives directly), and the
+/// ground (height 0) none. A thin
 /// part (an ear's rim, a lock, the nose's tip seen against the light) lets much through, the
 /// head's bulk almost nothing.
 pub(super) fn light_transmission(
@@ -170,8 +171,9 @@ pub(super) fn light_transmission(
     }
     let (dx, dy) = (light[0] / plane, light[1] / plane);
     let slope = light[2] / plane;
-    // Half-cell steps along the ground; each is this long along the ray.
-    let step = 0.5 * cell;
+    // Steps of a cell along the ground (bilinear between nodes); each is this long along the
+    // ray.
+    let step = cell;
     let along_ray = step * (1.0 + slope * slope).sqrt();
     let sample = |x: f32, y: f32| -> Option<f32> {
         if x < 0.0 || y < 0.0 || x > (cols - 1) as f32 || y > (rows - 1) as f32 {
@@ -188,15 +190,23 @@ pub(super) fn light_transmission(
     };
     let mut out = vec![0f32; n];
     for (i, o) in out.iter_mut().enumerate() {
-        let dark = shadow[i].clamp(0.0, 1.0);
-        if dark < 0.01 {
+        let (dark, h0) = (shadow[i].clamp(0.0, 1.0), height[i]);
+        // The relief only: the ground's shadows stay as they are (light through a part
+        // reaches the ground behind it spread thin, and marching every shadowed ground node
+        // costs more than the rest of the shading together).
+        if dark < 0.01 || h0 <= 0.0 {
             continue;
         }
-        let (x, y, h0) = ((i % cols) as f32, (i / cols) as f32, height[i]);
-        // March until the ray rises above the highest relief.
+        let (x, y) = ((i % cols) as f32, (i / cols) as f32);
+        // March until the ray rises above the highest relief, or until what could still come
+        // through is too little to show (under 2 %: a grey level or two).
         let steps = ((top - h0).max(0.0) / slope / step).ceil() as usize + 1;
+        let enough = mean_free_mm * (dark / 0.02).ln().max(0.0);
         let mut inside = 0f32;
         for k in 1..=steps {
+            if inside > enough {
+                break;
+            }
             let t = k as f32 * step;
             let Some(surface) = sample(x + dx * t / cell, y + dy * t / cell) else {
                 break;
@@ -269,5 +279,46 @@ mod tests {
             smooth < 0.5 * hard,
             "penumbra's jump {smooth} against {hard}"
         );
+    }
+
+    /// On a 1 mm plateau of relief, a thin fin and a thick block, each 2 mm higher, lit from
+    /// the left at 20 degrees: just behind the fin light comes through, behind the block
+    /// hardly any; in front of either (lit directly) and on the bare ground none is added.
+    #[test]
+    fn thin_parts_let_light_through_and_thick_ones_do_not() {
+        let (cols, rows, cell) = (240, 3, 0.1);
+        // The plateau from x = 1 mm to 20 mm; the fin 0.4 mm thick at x = 2.0-2.4 mm; the
+        // block 6 mm thick at x = 10-16 mm.
+        let height: Vec<f32> = (0..cols * rows)
+            .map(|i| {
+                let x = (i % cols) as f32 * cell;
+                if (2.0..2.4).contains(&x) || (10.0..16.0).contains(&x) {
+                    3.0
+                } else if (1.0..20.0).contains(&x) {
+                    1.0
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let el = 20f32.to_radians();
+        let light = [-el.cos(), 0.0, el.sin()];
+        let vis = light_visibility(&height, cols, rows, cell, light);
+        let shadow: Vec<f32> = vis.iter().map(|v| 1.0 - v).collect();
+        let through = light_transmission(&height, cols, rows, cell, light, &shadow, 1.5);
+        let row = cols;
+        let node = |x_mm: f32| row + (x_mm / cell).round() as usize;
+        // 1 mm behind each, on the plateau, in full shadow.
+        let (fin, block) = (node(3.4), node(17.0));
+        assert!(vis[fin] < 0.01 && vis[block] < 0.01);
+        assert!(through[fin] > 0.5, "behind the fin {}", through[fin]);
+        // Through 4.8 mm of the block's stone: exp(-4.8 / 1.5) = 0.04.
+        assert!(through[block] < 0.06, "behind the block {}", through[block]);
+        assert!(through[fin] > 10.0 * through[block]);
+        assert_eq!(through[node(1.5)], 0.0, "in front of the fin (lit)");
+        // The bare ground in the plateau's shadow: none.
+        assert!(vis[node(21.0)] < 0.01);
+        assert_eq!(through[node(21.0)], 0.0);
+        assert!(through.iter().all(|t| (0.0..=1.0).contains(t)));
     }
 }
