@@ -432,6 +432,12 @@ impl CameoBuilder {
             &mut transmit,
             cols,
         );
+        // Not through the face: its shadows model it (the sockets under the brows, the
+        // nose's side), and lightening them made the gems less like their people to a
+        // recognition network that was not tuned on (BENCHMARKS.md, "The glow").
+        for (t, share) in transmit.iter_mut().zip(&face_share) {
+            *t *= 1.0 - share.clamp(0.0, 1.0);
+        }
         Ok(Relief {
             height,
             hair,
