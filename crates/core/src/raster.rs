@@ -142,11 +142,12 @@ pub fn vertex_normals(positions: &[f32], triangles: &[[u32; 3]]) -> Vec<[f32; 3]
     normals.iter().map(|&n| unit(n)).collect()
 }
 
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+pub(crate) fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-fn unit(n: [f32; 3]) -> [f32; 3] {
+/// `n` scaled to length 1 (zero where it has no length or is not finite).
+pub(crate) fn unit(n: [f32; 3]) -> [f32; 3] {
     let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
     if l > 1e-12 && l.is_finite() {
         [n[0] / l, n[1] / l, n[2] / l]

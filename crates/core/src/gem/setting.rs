@@ -14,6 +14,7 @@
 use std::f32::consts::TAU;
 
 use super::{BACK_Z, CameoParams};
+use crate::raster::{sub, unit};
 use crate::scene::{Mesh, Region, Vertex};
 
 /// How the stone is held: one type for the cameo, the kiosk's TOML (`setting = "milgrain"`)
@@ -317,13 +318,7 @@ fn sweep(
         };
         let d_along = sub(p(next, j), p(prev, j));
         let d_around = sub(p(i, j + 1), p(i, j + around - 1));
-        let n = cross(d_along, d_around);
-        let l = dot(n, n).sqrt();
-        mesh.vertices[v].normal = if l > 1e-12 {
-            n.map(|x| x / l)
-        } else {
-            [0.0; 3]
-        };
+        mesh.vertices[v].normal = unit(cross(d_along, d_around));
     }
     let rows = if closed { along } else { along - 1 };
     for i in 0..rows {
@@ -339,14 +334,6 @@ fn sweep(
 /// `n` evenly spaced stations round a closed path of `length`.
 fn stations(length: f32, n: usize) -> Vec<f32> {
     (0..n).map(|i| i as f32 / n as f32 * length).collect()
-}
-
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
@@ -440,6 +427,10 @@ fn add_bail(mesh: &mut Mesh, top: f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    }
 
     fn setting(setting: Setting, bail: bool) -> Mesh {
         let mut mesh = Mesh::default();
