@@ -9,8 +9,8 @@ use super::setting::add_setting;
 use super::shading::{cavity, light_transmission, smooth_121, soft_light_visibility};
 use super::tessellate::{add_relief_surface, plan_surface};
 use super::{
-    CameoParams, DEPTH_QUANTILE, GROUND_EPS, GemError, HEAD_EMPHASIS, MEAN_FREE_MM, PORTRAIT_OVAL,
-    Placement, Relief, View, basrelief, check_params, face, relief, template,
+    CameoParams, DEPTH_QUANTILE, GemError, HEAD_EMPHASIS, MEAN_FREE_MM, OUTLINE_LEVEL,
+    PORTRAIT_OVAL, Placement, Relief, View, basrelief, check_params, face, relief, template,
 };
 
 /// Builds cameos for one set of [`CameoParams`]: everything that does not depend on the face
@@ -378,29 +378,36 @@ impl CameoBuilder {
             *sorted.select_nth_unstable_by(k, f32::total_cmp).1
         };
         let gain = (p.relief_depth - p.wall) / top.max(1e-6);
-        // The wall: the outline's sub-cell coverage smoothed once (1-2-1 each way), a steep
-        // bevel about two cells wide that follows the silhouette, not the grid's stair-steps
-        // (more smoothing would fill the profile's narrow notches, such as the parting of the
-        // lips).
-        let mut edge = vec![0f32; n];
+        // The outline: the portrait's sub-cell coverage smoothed once (1-2-1 each way), its
+        // 0.5 contour a line that follows the silhouette, not the grid's stair-steps (more
+        // smoothing would fill the profile's narrow notches, such as the parting of the lips).
+        // Inside it the stone stands at `top`, the wall's height over the compressed relief;
+        // outside it is ground: a step, which the mesh cuts along the contour itself as a
+        // near-vertical wall (see `tessellate`), as a cutter leaves it.
+        let mut outline = vec![0f32; n];
         portrait_box.paste(
             &smooth_121(
                 &portrait_box.crop(&cover, cols, |c| c),
                 portrait_box.width(),
                 portrait_box.height(),
             ),
-            &mut edge,
+            &mut outline,
             cols,
         );
+        // The top continues the relief's slope past its last node to the contour (linearly,
+        // two cells), so it rolls into the wall without a crease; where the relief falls
+        // steeply to its edge the wall is lower, never under `MIN_WALL_SHARE` of its height.
+        // (Unclamped: the compression leaves its edge a little below zero, and a clamp there
+        // would crease the top.)
+        let scaled: Vec<f32> = relative.iter().map(|r| r * gain).collect();
+        let continued = extrapolate(&scaled, &mask, &outline, cols, rows, 2);
+        let mut top = vec![0f32; n];
         let mut height = vec![0f32; n];
         for i in portrait_box.indices(cols) {
-            let lift = p.wall * template::smoothstep(0.0, 1.0, edge[i]);
-            let h = lift + relative[i].max(0.0) * gain;
-            height[i] = if h < GROUND_EPS {
-                0.0
-            } else {
-                h.min(p.relief_depth)
-            };
+            top[i] = (p.wall + continued[i]).clamp(MIN_WALL_SHARE * p.wall, p.relief_depth);
+            if outline[i] >= OUTLINE_LEVEL {
+                height[i] = top[i];
+            }
         }
         let occlusion = cavity(&height, cols, rows, cell);
         // Shadows fall away from the light, at most the depth over the light's slope.
@@ -440,6 +447,8 @@ impl CameoBuilder {
         }
         Ok(Relief {
             height,
+            top,
+            outline,
             hair,
             occlusion,
             key_light,
@@ -680,6 +689,73 @@ struct Template {
 /// The photo's detail per face node (canonical mm): the photo point each node shows, from its
 /// vertices' photo positions interpolated over the face, faded where the photo sees the face
 /// edge-on; 0 off the face.
+/// The wall's least height where the relief falls steeply to its outline, a share of
+/// [`CameoParams::wall`].
+const MIN_WALL_SHARE: f32 = 0.5;
+
+/// `values` where `known`, continued `rings` nodes past it wherever `reach` is positive, to
+/// first order: each new node the mean of its known 4-neighbours' values carried on by their
+/// gradients (central differences where both sides are known, else one-sided), so a rounded
+/// edge keeps its slope into the wall instead of creasing.
+fn extrapolate(
+    values: &[f32],
+    known: &[bool],
+    reach: &[f32],
+    cols: usize,
+    rows: usize,
+    rings: usize,
+) -> Vec<f32> {
+    let mut out: Vec<f32> = values
+        .iter()
+        .zip(known)
+        .map(|(&v, &k)| if k { v } else { 0.0 })
+        .collect();
+    let mut have = known.to_vec();
+    let at = |i: usize, dc: isize, dr: isize| {
+        let (x, y) = ((i % cols) as isize + dc, (i / cols) as isize + dr);
+        (x >= 0 && y >= 0 && (x as usize) < cols && (y as usize) < rows)
+            .then(|| y as usize * cols + x as usize)
+    };
+    for _ in 0..rings {
+        // The known field's slope per node along one axis, in values per node.
+        let slope = |out: &[f32], have: &[bool], i: usize, dc: isize, dr: isize| {
+            let fwd = at(i, dc, dr).filter(|&j| have[j]);
+            let back = at(i, -dc, -dr).filter(|&j| have[j]);
+            match (fwd, back) {
+                (Some(f), Some(b)) => 0.5 * (out[f] - out[b]),
+                (Some(f), None) => out[f] - out[i],
+                (None, Some(b)) => out[i] - out[b],
+                (None, None) => 0.0,
+            }
+        };
+        let mut next = Vec::new();
+        for i in (0..cols * rows).filter(|&i| !have[i] && reach[i] > 0.0) {
+            let (mut sum, mut count) = (0.0, 0);
+            for (dc, dr) in [(1isize, 0isize), (-1, 0), (0, 1), (0, -1)] {
+                let Some(n) = at(i, dc, dr).filter(|&j| have[j]) else {
+                    continue;
+                };
+                // From n back to i along this axis: minus the slope along (dc, dr).
+                let g = if dc != 0 {
+                    slope(&out, &have, n, 1, 0) * dc as f32
+                } else {
+                    slope(&out, &have, n, 0, 1) * dr as f32
+                };
+                sum += out[n] - g;
+                count += 1;
+            }
+            if count > 0 {
+                next.push((i, sum / count as f32));
+            }
+        }
+        for &(i, v) in &next {
+            out[i] = v;
+            have[i] = true;
+        }
+    }
+    out
+}
+
 fn photo_detail(
     detail: &FaceDetail,
     points: &[Option<[f32; 3]>],

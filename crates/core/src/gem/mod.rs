@@ -145,6 +145,8 @@ const HEAD_EMPHASIS: f32 = 0.8;
 const MEAN_FREE_MM: f32 = 1.5;
 /// Relief below this height (gem mm) counts as ground.
 const GROUND_EPS: f32 = 0.03;
+/// The level of [`Relief::outline`] where the portrait's wall stands.
+const OUTLINE_LEVEL: f32 = 0.5;
 /// The share of the portrait's compressed heights below which the relief's scale is set
 /// (the few highest nodes above it are clamped to the depth).
 const DEPTH_QUANTILE: f32 = 0.998;
@@ -152,8 +154,15 @@ const DEPTH_QUANTILE: f32 = 0.998;
 /// The finished relief in gem units, kept for tests, measurement and inspection.
 #[derive(Clone, Debug)]
 pub struct Relief {
-    /// Height above the ground per grid node, gem mm (row-major, `cols` x `rows`).
+    /// Height above the ground per grid node, gem mm (row-major, `cols` x `rows`): the
+    /// portrait's [`Self::top`] inside its outline, 0 (the ground) outside.
     pub height: Vec<f32>,
+    /// The portrait's top surface continued a little past its outline, gem mm (0 far off
+    /// it): where the wall's top lies between two nodes, and the top's slope at the wall.
+    pub top: Vec<f32>,
+    /// The portrait's smoothed sub-cell coverage per node, 0..1: its [`OUTLINE_LEVEL`]
+    /// contour is the relief's outline, where the wall stands.
+    pub outline: Vec<f32>,
     /// How much of the agate's hair layer lies at each node, 0..1.
     pub hair: Vec<f32>,
     /// Ambient light reaching each node, 0..1 (1: open sky; the foot of a wall or a groove's

@@ -1,8 +1,11 @@
 //! The relief's height field into triangles: the stone's top simplified into square blocks
-//! where it is flat or evenly sloped (a fan's pattern would show in the shading first), the
-//! walls round it (the gold setting is [`super::setting`]'s). Gem millimetres.
+//! where it is flat or evenly sloped (a fan's pattern would show in the shading first), and
+//! the portrait's wall cut along its outline's contour, between the grid's nodes (the gold
+//! setting is [`super::setting`]'s). Gem millimetres.
 
-use super::{GROUND_EPS, Relief};
+use std::collections::HashMap;
+
+use super::{GROUND_EPS, OUTLINE_LEVEL, Relief};
 use crate::scene::{Mesh, Region, Vertex};
 
 /// Largest square of grid cells the stone's top is simplified to, how far (gem mm) a
@@ -18,6 +21,11 @@ const HAIR_TOLERANCE: f32 = 0.02;
 /// interpolates them like the heights, and a merged square that flattens a penumbra shows as a
 /// rectangular patch at 3840 px.
 const LIGHT_TOLERANCE: f32 = 0.015;
+
+/// The wall's batter: how far it leans back from the vertical (radians). A little, as a
+/// cutter's wheel leaves it, so that the wall shows as a thin lit or shaded line along the
+/// outline (a truly vertical one is seen edge-on from the front).
+const WALL_BATTER: f32 = 0.14;
 
 /// One square element of the stone's top: `size` x `size` cells from node (`x`, `y`).
 #[derive(Clone, Copy, Debug)]
@@ -55,14 +63,20 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
             } else {
                 Region::Relief
             };
-            // Central differences, one-sided at the grid's edge.
+            // Central differences, one-sided at the grid's edge; the portrait's nodes take the
+            // top's slope (continued past the outline), the ground's the ground's (the wall is
+            // cut between the nodes, so neither slope sees the step).
             let (left, right) = (col.saturating_sub(1), (col + 1).min(cols - 1));
             let (up, down) = (row.saturating_sub(1), (row + 1).min(rows - 1));
+            let on_portrait = portrait(relief, i);
+            let z = |j: usize| match (on_portrait, portrait(relief, j)) {
+                (true, _) => relief.top[j],
+                (false, true) => 0.0,
+                (false, false) => relief.height[j],
+            };
             slope[i] = [
-                (relief.height[row * cols + right] - relief.height[row * cols + left])
-                    / (cell * (right - left) as f32),
-                (relief.height[down * cols + col] - relief.height[up * cols + col])
-                    / (cell * (down - up) as f32),
+                (z(row * cols + right) - z(row * cols + left)) / (cell * (right - left) as f32),
+                (z(down * cols + col) - z(up * cols + col)) / (cell * (down - up) as f32),
             ];
         }
     }
@@ -182,6 +196,11 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
     }
 }
 
+/// Whether node `i` stands on the portrait (inside its outline's contour).
+fn portrait(relief: &Relief, i: usize) -> bool {
+    relief.outline[i] >= OUTLINE_LEVEL
+}
+
 /// Adds the stone's top as planned: a merged square is a fan around its centre node through
 /// every node on its border that a neighbour uses as a corner, so the surface stays watertight
 /// (no T-junctions).
@@ -232,12 +251,24 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
     }
 
     // Counter-clockwise seen from +Z (y up), like the bezel's.
+    let mut wall = WallCut {
+        relief,
+        index: &index,
+        crossings: HashMap::new(),
+    };
     let mut border = Vec::with_capacity(4 * MAX_BLOCK);
     for e in elements {
         let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
         if e.size == 1 {
-            let [a, b, c, d] = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)].map(|i| index[i]);
-            mesh.indices.extend_from_slice(&[a, b, c, a, c, d]);
+            let [a, b, c, d] = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)];
+            let on = [a, b, c, d].map(|i| portrait(relief, i));
+            if on.iter().all(|&o| o == on[0]) {
+                let [a, b, c, d] = [a, b, c, d].map(|i| index[i]);
+                mesh.indices.extend_from_slice(&[a, b, c, a, c, d]);
+            } else {
+                wall.triangle(mesh, [a, b, c]);
+                wall.triangle(mesh, [a, c, d]);
+            }
             continue;
         }
         let n = e.size;
@@ -252,6 +283,173 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
             let (a, b) = (border[k], border[(k + 1) % border.len()]);
             mesh.indices
                 .extend_from_slice(&[centre, index[a], index[b]]);
+        }
+    }
+}
+
+/// Where the outline's contour crosses a grid edge: the top's vertex there, the ground's at
+/// the wall's foot a little outside ([`WALL_BATTER`]), and the wall's own two (its normals).
+#[derive(Clone, Copy, Debug)]
+struct Crossing {
+    top: u32,
+    ground: u32,
+    wall_top: u32,
+    foot: u32,
+}
+
+/// The cells that the outline's contour crosses, cut along it (marching triangles on the
+/// smoothed coverage): the top on the portrait's side, the ground on the other, the wall
+/// between. Crossings are shared by the cells on either side of their edge, so the top, the
+/// ground and the wall stay watertight.
+struct WallCut<'a> {
+    relief: &'a Relief,
+    index: &'a [u32],
+    crossings: HashMap<(usize, usize), Crossing>,
+}
+
+impl WallCut<'_> {
+    fn xy(&self, i: usize) -> [f32; 2] {
+        let r = self.relief;
+        [
+            r.origin[0] + (i % r.cols) as f32 * r.cell,
+            r.origin[1] + (i / r.cols) as f32 * r.cell,
+        ]
+    }
+
+    /// The outline's gradient at node `i` (per mm; central differences).
+    fn gradient(&self, i: usize) -> [f32; 2] {
+        let r = self.relief;
+        let (col, row) = (i % r.cols, i / r.cols);
+        let (left, right) = (col.saturating_sub(1), (col + 1).min(r.cols - 1));
+        let (up, down) = (row.saturating_sub(1), (row + 1).min(r.rows - 1));
+        let f = |c: usize, w: usize| r.outline[w * r.cols + c];
+        [
+            (f(right, row) - f(left, row)) / (r.cell * (right - left).max(1) as f32),
+            (f(col, down) - f(col, up)) / (r.cell * (down - up).max(1) as f32),
+        ]
+    }
+
+    /// The crossing on the edge between a node on the portrait and one off it.
+    fn crossing(&mut self, mesh: &mut Mesh, a: usize, b: usize) -> Crossing {
+        let (inner, outer) = if portrait(self.relief, a) {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        if let Some(c) = self.crossings.get(&(inner, outer)) {
+            return *c;
+        }
+        let r = self.relief;
+        let (fi, fo) = (r.outline[inner], r.outline[outer]);
+        // (Kept off the outer node, so the wall's foot has room on the edge.)
+        let t = ((fi - OUTLINE_LEVEL) / (fi - fo).max(1e-6)).clamp(0.02, 0.9);
+        let lerp = |p: f32, q: f32| p + t * (q - p);
+        let (pi, po) = (self.xy(inner), self.xy(outer));
+        let [x, y] = [lerp(pi[0], po[0]), lerp(pi[1], po[1])];
+        let z = lerp(r.top[inner], r.top[outer]).max(GROUND_EPS);
+        let edge = [po[0] - pi[0], po[1] - pi[1]];
+        let edge_len = edge[0].hypot(edge[1]).max(1e-9);
+        let along = [edge[0] / edge_len, edge[1] / edge_len];
+        // Outward: down the coverage's slope (smooth along the contour, so the wall's shading
+        // has no facets); along the edge where the slope vanishes.
+        let (gi, go) = (self.gradient(inner), self.gradient(outer));
+        let g = [-lerp(gi[0], go[0]), -lerp(gi[1], go[1])];
+        let len = g[0].hypot(g[1]);
+        let out = if len > 1e-6 && len.is_finite() {
+            [g[0] / len, g[1] / len]
+        } else {
+            along
+        };
+        let (sin, cos) = WALL_BATTER.sin_cos();
+        let wall_normal = [out[0] * cos, out[1] * cos, sin];
+        // The foot: the batter's run out from the contour, taken along the grid edge (so the
+        // ground, the wall and the top tile the plane seen from above, nothing folds or
+        // overlaps), within the edge's outer part.
+        let run = (z * WALL_BATTER.tan() / (along[0] * out[0] + along[1] * out[1]).max(0.3))
+            .clamp(0.05 * edge_len, 0.8 * (1.0 - t) * edge_len);
+        let foot_xy = [x + along[0] * run, y + along[1] * run];
+        let on = mesh.vertices[self.index[inner] as usize];
+        let off = mesh.vertices[self.index[outer] as usize];
+        let top = Vertex {
+            position: [x, y, z],
+            relief: z,
+            ..on
+        };
+        let ground = Vertex {
+            position: [foot_xy[0], foot_xy[1], 0.0],
+            relief: 0.0,
+            ..off
+        };
+        let wall_top = Vertex {
+            normal: wall_normal,
+            ..top
+        };
+        let foot = Vertex {
+            normal: wall_normal,
+            occlusion: off.occlusion,
+            key_light: off.key_light,
+            transmit: off.transmit,
+            hair: on.hair,
+            region: on.region,
+            ..ground
+        };
+        let first = mesh.vertices.len() as u32;
+        mesh.vertices
+            .extend_from_slice(&[top, ground, wall_top, foot]);
+        let c = Crossing {
+            top: first,
+            ground: first + 1,
+            wall_top: first + 2,
+            foot: first + 3,
+        };
+        self.crossings.insert((inner, outer), c);
+        c
+    }
+
+    /// One grid triangle (counter-clockwise nodes), cut where the contour crosses it.
+    fn triangle(&mut self, mesh: &mut Mesh, nodes: [usize; 3]) {
+        let on = nodes.map(|i| portrait(self.relief, i));
+        let Some(k) = (0..3).find(|&k| on[k] != on[(k + 1) % 3] && on[k] != on[(k + 2) % 3]) else {
+            let [a, b, c] = nodes.map(|i| self.index[i]);
+            mesh.indices.extend_from_slice(&[a, b, c]);
+            return;
+        };
+        // The lone node first, the order kept.
+        let (l, m, n) = (nodes[k], nodes[(k + 1) % 3], nodes[(k + 2) % 3]);
+        let (lm, ln) = (self.crossing(mesh, l, m), self.crossing(mesh, l, n));
+        let [il, im, inn] = [l, m, n].map(|i| self.index[i]);
+        if on[k] {
+            mesh.indices.extend_from_slice(&[il, lm.top, ln.top]);
+            mesh.indices
+                .extend_from_slice(&[lm.ground, im, inn, lm.ground, inn, ln.ground]);
+        } else {
+            mesh.indices.extend_from_slice(&[il, lm.ground, ln.ground]);
+            mesh.indices
+                .extend_from_slice(&[lm.top, im, inn, lm.top, inn, ln.top]);
+        }
+        // The wall between the two crossings, wound counter-clockwise seen from above (it
+        // leans back, so that is its outer face).
+        let p = |v: u32| mesh.vertices[v as usize].position;
+        let (a, b, c) = (p(lm.wall_top), p(ln.wall_top), p(ln.foot));
+        let up = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
+        if up >= 0.0 {
+            mesh.indices.extend_from_slice(&[
+                lm.wall_top,
+                ln.wall_top,
+                ln.foot,
+                lm.wall_top,
+                ln.foot,
+                lm.foot,
+            ]);
+        } else {
+            mesh.indices.extend_from_slice(&[
+                ln.wall_top,
+                lm.wall_top,
+                lm.foot,
+                ln.wall_top,
+                lm.foot,
+                ln.foot,
+            ]);
         }
     }
 }

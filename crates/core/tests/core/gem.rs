@@ -1,6 +1,6 @@
 //! The cameo geometry built from the Surrey mean face and from fitted faces.
 
-use glyptic_core::gem::{self, CameoParams, GemError, measure};
+use glyptic_core::gem::{self, CameoParams, GemError, View, measure};
 use glyptic_core::scene::Region;
 use glyptic_core::shapemodel::SurreyModel;
 
@@ -267,6 +267,51 @@ fn cameo_mesh_is_valid_and_has_every_part() {
         mesh.vertices.len(),
         mesh.indices.len() / 3
     );
+}
+
+/// The portrait's outline is a near-vertical wall cut between the grid's nodes (no ramp): every
+/// stone triangle that climbs from the ground to the relief leans less than 20 degrees from
+/// the vertical, and the walls run round the whole outline (one a crossing, about 2 a cell).
+#[test]
+fn the_outline_is_a_near_vertical_wall() {
+    let m = model();
+    let mean = m.instance(&[], &[]);
+    for view in [View::Profile, View::Frontal] {
+        let p = view.cameo();
+        let mesh = gem::build_cameo(&mean, &m.shape.triangles, &p).unwrap();
+        let (mut walls, mut worst) = (0, 0f32);
+        for t in mesh.indices.chunks_exact(3) {
+            let v = [0, 1, 2].map(|k| mesh.vertices[t[k] as usize]);
+            if v.iter().any(|v| v.region == Region::Gold as u32) {
+                continue;
+            }
+            let z = v.map(|v| v.position[2]);
+            let (lo, hi) = (z[0].min(z[1]).min(z[2]), z[0].max(z[1]).max(z[2]));
+            if lo > 0.03 || hi < 0.3 {
+                continue;
+            }
+            let [a, b, c] = v.map(|v| v.position);
+            let (e, f) = (
+                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+            );
+            let n = [
+                e[1] * f[2] - e[2] * f[1],
+                e[2] * f[0] - e[0] * f[2],
+                e[0] * f[1] - e[1] * f[0],
+            ];
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            if len < 1e-9 {
+                continue;
+            }
+            walls += 1;
+            // The wall's lean from the vertical: the facet normal's rise out of the plane.
+            worst = worst.max((n[2] / len).abs().asin().to_degrees());
+        }
+        println!("{view:?}: {walls} wall triangles, leaning at most {worst:.1} degrees");
+        assert!(walls > 1000, "{view:?}: {walls} wall triangles");
+        assert!(worst < 20.0, "{view:?}: a wall leans {worst} degrees");
+    }
 }
 
 /// The cameo and the face written as OBJ read back with `tobj` to the same vertices (within the
