@@ -425,10 +425,10 @@ const TORSO: [(f32, f32, f32, f32); 10] = [
     (-260.0, 58.0, 264.0, 160.0),
     (-225.0, 70.0, 255.0, 140.0),
     (-195.0, 86.0, 240.0, 100.0),
-    (-165.0, 82.0, 220.0, 66.0),
-    (-130.0, 72.0, 200.0, 57.0),
-    (-90.0, 64.0, 190.0, 54.0),
-    (-40.0, 64.0, 184.0, 50.0),
+    (-165.0, 82.0, 214.0, 66.0),
+    (-130.0, 72.0, 192.0, 57.0),
+    (-90.0, 64.0, 182.0, 54.0),
+    (-40.0, 64.0, 178.0, 50.0),
     (20.0, 95.0, 170.0, 45.0),
 ];
 
@@ -460,14 +460,59 @@ fn torso(u: f32, v: f32) -> f32 {
         return 0.0;
     }
     let h = breadth * (1.0 - t * t).sqrt().powf(0.8);
-    // The sternocleidomastoid, from behind the ear to the sternal notch, and the clavicle.
-    let (d, s) = segment([u, v], [150.0, -20.0], [98.0, -196.0]);
-    let scm = 7.0 * (-(d / 11.0).powi(2)).exp() * (std::f32::consts::PI * s).sin().max(0.0).sqrt();
-    let (d2, s2) = segment([u, v], [100.0, -203.0], [165.0, -212.0]);
-    let clavicle =
-        6.0 * (-(d2 / 6.0).powi(2)).exp() * (std::f32::consts::PI * s2).sin().max(0.0).sqrt();
-    let muscles = if v > -215.0 { scm + clavicle } else { 0.0 };
-    h + muscles
+    if v < -215.0 {
+        return h;
+    }
+    // The sternocleidomastoid: a band that swells from the mastoid behind the ear to its
+    // belly and narrows to the sternal notch, bowed a little back; fading in at the top
+    // (under the ear and the jaw) so it starts without a crease.
+    let (d, s) = curve([u, v], [146.0, -38.0], [128.0, -125.0], [96.0, -197.0]);
+    let width = 6.0 + 8.0 * (std::f32::consts::PI * s).sin();
+    let scm = 6.0
+        * smoothstep(0.0, 0.3, s)
+        * (1.0 - 0.3 * smoothstep(0.85, 1.0, s))
+        * (-(d / width).powi(2)).exp();
+    // The clavicle, from the notch out to the shoulder (mostly under the mantle).
+    let (d2, s2) = curve([u, v], [100.0, -205.0], [140.0, -202.0], [175.0, -214.0]);
+    let clavicle = 5.0
+        * smoothstep(0.0, 0.15, s2)
+        * (1.0 - smoothstep(0.85, 1.0, s2))
+        * (-(d2 / 6.0).powi(2)).exp();
+    // The throat: the larynx a soft swell behind the neck's front line; hollows at the
+    // sternal (jugular) notch and in the triangle behind the muscle, above the clavicle.
+    let larynx = 3.5 * bump(u - 74.0, v + 120.0, 10.0, 18.0);
+    let notch = 4.0 * bump(u - 86.0, v + 203.0, 12.0, 10.0);
+    let behind = 3.0 * bump(u - 160.0, v + 165.0, 22.0, 30.0);
+    h + scm + clavicle + larynx - notch - behind
+}
+
+/// A smooth bump of height 1 at the origin falling to 0 on the ellipse with semi-axes a, b
+/// (its slope 0 at the rim too, so it joins what is round it without a crease).
+fn bump(du: f32, dv: f32, a: f32, b: f32) -> f32 {
+    let q = 1.0 - (du / a).powi(2) - (dv / b).powi(2);
+    if q > 0.0 { q * q } else { 0.0 }
+}
+
+/// Distance from p to the quadratic Bezier curve p0-c-p2 and the position along it (0..1),
+/// by its nearest of 16 chords.
+fn curve(p: [f32; 2], p0: [f32; 2], c: [f32; 2], p2: [f32; 2]) -> (f32, f32) {
+    const N: usize = 16;
+    let at = |t: f32| {
+        let (a, b, w) = ((1.0 - t) * (1.0 - t), 2.0 * t * (1.0 - t), t * t);
+        [
+            a * p0[0] + b * c[0] + w * p2[0],
+            a * p0[1] + b * c[1] + w * p2[1],
+        ]
+    };
+    let mut best = (f32::INFINITY, 0.0);
+    for k in 0..N {
+        let (t0, t1) = (k as f32 / N as f32, (k + 1) as f32 / N as f32);
+        let (d, s) = segment(p, at(t0), at(t1));
+        if d < best.0 {
+            best = (d, t0 + s * (t1 - t0));
+        }
+    }
+    best
 }
 
 /// The brooch on the shoulder that holds the mantle, and the mantle's hanging point in front.
