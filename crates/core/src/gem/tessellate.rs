@@ -341,8 +341,8 @@ impl WallCut<'_> {
         }
         let r = self.relief;
         let (fi, fo) = (r.outline[inner], r.outline[outer]);
-        // (Kept off the outer node, so the wall's foot has room on the edge.)
-        let t = ((fi - OUTLINE_LEVEL) / (fi - fo).max(1e-6)).clamp(0.02, 0.9);
+        // (Kept off the nodes, so the wall's foot has room on the edge.)
+        let t = ((fi - OUTLINE_LEVEL) / (fi - fo).max(1e-6)).clamp(0.01, 0.99);
         let lerp = |p: f32, q: f32| p + t * (q - p);
         let (pi, po) = (self.xy(inner), self.xy(outer));
         let [x, y] = [lerp(pi[0], po[0]), lerp(pi[1], po[1])];
@@ -362,11 +362,13 @@ impl WallCut<'_> {
         };
         let (sin, cos) = WALL_BATTER.sin_cos();
         let wall_normal = [out[0] * cos, out[1] * cos, sin];
-        // The foot: the batter's run out from the contour, taken along the grid edge (so the
+        // The foot: the batter's run out from the contour projected onto the grid edge (so the
         // ground, the wall and the top tile the plane seen from above, nothing folds or
-        // overlaps), within the edge's outer part.
-        let run = (z * WALL_BATTER.tan() / (along[0] * out[0] + along[1] * out[1]).max(0.3))
-            .clamp(0.05 * edge_len, 0.8 * (1.0 - t) * edge_len);
+        // overlaps; an edge across the outline takes all of it, an oblique one less, and
+        // none is pushed sideways along the outline, which would serrate it), within the
+        // edge's outer part.
+        let run = (z * WALL_BATTER.tan() * (along[0] * out[0] + along[1] * out[1]).max(0.0))
+            .clamp(0.005 * edge_len, 0.8 * (1.0 - t) * edge_len);
         let foot_xy = [x + along[0] * run, y + along[1] * run];
         let on = mesh.vertices[self.index[inner] as usize];
         let off = mesh.vertices[self.index[outer] as usize];
