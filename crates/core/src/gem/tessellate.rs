@@ -50,7 +50,7 @@ pub(super) struct SurfacePlan {
 /// smooth slopes take a few triangles and the face keeps every cell. Cells need all four
 /// corners inside the oval; the bezel's inner foot covers the stepped outline.
 pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
-    let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
+    let (cols, rows) = (relief.cols, relief.rows);
     let mut region = vec![Region::Ground; cols * rows];
     let mut slope = vec![[0.0; 2]; cols * rows];
     for row in 0..rows {
@@ -63,21 +63,15 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
             } else {
                 Region::Relief
             };
-            // Central differences, one-sided at the grid's edge; the portrait's nodes take the
-            // top's slope (continued past the outline), the ground's the ground's (the wall is
+            // The portrait's nodes take the top's slope (continued past the outline), the ground's the ground's (the wall is
             // cut between the nodes, so neither slope sees the step).
-            let (left, right) = (col.saturating_sub(1), (col + 1).min(cols - 1));
-            let (up, down) = (row.saturating_sub(1), (row + 1).min(rows - 1));
             let on_portrait = portrait(relief, i);
-            let z = |j: usize| match (on_portrait, portrait(relief, j)) {
-                (true, _) => relief.top[j],
-                (false, true) => 0.0,
-                (false, false) => relief.height[j],
-            };
-            slope[i] = [
-                (z(row * cols + right) - z(row * cols + left)) / (cell * (right - left) as f32),
-                (z(down * cols + col) - z(up * cols + col)) / (cell * (down - up) as f32),
-            ];
+            slope[i] =
+                central_difference(relief, i, |j| match (on_portrait, portrait(relief, j)) {
+                    (true, _) => relief.top[j],
+                    (false, true) => 0.0,
+                    (false, false) => relief.height[j],
+                });
         }
     }
     let (blocks_x, blocks_y) = (
@@ -196,6 +190,28 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
     }
 }
 
+/// Gem position of node `i`, mm.
+fn node_xy(relief: &Relief, i: usize) -> [f32; 2] {
+    [
+        relief.origin[0] + (i % relief.cols) as f32 * relief.cell,
+        relief.origin[1] + (i / relief.cols) as f32 * relief.cell,
+    ]
+}
+
+/// The slope of `field` (per node index) at node `i`, per mm: central differences, one-sided
+/// at the grid's edge.
+fn central_difference(relief: &Relief, i: usize, field: impl Fn(usize) -> f32) -> [f32; 2] {
+    let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
+    let (col, row) = (i % cols, i / cols);
+    let (left, right) = (col.saturating_sub(1), (col + 1).min(cols - 1));
+    let (up, down) = (row.saturating_sub(1), (row + 1).min(rows - 1));
+    [
+        (field(row * cols + right) - field(row * cols + left))
+            / (cell * (right - left).max(1) as f32),
+        (field(down * cols + col) - field(up * cols + col)) / (cell * (down - up).max(1) as f32),
+    ]
+}
+
 /// Whether node `i` stands on the portrait (inside its outline's contour).
 fn portrait(relief: &Relief, i: usize) -> bool {
     relief.outline[i] >= OUTLINE_LEVEL
@@ -205,14 +221,8 @@ fn portrait(relief: &Relief, i: usize) -> bool {
 /// every node on its border that a neighbour uses as a corner, so the surface stays watertight
 /// (no T-junctions).
 pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &SurfacePlan) {
-    let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
+    let (cols, rows) = (relief.cols, relief.rows);
     let (elements, region, slope) = (&plan.elements, &plan.region, &plan.slope);
-    let node_xy = |col: usize, row: usize| {
-        (
-            relief.origin[0] + col as f32 * cell,
-            relief.origin[1] + row as f32 * cell,
-        )
-    };
     // Nodes in use: every element's corners, and merged squares' centres.
     let mut corner = vec![false; cols * rows];
     let mut used = vec![false; cols * rows];
@@ -229,11 +239,8 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
     let mut index = vec![u32::MAX; cols * rows];
     let count = used.iter().filter(|u| **u).count();
     mesh.vertices.reserve(count);
-    for (i, (x, y)) in (0..rows)
-        .flat_map(|row| (0..cols).map(move |col| (row * cols + col, col, row)))
-        .filter(|&(i, _, _)| used[i])
-        .map(|(i, col, row)| (i, node_xy(col, row)))
-    {
+    for i in (0..cols * rows).filter(|&i| used[i]) {
+        let [x, y] = node_xy(relief, i);
         let h = relief.height[i];
         let [dzdx, dzdy] = slope[i];
         let inv_len = 1.0 / (dzdx * dzdx + dzdy * dzdy + 1.0).sqrt();
@@ -308,27 +315,6 @@ struct WallCut<'a> {
 }
 
 impl WallCut<'_> {
-    fn xy(&self, i: usize) -> [f32; 2] {
-        let r = self.relief;
-        [
-            r.origin[0] + (i % r.cols) as f32 * r.cell,
-            r.origin[1] + (i / r.cols) as f32 * r.cell,
-        ]
-    }
-
-    /// The outline's gradient at node `i` (per mm; central differences).
-    fn gradient(&self, i: usize) -> [f32; 2] {
-        let r = self.relief;
-        let (col, row) = (i % r.cols, i / r.cols);
-        let (left, right) = (col.saturating_sub(1), (col + 1).min(r.cols - 1));
-        let (up, down) = (row.saturating_sub(1), (row + 1).min(r.rows - 1));
-        let f = |c: usize, w: usize| r.outline[w * r.cols + c];
-        [
-            (f(right, row) - f(left, row)) / (r.cell * (right - left).max(1) as f32),
-            (f(col, down) - f(col, up)) / (r.cell * (down - up).max(1) as f32),
-        ]
-    }
-
     /// The crossing on the edge between a node on the portrait and one off it.
     fn crossing(&mut self, mesh: &mut Mesh, a: usize, b: usize) -> Crossing {
         let (inner, outer) = if portrait(self.relief, a) {
@@ -344,7 +330,7 @@ impl WallCut<'_> {
         // (Kept off the nodes, so the wall's foot has room on the edge.)
         let t = ((fi - OUTLINE_LEVEL) / (fi - fo).max(1e-6)).clamp(0.01, 0.99);
         let lerp = |p: f32, q: f32| p + t * (q - p);
-        let (pi, po) = (self.xy(inner), self.xy(outer));
+        let (pi, po) = (node_xy(r, inner), node_xy(r, outer));
         let [x, y] = [lerp(pi[0], po[0]), lerp(pi[1], po[1])];
         let z = lerp(r.top[inner], r.top[outer]).max(GROUND_EPS);
         let edge = [po[0] - pi[0], po[1] - pi[1]];
@@ -352,7 +338,11 @@ impl WallCut<'_> {
         let along = [edge[0] / edge_len, edge[1] / edge_len];
         // Outward: down the coverage's slope (smooth along the contour, so the wall's shading
         // has no facets); along the edge where the slope vanishes.
-        let (gi, go) = (self.gradient(inner), self.gradient(outer));
+        let outline = |j: usize| r.outline[j];
+        let (gi, go) = (
+            central_difference(r, inner, outline),
+            central_difference(r, outer, outline),
+        );
         let g = [-lerp(gi[0], go[0]), -lerp(gi[1], go[1])];
         let len = g[0].hypot(g[1]);
         let out = if len > 1e-6 && len.is_finite() {
