@@ -26,6 +26,15 @@ const LIGHT_TOLERANCE: f32 = 0.015;
 /// cutter's wheel leaves it, so that the wall shows as a thin lit or shaded line along the
 /// outline (a truly vertical one is seen edge-on from the front).
 const WALL_BATTER: f32 = 0.14;
+/// Where a node stands against the portrait's cut: on its top (inside the outline's
+/// contour), under its wall (between the contour and the wall's foot, which the batter puts
+/// a little outside), or on the ground beyond.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Zone {
+    Top,
+    Wall,
+    Ground,
+}
 
 /// One square element of the stone's top: `size` x `size` cells from node (`x`, `y`).
 #[derive(Clone, Copy, Debug)]
@@ -42,6 +51,11 @@ pub(super) struct SurfacePlan {
     region: Vec<Region>,
     slope: Vec<[f32; 2]>,
     elements: Vec<Element>,
+    zone: Vec<Zone>,
+    /// How far (mm) each node off the portrait lies inside the wall's foot: the wall's run
+    /// there, `top` x tan([`WALL_BATTER`]), less its distance from the outline's contour.
+    /// Its zero contour is the foot, parallel to the top's edge.
+    foot: Vec<f32>,
 }
 
 /// The stone's top, with detail only where the surface needs it: the grid's cells are merged
@@ -53,6 +67,8 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
     let (cols, rows) = (relief.cols, relief.rows);
     let mut region = vec![Region::Ground; cols * rows];
     let mut slope = vec![[0.0; 2]; cols * rows];
+    let mut zone = vec![Zone::Ground; cols * rows];
+    let foot = foot_field(relief);
     for row in 0..rows {
         for col in 0..cols {
             let i = row * cols + col;
@@ -72,6 +88,13 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
                     (false, true) => 0.0,
                     (false, false) => relief.height[j],
                 });
+            zone[i] = if on_portrait {
+                Zone::Top
+            } else if foot[i] >= 0.0 {
+                Zone::Wall
+            } else {
+                Zone::Ground
+            };
         }
     }
     let (blocks_x, blocks_y) = (
@@ -87,6 +110,7 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
         for x in 0..cols {
             let i = y * cols + x;
             let bare = inside[i]
+                && zone[i] != Zone::Wall
                 && relief.height[i] == 0.0
                 && slope[i] == [0.0, 0.0]
                 && relief.hair[i] == 0.0;
@@ -125,6 +149,7 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
             let i = at(dx, dy);
             let (u, w) = (dx as f32 * scale, dy as f32 * scale);
             inside[i]
+                && zone[i] != Zone::Wall
                 && region[i] == first
                 && (relief.height[i] - bilinear(heights, u, w)).abs() <= FLAT_TOLERANCE_MM
                 && (slope[i][0] - bilinear(sx, u, w)).abs() <= SLOPE_TOLERANCE
@@ -187,7 +212,87 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
         region,
         slope,
         elements,
+        zone,
+        foot,
     }
+}
+
+/// The wall's foot field ([`SurfacePlan::foot`]): each node off the portrait near the
+/// outline, its distance to the contour's segments (marching triangles, cut as
+/// [`add_relief_surface`] cuts them) against the wall's run there; `-inf` far off. The
+/// distance is the true one to the piecewise-straight contour, so the foot runs parallel to
+/// the top's edge along curves too (a first-order distance, the coverage over its slope,
+/// underestimated the slope off the contour and leaned the wall 3-7 degrees for 8).
+fn foot_field(relief: &Relief) -> Vec<f32> {
+    let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
+    let mut dist = vec![f32::INFINITY; cols * rows];
+    let run = WALL_BATTER.tan();
+    let highest = relief.top.iter().fold(0f32, |m, &t| m.max(t));
+    let reach = (highest * run / cell).ceil() as usize + 1;
+    for y in 0..rows.saturating_sub(1) {
+        for x in 0..cols - 1 {
+            let at = |dx: usize, dy: usize| (y + dy) * cols + x + dx;
+            let [a, b, c, d] = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)];
+            for tri in [[a, b, c], [a, c, d]] {
+                let on = tri.map(|i| portrait(relief, i));
+                if on.iter().all(|&o| o == on[0]) {
+                    continue;
+                }
+                let mut ends = [[0f32; 2]; 2];
+                let mut k = 0;
+                for e in 0..3 {
+                    let (p, q) = (tri[e], tri[(e + 1) % 3]);
+                    if on[e] != on[(e + 1) % 3] && k < 2 {
+                        let (inner, outer) = if on[e] { (p, q) } else { (q, p) };
+                        let t = rim_t(relief, inner, outer);
+                        let (pi, po) = (node_xy(relief, inner), node_xy(relief, outer));
+                        ends[k] = [pi[0] + t * (po[0] - pi[0]), pi[1] + t * (po[1] - pi[1])];
+                        k += 1;
+                    }
+                }
+                let (x0, y0) = (x.saturating_sub(reach), y.saturating_sub(reach));
+                let (x1, y1) = ((x + 1 + reach).min(cols - 1), (y + 1 + reach).min(rows - 1));
+                for ny in y0..=y1 {
+                    for nx in x0..=x1 {
+                        let j = ny * cols + nx;
+                        if !portrait(relief, j) {
+                            let d = segment_distance(node_xy(relief, j), ends[0], ends[1]);
+                            dist[j] = dist[j].min(d);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    dist.iter()
+        .zip(&relief.top)
+        .map(|(&d, &top)| {
+            if d.is_finite() {
+                top.max(0.0) * run - d
+            } else {
+                f32::NEG_INFINITY
+            }
+        })
+        .collect()
+}
+
+/// Distance (mm) from `p` to the segment `a`-`b`.
+fn segment_distance(p: [f32; 2], a: [f32; 2], b: [f32; 2]) -> f32 {
+    let (ab, ap) = ([b[0] - a[0], b[1] - a[1]], [p[0] - a[0], p[1] - a[1]]);
+    let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+    let t = if len2 > 0.0 {
+        ((ap[0] * ab[0] + ap[1] * ab[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (ap[0] - t * ab[0]).hypot(ap[1] - t * ab[1])
+}
+
+/// Where the outline's contour crosses the grid edge from `inner` (on the portrait) to
+/// `outer`, as a share of the edge (kept off the nodes, so the wall's foot has room).
+fn rim_t(relief: &Relief, inner: usize, outer: usize) -> f32 {
+    let (fi, fo) = (relief.outline[inner], relief.outline[outer]);
+    ((fi - OUTLINE_LEVEL) / (fi - fo).max(1e-6)).clamp(0.01, 0.99)
 }
 
 /// Gem position of node `i`, mm.
@@ -260,16 +365,19 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
     // Counter-clockwise seen from +Z (y up), like the bezel's.
     let mut wall = WallCut {
         relief,
+        plan,
         index: &index,
-        crossings: HashMap::new(),
+        rims: HashMap::new(),
+        feet: HashMap::new(),
+        walls: HashMap::new(),
     };
     let mut border = Vec::with_capacity(4 * MAX_BLOCK);
     for e in elements {
         let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
         if e.size == 1 {
             let [a, b, c, d] = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)];
-            let on = [a, b, c, d].map(|i| portrait(relief, i));
-            if on.iter().all(|&o| o == on[0]) {
+            let zones = [a, b, c, d].map(|i| plan.zone[i]);
+            if zones.iter().all(|&z| z == zones[0] && z != Zone::Wall) {
                 let [a, b, c, d] = [a, b, c, d].map(|i| index[i]);
                 mesh.indices.extend_from_slice(&[a, b, c, a, c, d]);
             } else {
@@ -294,154 +402,331 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
     }
 }
 
-/// Where the outline's contour crosses a grid edge: the top's vertex there, the ground's at
-/// the wall's foot a little outside ([`WALL_BATTER`]), and the wall's own two (its normals).
+/// Where the outline's contour crosses a grid edge: the top's vertex there and the wall's
+/// (the same point, the wall's normal).
 #[derive(Clone, Copy, Debug)]
-struct Crossing {
+struct Rim {
     top: u32,
-    ground: u32,
-    wall_top: u32,
-    foot: u32,
+    wall: u32,
 }
 
-/// The cells that the outline's contour crosses, cut along it (marching triangles on the
-/// smoothed coverage): the top on the portrait's side, the ground on the other, the wall
-/// between. Crossings are shared by the cells on either side of their edge, so the top, the
-/// ground and the wall stay watertight.
+/// Where the wall's foot crosses a grid edge: the wall's vertex there and the ground's.
+#[derive(Clone, Copy, Debug)]
+struct Foot {
+    wall: u32,
+    ground: u32,
+}
+
+/// A corner of one piece of a cut grid triangle: a node, or where the outline's contour
+/// ([`Rim`]) or the wall's foot ([`Foot`]) crosses the grid edge between two nodes.
+#[derive(Clone, Copy, Debug)]
+enum Corner {
+    Node(usize),
+    Rim(usize, usize),
+    Foot(usize, usize),
+}
+
+/// The cells that the portrait's wall crosses, cut along it (marching triangles with two
+/// contours): the top inside the outline's contour, the wall between it and its foot, the
+/// ground beyond. The foot is a contour of its own ([`SurfacePlan::foot`]), parallel to the
+/// top's edge at the batter's run, so the wall's width is even along the outline (a foot
+/// pushed along each grid edge from the top's crossing, within the edge, varied with the
+/// edge's direction and serrated the outline at 3840 px). Crossings and wall nodes are
+/// shared by the cells on either side, so the top, the wall and the ground stay watertight.
 struct WallCut<'a> {
     relief: &'a Relief,
+    plan: &'a SurfacePlan,
     index: &'a [u32],
-    crossings: HashMap<(usize, usize), Crossing>,
+    rims: HashMap<(usize, usize), Rim>,
+    feet: HashMap<(usize, usize), Foot>,
+    walls: HashMap<usize, u32>,
 }
 
 impl WallCut<'_> {
-    /// The crossing on the edge between a node on the portrait and one off it.
-    fn crossing(&mut self, mesh: &mut Mesh, a: usize, b: usize) -> Crossing {
-        let (inner, outer) = if portrait(self.relief, a) {
-            (a, b)
-        } else {
-            (b, a)
-        };
-        if let Some(c) = self.crossings.get(&(inner, outer)) {
-            return *c;
+    fn on_top(&self, i: usize) -> bool {
+        self.plan.zone[i] == Zone::Top
+    }
+
+    /// The foot field at a corner: at the rim the wall's whole run (it is on the contour),
+    /// never under a hair's breadth, so the foot stays outside the top's edge.
+    fn foot_at(&self, c: Corner) -> f32 {
+        match c {
+            Corner::Node(i) => self.plan.foot[i],
+            Corner::Rim(inner, outer) => {
+                let r = self.relief;
+                let t = rim_t(r, inner, outer);
+                let top = r.top[inner] + t * (r.top[outer] - r.top[inner]);
+                (top.max(0.0) * WALL_BATTER.tan()).max(1e-4)
+            }
+            Corner::Foot(..) => 0.0,
         }
-        let r = self.relief;
-        let (fi, fo) = (r.outline[inner], r.outline[outer]);
-        // (Kept off the nodes, so the wall's foot has room on the edge.)
-        let t = ((fi - OUTLINE_LEVEL) / (fi - fo).max(1e-6)).clamp(0.01, 0.99);
-        let lerp = |p: f32, q: f32| p + t * (q - p);
-        let (pi, po) = (node_xy(r, inner), node_xy(r, outer));
-        let [x, y] = [lerp(pi[0], po[0]), lerp(pi[1], po[1])];
-        let z = lerp(r.top[inner], r.top[outer]).max(GROUND_EPS);
-        let edge = [po[0] - pi[0], po[1] - pi[1]];
-        let edge_len = edge[0].hypot(edge[1]).max(1e-9);
-        let along = [edge[0] / edge_len, edge[1] / edge_len];
-        // Outward: down the coverage's slope (smooth along the contour, so the wall's shading
-        // has no facets); along the edge where the slope vanishes.
-        let outline = |j: usize| r.outline[j];
-        let (gi, go) = (
-            central_difference(r, inner, outline),
-            central_difference(r, outer, outline),
-        );
-        let g = [-lerp(gi[0], go[0]), -lerp(gi[1], go[1])];
+    }
+
+    /// The grid edge a piece's side crosses the foot on, as (inside the foot, on the ground),
+    /// if the side lies on one: a rim's side runs to its edge's outer node (the contour's
+    /// own segment, rim to rim, lies inside the triangle and never crosses the foot).
+    fn foot_edge(&self, a: Corner, b: Corner) -> Option<(usize, usize)> {
+        match (a, b) {
+            (Corner::Node(p), Corner::Node(q)) => Some(if self.foot_at(a) >= 0.0 {
+                (p, q)
+            } else {
+                (q, p)
+            }),
+            (Corner::Node(_), Corner::Rim(i, o)) | (Corner::Rim(i, o), Corner::Node(_)) => {
+                Some((i, o))
+            }
+            _ => None,
+        }
+    }
+
+    /// Gem position (x, y) a share `t` along the grid edge from node `p` to node `q`.
+    fn position(&self, p: usize, q: usize, t: f32) -> [f32; 2] {
+        let (a, b) = (node_xy(self.relief, p), node_xy(self.relief, q));
+        [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
+    }
+
+    /// The wall's normal where the outline's coverage has slope `g` (per mm, pointing in),
+    /// `fallback` the outward direction where it vanishes (straight up if that is zero too).
+    fn wall_normal(g: [f32; 2], fallback: [f32; 2]) -> [f32; 3] {
         let len = g[0].hypot(g[1]);
         let out = if len > 1e-6 && len.is_finite() {
-            [g[0] / len, g[1] / len]
+            [-g[0] / len, -g[1] / len]
         } else {
-            along
+            fallback
         };
+        if out == [0.0, 0.0] {
+            return [0.0, 0.0, 1.0];
+        }
         let (sin, cos) = WALL_BATTER.sin_cos();
-        let wall_normal = [out[0] * cos, out[1] * cos, sin];
-        // The foot: the batter's run out from the contour projected onto the grid edge (so the
-        // ground, the wall and the top tile the plane seen from above, nothing folds or
-        // overlaps; an edge across the outline takes all of it, an oblique one less, and
-        // none is pushed sideways along the outline, which would serrate it), within the
-        // edge's outer part.
-        let run = (z * WALL_BATTER.tan() * (along[0] * out[0] + along[1] * out[1]).max(0.0))
-            .clamp(0.005 * edge_len, 0.8 * (1.0 - t) * edge_len);
-        let foot_xy = [x + along[0] * run, y + along[1] * run];
+        [out[0] * cos, out[1] * cos, sin]
+    }
+
+    /// The outline's slope interpolated along the edge from `p` to `q`.
+    fn slope_between(&self, p: usize, q: usize, t: f32) -> [f32; 2] {
+        let outline = |j: usize| self.relief.outline[j];
+        let (gp, gq) = (
+            central_difference(self.relief, p, outline),
+            central_difference(self.relief, q, outline),
+        );
+        [gp[0] + t * (gq[0] - gp[0]), gp[1] + t * (gq[1] - gp[1])]
+    }
+
+    /// The portrait's node nearest to node `i` (the highest coverage among the top's nodes
+    /// around it): the wall's material and hair layer are the portrait's.
+    fn portrait_near(&self, i: usize) -> Option<usize> {
+        let (cols, rows) = (self.relief.cols, self.relief.rows);
+        let (x, y) = (i % cols, i / cols);
+        let mut best: Option<usize> = None;
+        for r in 1..=2 {
+            for ny in y.saturating_sub(r)..=(y + r).min(rows - 1) {
+                for nx in x.saturating_sub(r)..=(x + r).min(cols - 1) {
+                    let j = ny * cols + nx;
+                    if self.on_top(j)
+                        && best.is_none_or(|b| self.relief.outline[j] > self.relief.outline[b])
+                    {
+                        best = Some(j);
+                    }
+                }
+            }
+            if best.is_some() {
+                break;
+            }
+        }
+        best
+    }
+
+    /// A wall vertex at `xy` and height `z` whose material is the portrait's near `near`
+    /// and whose light is the ground's at `ground`.
+    fn wall_vertex(
+        &self,
+        mesh: &Mesh,
+        xy: [f32; 2],
+        z: f32,
+        normal: [f32; 3],
+        near: usize,
+        ground: usize,
+    ) -> Vertex {
+        let g = mesh.vertices[self.index[ground] as usize];
+        let (region, hair) = match self.portrait_near(near) {
+            Some(j) => {
+                let v = mesh.vertices[self.index[j] as usize];
+                (v.region, v.hair)
+            }
+            None => (Region::Relief as u32, 0.0),
+        };
+        Vertex {
+            position: [xy[0], xy[1], z],
+            normal,
+            relief: z,
+            region,
+            hair,
+            ..g
+        }
+    }
+
+    /// The rim on the edge between a node on the top and one off it.
+    fn rim(&mut self, mesh: &mut Mesh, inner: usize, outer: usize) -> Rim {
+        if let Some(r) = self.rims.get(&(inner, outer)) {
+            return *r;
+        }
+        let r = self.relief;
+        let t = rim_t(self.relief, inner, outer);
+        let xy = self.position(inner, outer, t);
+        let z = (r.top[inner] + t * (r.top[outer] - r.top[inner])).max(GROUND_EPS);
+        let (pi, po) = (node_xy(r, inner), node_xy(r, outer));
+        let normal = Self::wall_normal(
+            self.slope_between(inner, outer, t),
+            normalised([po[0] - pi[0], po[1] - pi[1]]),
+        );
         let on = mesh.vertices[self.index[inner] as usize];
-        let off = mesh.vertices[self.index[outer] as usize];
         let top = Vertex {
-            position: [x, y, z],
+            position: [xy[0], xy[1], z],
             relief: z,
             ..on
         };
+        let wall = Vertex { normal, ..top };
+        let first = mesh.vertices.len() as u32;
+        mesh.vertices.extend_from_slice(&[top, wall]);
+        let rim = Rim {
+            top: first,
+            wall: first + 1,
+        };
+        self.rims.insert((inner, outer), rim);
+        rim
+    }
+
+    /// The foot on the grid edge between `inner` (inside the foot) and `outer` (on the
+    /// ground): between the edge's rim and `outer` where the edge has one, else between the
+    /// nodes.
+    fn foot(&mut self, mesh: &mut Mesh, inner: usize, outer: usize) -> Foot {
+        if let Some(f) = self.feet.get(&(inner, outer)) {
+            return *f;
+        }
+        let from = if self.on_top(inner) {
+            Corner::Rim(inner, outer)
+        } else {
+            Corner::Node(inner)
+        };
+        let start = match from {
+            Corner::Rim(i, o) => rim_t(self.relief, i, o),
+            _ => 0.0,
+        };
+        let (fa, fb) = (self.foot_at(from), self.plan.foot[outer]);
+        let s = (fa / (fa - fb).max(1e-6)).clamp(0.01, 0.99);
+        let t = start + s * (1.0 - start);
+        let xy = self.position(inner, outer, t);
+        let (pi, po) = (node_xy(self.relief, inner), node_xy(self.relief, outer));
+        let normal = Self::wall_normal(
+            self.slope_between(inner, outer, t),
+            normalised([po[0] - pi[0], po[1] - pi[1]]),
+        );
+        let off = mesh.vertices[self.index[outer] as usize];
         let ground = Vertex {
-            position: [foot_xy[0], foot_xy[1], 0.0],
+            position: [xy[0], xy[1], 0.0],
             relief: 0.0,
             ..off
         };
-        let wall_top = Vertex {
-            normal: wall_normal,
-            ..top
-        };
-        let foot = Vertex {
-            normal: wall_normal,
-            occlusion: off.occlusion,
-            key_light: off.key_light,
-            transmit: off.transmit,
-            hair: on.hair,
-            region: on.region,
-            ..ground
-        };
+        let wall = self.wall_vertex(mesh, xy, 0.0, normal, inner, outer);
         let first = mesh.vertices.len() as u32;
-        mesh.vertices
-            .extend_from_slice(&[top, ground, wall_top, foot]);
-        let c = Crossing {
-            top: first,
+        mesh.vertices.extend_from_slice(&[wall, ground]);
+        let foot = Foot {
+            wall: first,
             ground: first + 1,
-            wall_top: first + 2,
-            foot: first + 3,
         };
-        self.crossings.insert((inner, outer), c);
-        c
+        self.feet.insert((inner, outer), foot);
+        foot
     }
 
-    /// One grid triangle (counter-clockwise nodes), cut where the contour crosses it.
+    /// Node `i` under the wall: on the wall's plane, `foot` / tan(batter) above the ground
+    /// (the top's height where the node is at the contour, 0 at the foot).
+    fn wall_node(&mut self, mesh: &mut Mesh, i: usize) -> u32 {
+        if let Some(&v) = self.walls.get(&i) {
+            return v;
+        }
+        let r = self.relief;
+        let z = (self.plan.foot[i] / WALL_BATTER.tan()).clamp(0.0, r.top[i].max(GROUND_EPS));
+        let g = central_difference(r, i, |j| r.outline[j]);
+        let normal = Self::wall_normal(g, [0.0, 0.0]);
+        let v = self.wall_vertex(mesh, node_xy(r, i), z, normal, i, i);
+        let id = mesh.vertices.len() as u32;
+        mesh.vertices.push(v);
+        self.walls.insert(i, id);
+        id
+    }
+
+    /// One grid triangle (counter-clockwise nodes), cut along the outline's contour and the
+    /// wall's foot into up to three convex pieces (each keeps the triangle's winding).
     fn triangle(&mut self, mesh: &mut Mesh, nodes: [usize; 3]) {
-        let on = nodes.map(|i| portrait(self.relief, i));
-        let Some(k) = (0..3).find(|&k| on[k] != on[(k + 1) % 3] && on[k] != on[(k + 2) % 3]) else {
-            let [a, b, c] = nodes.map(|i| self.index[i]);
-            mesh.indices.extend_from_slice(&[a, b, c]);
-            return;
-        };
-        // The lone node first, the order kept.
-        let (l, m, n) = (nodes[k], nodes[(k + 1) % 3], nodes[(k + 2) % 3]);
-        let (lm, ln) = (self.crossing(mesh, l, m), self.crossing(mesh, l, n));
-        let [il, im, inn] = [l, m, n].map(|i| self.index[i]);
-        if on[k] {
-            mesh.indices.extend_from_slice(&[il, lm.top, ln.top]);
-            mesh.indices
-                .extend_from_slice(&[lm.ground, im, inn, lm.ground, inn, ln.ground]);
-        } else {
-            mesh.indices.extend_from_slice(&[il, lm.ground, ln.ground]);
-            mesh.indices
-                .extend_from_slice(&[lm.top, im, inn, lm.top, inn, ln.top]);
+        let mut top: Vec<Corner> = Vec::with_capacity(4);
+        let mut rest: Vec<Corner> = Vec::with_capacity(4);
+        for k in 0..3 {
+            let (p, q) = (nodes[k], nodes[(k + 1) % 3]);
+            if self.on_top(p) {
+                top.push(Corner::Node(p));
+            } else {
+                rest.push(Corner::Node(p));
+            }
+            match (self.on_top(p), self.on_top(q)) {
+                (true, false) => {
+                    top.push(Corner::Rim(p, q));
+                    rest.push(Corner::Rim(p, q));
+                }
+                (false, true) => {
+                    top.push(Corner::Rim(q, p));
+                    rest.push(Corner::Rim(q, p));
+                }
+                _ => {}
+            }
         }
-        // The wall between the two crossings, wound counter-clockwise seen from above (it
-        // leans back, so that is its outer face).
-        let p = |v: u32| mesh.vertices[v as usize].position;
-        let (a, b, c) = (p(lm.wall_top), p(ln.wall_top), p(ln.foot));
-        let up = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
-        if up >= 0.0 {
-            mesh.indices.extend_from_slice(&[
-                lm.wall_top,
-                ln.wall_top,
-                ln.foot,
-                lm.wall_top,
-                ln.foot,
-                lm.foot,
-            ]);
-        } else {
-            mesh.indices.extend_from_slice(&[
-                ln.wall_top,
-                lm.wall_top,
-                lm.foot,
-                ln.wall_top,
-                lm.foot,
-                ln.foot,
-            ]);
+        let mut wall: Vec<Corner> = Vec::with_capacity(5);
+        let mut ground: Vec<Corner> = Vec::with_capacity(4);
+        for k in 0..rest.len() {
+            let (a, b) = (rest[k], rest[(k + 1) % rest.len()]);
+            let (fa, fb) = (self.foot_at(a), self.foot_at(b));
+            if fa >= 0.0 {
+                wall.push(a);
+            } else {
+                ground.push(a);
+            }
+            if (fa >= 0.0) != (fb >= 0.0)
+                && let Some((inner, outer)) = self.foot_edge(a, b)
+            {
+                let c = Corner::Foot(inner, outer);
+                wall.push(c);
+                ground.push(c);
+            }
         }
+        let mut ids = Vec::with_capacity(5);
+        for (piece, part) in [(&top, 0), (&wall, 1), (&ground, 2)] {
+            if piece.len() < 3 {
+                continue;
+            }
+            ids.clear();
+            for &c in piece.iter() {
+                let id = match (c, part) {
+                    (Corner::Node(i), 1) => self.wall_node(mesh, i),
+                    (Corner::Node(i), _) => self.index[i],
+                    (Corner::Rim(i, o), 0) => self.rim(mesh, i, o).top,
+                    (Corner::Rim(i, o), _) => self.rim(mesh, i, o).wall,
+                    (Corner::Foot(i, o), 1) => self.foot(mesh, i, o).wall,
+                    (Corner::Foot(i, o), _) => self.foot(mesh, i, o).ground,
+                };
+                ids.push(id);
+            }
+            for k in 1..ids.len() - 1 {
+                mesh.indices
+                    .extend_from_slice(&[ids[0], ids[k], ids[k + 1]]);
+            }
+        }
+    }
+}
+
+/// `v` scaled to unit length (unchanged if it is zero).
+fn normalised(v: [f32; 2]) -> [f32; 2] {
+    let len = v[0].hypot(v[1]);
+    if len > 1e-9 {
+        [v[0] / len, v[1] / len]
+    } else {
+        v
     }
 }
