@@ -181,16 +181,18 @@ pub fn coverage(
                 if mask == u64::MAX || !edge[y * cols + x] {
                     continue;
                 }
+                // The barycentric weights are affine in the sample's offset: the node's, plus
+                // the offset times their gradients.
+                let (px, py) = (x as f32, y as f32);
+                let w0 = ((b[0] - px) * (c[1] - py) - (c[0] - px) * (b[1] - py)) * inv_area;
+                let w1 = ((c[0] - px) * (a[1] - py) - (a[0] - px) * (c[1] - py)) * inv_area;
+                let d0 = [(b[1] - c[1]) * inv_area, (c[0] - b[0]) * inv_area];
+                let d1 = [(c[1] - a[1]) * inv_area, (a[0] - c[0]) * inv_area];
                 for (k, [ox, oy]) in offsets.iter().enumerate() {
-                    let bit = 1u64 << k;
-                    if mask & bit != 0 {
-                        continue;
-                    }
-                    let (px, py) = (x as f32 + ox, y as f32 + oy);
-                    let w0 = ((b[0] - px) * (c[1] - py) - (c[0] - px) * (b[1] - py)) * inv_area;
-                    let w1 = ((c[0] - px) * (a[1] - py) - (a[0] - px) * (c[1] - py)) * inv_area;
-                    if w0 >= -1e-4 && w1 >= -1e-4 && 1.0 - w0 - w1 >= -1e-4 {
-                        mask |= bit;
+                    let u = w0 + ox * d0[0] + oy * d0[1];
+                    let v = w1 + ox * d1[0] + oy * d1[1];
+                    if u >= -1e-4 && v >= -1e-4 && 1.0 - u - v >= -1e-4 {
+                        mask |= 1u64 << k;
                     }
                 }
                 bits[y * cols + x] = mask;

@@ -225,12 +225,20 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
 /// underestimated the slope off the contour and leaned the wall 3-7 degrees for 8).
 fn foot_field(relief: &Relief) -> Vec<f32> {
     let (cols, rows, cell) = (relief.cols, relief.rows, relief.cell);
+    // Squared distances while searching.
     let mut dist = vec![f32::INFINITY; cols * rows];
     let run = WALL_BATTER.tan();
-    let highest = relief.top.iter().fold(0f32, |m, &t| m.max(t));
-    let reach = (highest * run / cell).ceil() as usize + 1;
-    for y in 0..rows.saturating_sub(1) {
-        for x in 0..cols - 1 {
+    // Only the cells about the portrait's nodes can be cut.
+    let (mut x0, mut y0, mut x1, mut y1) = (cols, rows, 0, 0);
+    for i in (0..cols * rows).filter(|&i| portrait(relief, i)) {
+        let (x, y) = (i % cols, i / cols);
+        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+    }
+    if x0 > x1 {
+        return vec![f32::NEG_INFINITY; cols * rows];
+    }
+    for y in y0.saturating_sub(1)..=y1.min(rows - 2) {
+        for x in x0.saturating_sub(1)..=x1.min(cols - 2) {
             let at = |dx: usize, dy: usize| (y + dy) * cols + x + dx;
             let [a, b, c, d] = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)];
             for tri in [[a, b, c], [a, c, d]] {
@@ -250,14 +258,18 @@ fn foot_field(relief: &Relief) -> Vec<f32> {
                         k += 1;
                     }
                 }
-                let (x0, y0) = (x.saturating_sub(reach), y.saturating_sub(reach));
-                let (x1, y1) = ((x + 1 + reach).min(cols - 1), (y + 1 + reach).min(rows - 1));
-                for ny in y0..=y1 {
-                    for nx in x0..=x1 {
+                // The nodes the wall's run can reach from here (the top is continued over
+                // the triangle's nodes, so theirs bounds it).
+                let highest = tri.iter().fold(0f32, |m, &i| m.max(relief.top[i]));
+                let reach = (highest * run / cell).ceil() as usize + 1;
+                let (nx0, ny0) = (x.saturating_sub(reach), y.saturating_sub(reach));
+                let (nx1, ny1) = ((x + 1 + reach).min(cols - 1), (y + 1 + reach).min(rows - 1));
+                for ny in ny0..=ny1 {
+                    for nx in nx0..=nx1 {
                         let j = ny * cols + nx;
                         if !portrait(relief, j) {
-                            let d = segment_distance(node_xy(relief, j), ends[0], ends[1]);
-                            dist[j] = dist[j].min(d);
+                            let d2 = segment_distance2(node_xy(relief, j), ends[0], ends[1]);
+                            dist[j] = dist[j].min(d2);
                         }
                     }
                 }
@@ -268,7 +280,7 @@ fn foot_field(relief: &Relief) -> Vec<f32> {
         .zip(&relief.top)
         .map(|(&d, &top)| {
             if d.is_finite() {
-                top.max(0.0) * run - d
+                top.max(0.0) * run - d.sqrt()
             } else {
                 f32::NEG_INFINITY
             }
@@ -276,8 +288,8 @@ fn foot_field(relief: &Relief) -> Vec<f32> {
         .collect()
 }
 
-/// Distance (mm) from `p` to the segment `a`-`b`.
-fn segment_distance(p: [f32; 2], a: [f32; 2], b: [f32; 2]) -> f32 {
+/// Squared distance (mm^2) from `p` to the segment `a`-`b`.
+fn segment_distance2(p: [f32; 2], a: [f32; 2], b: [f32; 2]) -> f32 {
     let (ab, ap) = ([b[0] - a[0], b[1] - a[1]], [p[0] - a[0], p[1] - a[1]]);
     let len2 = ab[0] * ab[0] + ab[1] * ab[1];
     let t = if len2 > 0.0 {
@@ -285,7 +297,8 @@ fn segment_distance(p: [f32; 2], a: [f32; 2], b: [f32; 2]) -> f32 {
     } else {
         0.0
     };
-    (ap[0] - t * ab[0]).hypot(ap[1] - t * ab[1])
+    let (dx, dy) = (ap[0] - t * ab[0], ap[1] - t * ab[1]);
+    dx * dx + dy * dy
 }
 
 /// Where the outline's contour crosses the grid edge from `inner` (on the portrait) to
