@@ -2,7 +2,9 @@
 //!
 //! `cargo run --release --example relief_view -- OUT.png [profile|frontal] FACE...`: each FACE
 //! is `mean` (the Surrey mean face) or an OBJ written by `glyptic photo --obj`; the reliefs are
-//! lit from the upper left at 20 degrees and laid side by side.
+//! lit from the upper left at 20 degrees and laid side by side. FACE `template` is the
+//! sculpted head and bust alone before the compression (canonical mm, 1 px a mm), to look at
+//! the template's anatomy as sculpted.
 
 use std::path::Path;
 
@@ -34,6 +36,28 @@ pub fn hillshade(r: &gem::Relief) -> image::GrayImage {
     })
 }
 
+/// Hillshade of the template's own heights (canonical mm, 1 px a mm, u -200..200,
+/// v -340..200), lit as [`hillshade`] lights a relief.
+fn template_hillshade(view: gem::View) -> image::GrayImage {
+    let style = gem::HairStyle::default();
+    let (w, h) = (401u32, 541u32);
+    let at = |x: u32, y: u32| {
+        gem::template::sample(view, &style, x as f32 - 200.0, 200.0 - y as f32).height
+    };
+    let l = {
+        let (az, el) = (135f32.to_radians(), 20f32.to_radians());
+        [az.cos() * el.cos(), az.sin() * el.cos(), el.sin()]
+    };
+    image::GrayImage::from_fn(w, h, |x, y| {
+        let dx = at((x + 1).min(w - 1), y) - at(x.saturating_sub(1), y);
+        let dy = at(x, y.saturating_sub(1)) - at(x, (y + 1).min(h - 1));
+        let n = [-dx / 2.0, -dy / 2.0, 1.0];
+        let len = (n[0] * n[0] + n[1] * n[1] + 1.0).sqrt();
+        let d = ((n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) / len).max(0.0);
+        image::Luma([(30.0 + 220.0 * d).clamp(0.0, 255.0) as u8])
+    })
+}
+
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (out, rest) = args
@@ -48,6 +72,10 @@ fn main() -> Result<()> {
     let builder = gem::CameoBuilder::new(&params)?;
     let mut tiles = Vec::new();
     for face in faces {
+        if face == "template" {
+            tiles.push(template_hillshade(params.view));
+            continue;
+        }
         let (pos, tris) = if face == "mean" {
             (model.instance(&[], &[]), model.shape.triangles.clone())
         } else {
@@ -80,7 +108,8 @@ fn main() -> Result<()> {
         }
         tiles.push(hillshade(&r));
     }
-    let (w, h) = (tiles[0].width(), tiles[0].height());
+    let w = tiles.iter().map(|t| t.width()).max().unwrap_or(1);
+    let h = tiles.iter().map(|t| t.height()).max().unwrap_or(1);
     let mut sheet = image::GrayImage::new(w * tiles.len() as u32, h);
     for (i, t) in tiles.iter().enumerate() {
         image::imageops::replace(&mut sheet, t, i as i64 * w as i64, 0);

@@ -36,6 +36,10 @@ pub struct CameoBuilder {
     inside: Vec<bool>,
     /// Per node: inside the portrait's share of the oval.
     allowed: Vec<bool>,
+    /// Per node: the share of its cell inside the portrait's share of the oval (from the
+    /// signed distance to that ellipse), so that where the portrait reaches it (a frontal
+    /// bust's foot) its outline follows the ellipse, not the nodes' stair-steps.
+    oval_cover: Vec<f32>,
     /// Bezel and back.
     base: Mesh,
 }
@@ -61,6 +65,18 @@ impl CameoBuilder {
         };
         let inside = (0..cols * rows).map(|i| oval(i) <= 1.0).collect();
         let allowed: Vec<bool> = (0..cols * rows).map(|i| oval(i) <= PORTRAIT_OVAL).collect();
+        let oval_cover = (0..cols * rows)
+            .map(|i| {
+                let (x, y) = node(i);
+                let (a, b) = (p.half_width * PORTRAIT_OVAL, p.half_height * PORTRAIT_OVAL);
+                let s = ((x / a).powi(2) + (y / b).powi(2)).sqrt();
+                // First-order signed distance (mm, positive outside): the ellipse's level
+                // over its gradient.
+                let grad = ((x / (a * a)).powi(2) + (y / (b * b)).powi(2)).sqrt() / s.max(1e-6);
+                let d = (s - 1.0) / grad.max(1e-6);
+                (0.5 - d / p.cell).clamp(0.0, 1.0)
+            })
+            .collect();
         // Each node is the mean of 2 x 2 samples across its cell, so carved grooves and the
         // outline do not alias into stair-steps.
         let mut template = Template {
@@ -137,6 +153,7 @@ impl CameoBuilder {
             template_box,
             inside,
             allowed,
+            oval_cover,
             base,
         })
     }
@@ -390,6 +407,9 @@ impl CameoBuilder {
         // Inside it the stone stands at `top`, the wall's height over the compressed relief;
         // outside it is ground: a step, which the mesh cuts along the contour itself as a
         // near-vertical wall (see `tessellate`), as a cutter leaves it.
+        for i in portrait_box.indices(cols) {
+            cover[i] = cover[i].min(self.oval_cover[i]);
+        }
         let mut outline = vec![0f32; n];
         portrait_box.paste(
             &smooth_121(

@@ -696,9 +696,10 @@ fn with_hair(height: f32, hair: Option<f32>) -> Sample {
 
 // ------------------------------------------------------------------------------ frontal
 
-/// Frontal neck and bust: a column under the chin (its front 40 mm above the ears' plane),
-/// trapezius slopes to the shoulders, a broad chest, the two sternocleidomastoids in a V, and
-/// the mantle from a brooch on the viewer's right shoulder.
+/// Frontal neck and bust: a round column under the chin (its front 44 mm above the ears'
+/// plane), a rounded torso (chest and deltoids) inside the trapezius' outline, the two
+/// sternocleidomastoids closing in a V on the sternal notch, the larynx, the clavicles and
+/// the hollows above them, and the mantle from a brooch on the viewer's right shoulder.
 fn frontal_body(u: f32, v: f32) -> f32 {
     // The truncation: a rounded lower edge (a wall there aliases into a saw-tooth).
     let cut = -330.0 + 30.0 * (u / 150.0).powi(2);
@@ -706,37 +707,62 @@ fn frontal_body(u: f32, v: f32) -> f32 {
         return 0.0;
     }
     let truncation = smoothstep(cut, cut + 16.0, v).sqrt();
-    let neck = dome(u, 0.0, 54.0, 1.0, 1.0) * 38.0 + if u.abs() < 54.0 { 8.0 } else { 0.0 };
-    let neck = if v < 10.0 { neck } else { 0.0 };
-    // Shoulders: from the neck's sides down to the shoulder tips, a smooth ramp.
-    // The trapezius droops from the neck in a curve to the rounded shoulder, which falls to
-    // the ground at its outer edge in a quarter-round (a deltoid, not a wall).
-    // Seen from the front the shoulder is one rounded mass: the height rises as a quarter-round
-    // with the distance inside its outline, the top (trapezius) and the outer side (deltoid)
-    // joined by a 40 mm round (the product of a top ramp and a side ramp left a boxy corner).
-    let shoulder_line = -105.0 - 0.0042 * (u.abs() - 45.0).max(0.0).powi(2);
+    let a = u.abs();
+    // The neck: round in section (its sides turning away steeply, as a column's do), a
+    // little narrower at its middle than under the jaw, standing a wall's height off the
+    // ground at its sides.
+    let half = 54.0 - 5.0 * smoothstep(-30.0, -110.0, v);
+    let neck = if a < half && v < 10.0 {
+        8.0 + 36.0 * (1.0 - (a / half).powi(2)).sqrt().powf(0.7)
+    } else {
+        0.0
+    };
+    // The torso as one rounded mass inside the shoulders' outline: the chest highest, the
+    // shoulders' caps (the deltoids) round, all falling to the ground at the outline in a
+    // quarter-round. (A plateau of one height for the shoulders and chest, rounded only at
+    // its rim, read as a yoke with a trough inside it.) The outline: the trapezius drooping
+    // from the neck to the shoulder, its outer top corner rounded by a 40 mm smooth minimum.
+    let shoulder_line = -105.0 - 0.0042 * (a - 45.0).max(0.0).powi(2);
     let breadth = 150.0;
-    let inside = smooth_min(shoulder_line - v, breadth - u.abs(), 40.0);
-    let shoulders = 58.0 * smoothstep(0.0, 30.0, inside).sqrt();
-    let chest = dome(u, v + 270.0, 150.0, 125.0, 62.0);
-    let mut body = smooth_max(smooth_max(neck, shoulders, 20.0), chest, 20.0);
+    let inside = smooth_min(shoulder_line - v, breadth - a, 40.0);
+    // (Not across the neck: there the torso rises under the neck's own round, and a rim
+    // there drew a crease across the throat at the shoulders' height.)
+    let neck_core = if v < 10.0 {
+        smoothstep(half, half - 20.0, a)
+    } else {
+        0.0
+    };
+    let rim = smoothstep(0.0, 26.0, inside).sqrt().max(neck_core);
+    let chest = dome(u, v + 255.0, 190.0, 200.0, 64.0);
+    let deltoid = dome(a - 122.0, v + 165.0, 48.0, 70.0, 46.0);
+    let torso = smooth_max(chest, deltoid, 20.0) * rim;
+    let mut body = smooth_max(neck, torso, 20.0);
     if body <= 0.5 {
         return 0.0;
     }
+    // The throat: the sternocleidomastoids from behind the jaw's angle to the sternal notch
+    // (a V of soft swells that fade in under the jaw and flatten at the notch), the larynx
+    // between them, the notch's pit and the hollows above the clavicles beside them.
     for side in [-1.0f32, 1.0] {
-        let (d, s) = segment([u, v], [side * 66.0, -25.0], [side * 14.0, -185.0]);
-        body +=
-            6.0 * (-(d / 10.0).powi(2)).exp() * (std::f32::consts::PI * s).sin().max(0.0).sqrt();
-        // The clavicle, a soft ridge bowed up towards the shoulder (a straight bar reads as
-        // a yoke from the front).
-        let (_, s2) = segment([u, v], [side * 18.0, -200.0], [side * 108.0, -180.0]);
+        let (d, s) = segment([u, v], [side * 60.0, -35.0], [side * 13.0, -190.0]);
+        let width = 8.0 + 5.0 * (std::f32::consts::PI * s).sin();
+        body += 4.5
+            * smoothstep(0.0, 0.3, s)
+            * (1.0 - 0.4 * smoothstep(0.8, 1.0, s))
+            * (-(d / width).powi(2)).exp();
+        // The clavicle, a soft ridge from the notch bowed up towards the shoulder (a
+        // straight bar reads as a yoke from the front).
+        let (_, s2) = segment([u, v], [side * 16.0, -198.0], [side * 118.0, -170.0]);
         let bow = 6.0 * (std::f32::consts::PI * s2).sin();
-        let (d2, _) = segment([u, v - bow], [side * 18.0, -200.0], [side * 108.0, -180.0]);
-        body +=
-            2.5 * (-(d2 / 8.0).powi(2)).exp() * (std::f32::consts::PI * s2).sin().max(0.0).sqrt();
+        let (d2, _) = segment([u, v - bow], [side * 16.0, -198.0], [side * 118.0, -170.0]);
+        body += 3.0
+            * smoothstep(0.0, 0.15, s2)
+            * (1.0 - smoothstep(0.85, 1.0, s2))
+            * (-(d2 / 7.0).powi(2)).exp();
+        body -= 3.0 * bump(u - side * 72.0, v + 172.0, 24.0, 14.0);
     }
-    // The pit between the clavicles, at the neck's foot.
-    body -= 5.0 * (-((u / 14.0).powi(2) + ((v + 196.0) / 11.0).powi(2))).exp();
+    body += 2.5 * bump(u, v + 112.0, 14.0, 24.0);
+    body -= 3.5 * bump(u, v + 196.0, 20.0, 14.0);
     // The mantle: over the viewer's right shoulder, pinned by a brooch, and across the chest
     // below a neckline.
     let neckline = -250.0 + 0.9 * (u - 40.0);

@@ -530,7 +530,7 @@ impl WallCut<'_> {
         let (cols, rows) = (self.relief.cols, self.relief.rows);
         let (x, y) = (i % cols, i / cols);
         let mut best: Option<usize> = None;
-        for r in 1..=2 {
+        for r in 1..=4 {
             for ny in y.saturating_sub(r)..=(y + r).min(rows - 1) {
                 for nx in x.saturating_sub(r)..=(x + r).min(cols - 1) {
                     let j = ny * cols + nx;
@@ -549,22 +549,19 @@ impl WallCut<'_> {
     }
 
     /// A wall vertex at `xy` and height `z` whose material is the portrait's near `near`
-    /// and whose light is the ground's at `ground`.
+    /// and whose light is the ground's at `ground` (read from the relief and the plan: a
+    /// node near the cut need not be a mesh vertex, inside a merged square).
     fn wall_vertex(
         &self,
-        mesh: &Mesh,
         xy: [f32; 2],
         z: f32,
         normal: [f32; 3],
         near: usize,
         ground: usize,
     ) -> Vertex {
-        let g = mesh.vertices[self.index[ground] as usize];
+        let r = self.relief;
         let (region, hair) = match self.portrait_near(near) {
-            Some(j) => {
-                let v = mesh.vertices[self.index[j] as usize];
-                (v.region, v.hair)
-            }
+            Some(j) => (self.plan.region[j] as u32, r.hair[j].clamp(0.0, 1.0)),
             None => (Region::Relief as u32, 0.0),
         };
         Vertex {
@@ -573,7 +570,9 @@ impl WallCut<'_> {
             relief: z,
             region,
             hair,
-            ..g
+            occlusion: r.occlusion[ground],
+            key_light: r.key_light[ground],
+            transmit: r.transmit[ground],
         }
     }
 
@@ -639,7 +638,7 @@ impl WallCut<'_> {
             relief: 0.0,
             ..off
         };
-        let wall = self.wall_vertex(mesh, xy, 0.0, normal, inner, outer);
+        let wall = self.wall_vertex(xy, 0.0, normal, inner, outer);
         let first = mesh.vertices.len() as u32;
         mesh.vertices.extend_from_slice(&[wall, ground]);
         let foot = Foot {
@@ -660,7 +659,7 @@ impl WallCut<'_> {
         let z = (self.plan.foot[i] / WALL_BATTER.tan()).clamp(0.0, r.top[i].max(GROUND_EPS));
         let g = central_difference(r, i, |j| r.outline[j]);
         let normal = Self::wall_normal(g, [0.0, 0.0]);
-        let v = self.wall_vertex(mesh, node_xy(r, i), z, normal, i, i);
+        let v = self.wall_vertex(node_xy(r, i), z, normal, i, i);
         let id = mesh.vertices.len() as u32;
         mesh.vertices.push(v);
         self.walls.insert(i, id);

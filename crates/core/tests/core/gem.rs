@@ -665,3 +665,130 @@ fn glasses_are_carved_round_the_eyes() {
         assert!(chin < 0.02, "{view:?}: the chin changed ({chin})");
     }
 }
+
+/// Every cut along the outline builds, whatever the face, view and hair: the cells the wall
+/// crosses take their material from portrait nodes near them, which need not be mesh
+/// vertices (inside a merged square); a frontal astronaut's gem once panicked there. Each
+/// mesh is valid: every index in range, every position finite.
+#[test]
+fn every_face_view_and_hair_cuts_a_valid_wall() {
+    use glyptic_core::gem::{HairCarving, HairStyle};
+    let m = model();
+    let styles = [
+        HairStyle::default(),
+        HairStyle {
+            bald: true,
+            ..HairStyle::default()
+        },
+        HairStyle {
+            end: -160.0,
+            volume: 24.0,
+            carving: HairCarving::Curls,
+            ..HairStyle::default()
+        },
+        HairStyle {
+            ears_shown: true,
+            end: -20.0,
+            volume: 4.0,
+            beard: 6.0,
+            moustache: 4.0,
+            ..HairStyle::default()
+        },
+    ];
+    for (name, face) in identities(&m) {
+        for view in [View::Profile, View::Frontal] {
+            for (k, hair) in styles.iter().enumerate() {
+                let p = CameoParams {
+                    hair: *hair,
+                    ..view.cameo()
+                };
+                let mesh = gem::build_cameo(&face, &m.shape.triangles, &p)
+                    .unwrap_or_else(|e| panic!("{name}, {view:?}, style {k}: {e}"));
+                let n = mesh.vertices.len() as u32;
+                assert!(
+                    mesh.indices.iter().all(|&i| i < n),
+                    "{name}, {view:?}, style {k}: an index out of range"
+                );
+                assert!(
+                    mesh.vertices.iter().all(|v| v
+                        .position
+                        .iter()
+                        .chain(&v.normal)
+                        .all(|c| c.is_finite())),
+                    "{name}, {view:?}, style {k}: a vertex not finite"
+                );
+            }
+        }
+    }
+}
+
+/// A flat top (1 to 4 mm: the wall's run 0.14 to 0.56 mm, up to near three cells) cuts a
+/// valid wall: the top merges into squares up to the cut cells, so nodes near the cut need
+/// not be mesh vertices (the wall once read its material from such a node and panicked, at
+/// 1 mm here and on a frontal astronaut); and the foot runs parallel to the top's edge at
+/// the batter's run (every wall vertex on the ground within 20 % of the run from the
+/// nearest vertex of the top's edge).
+#[test]
+fn a_flat_top_cuts_a_wall_with_its_foot_at_the_batters_run() {
+    let m = model();
+    let mean = m.instance(&[], &[]);
+    for view in [View::Profile, View::Frontal] {
+        let builder = gem::CameoBuilder::new(&view.cameo()).unwrap();
+        let relief = builder.relief(&mean, &m.shape.triangles).unwrap();
+        for top in [1.0f32, 2.5, 4.0] {
+            let mut r = relief.clone();
+            // Flat and evenly lit, so the top merges into squares up to the cut cells.
+            for i in 0..r.top.len() {
+                r.top[i] = top;
+                r.height[i] = if r.outline[i] >= 0.5 { top } else { 0.0 };
+                (r.occlusion[i], r.key_light[i], r.transmit[i], r.hair[i]) = (1.0, 1.0, 0.0, 0.0);
+            }
+            let mesh = builder.mesh_of(&r);
+            let n = mesh.vertices.len() as u32;
+            assert!(
+                mesh.indices.iter().all(|&i| i < n),
+                "{view:?}, {top} mm: an index out of range"
+            );
+            // The top's edge: vertices at the top with a wall's normal; the foot: at 0.
+            let wall = |v: &&glyptic_core::scene::Vertex| {
+                v.normal[2] < 0.5 && v.region != Region::Gold as u32
+            };
+            let at = |z: f32| -> Vec<[f32; 2]> {
+                mesh.vertices
+                    .iter()
+                    .filter(wall)
+                    .filter(|v| (v.position[2] - z).abs() < 1e-4)
+                    .map(|v| [v.position[0], v.position[1]])
+                    .collect()
+            };
+            let (rim, feet) = (at(top), at(0.0));
+            assert!(
+                rim.len() > 500 && feet.len() > 500,
+                "{view:?}, {top} mm: {} / {}",
+                rim.len(),
+                feet.len()
+            );
+            let run = top * 0.14f32.tan();
+            let mut off: Vec<f32> = feet
+                .iter()
+                .map(|f| {
+                    rim.iter()
+                        .map(|p| (p[0] - f[0]).hypot(p[1] - f[1]))
+                        .fold(f32::INFINITY, f32::min)
+                })
+                .collect();
+            off.sort_by(f32::total_cmp);
+            let q = |f: f32| off[((off.len() - 1) as f32 * f) as usize];
+            println!(
+                "{view:?}, {top} mm: foot from the top's edge 5/50/95 %: {:.3} / {:.3} / {:.3} mm (run {run:.3})",
+                q(0.05),
+                q(0.5),
+                q(0.95)
+            );
+            assert!(
+                q(0.05) > 0.8 * run && q(0.95) < 1.2 * run,
+                "{view:?}, {top} mm: the foot strays from the batter's run"
+            );
+        }
+    }
+}
