@@ -282,7 +282,12 @@ impl CameoBuilder {
         let mut face_share = vec![0f32; n];
         let mut face_height = vec![f32::NAN; n];
         for i in portrait_box.indices(cols) {
-            let head_ok = self.allowed[i] && i % cols >= front[i / cols];
+            // (Behind the front-most node, not on it: what the face leaves uncovered of that
+            // node's cell is the ground before the profile, and the head's share there raised
+            // the edge node 5-8 canonical mm over the next one in, which the compression kept
+            // as a groove just inside the forehead's wall.)
+            let (x, front) = (i % cols, front[i / cols]);
+            let head_ok = self.allowed[i] && x >= front && !(face[i] && x == front);
             cover[i] = if self.allowed[i] {
                 face_cover[i].max(if head_ok { head.coverage[i] } else { 0.0 })
             } else {
