@@ -732,7 +732,7 @@ fn frontal_body(u: f32, v: f32) -> f32 {
     } else {
         0.0
     };
-    let rim = smoothstep(0.0, 26.0, inside).sqrt().max(neck_core);
+    let rim = (1.0 - (1.0 - (inside / 40.0).clamp(0.0, 1.0)).powi(2)).max(neck_core);
     let chest = dome(u, v + 255.0, 190.0, 200.0, 64.0);
     let deltoid = dome(a - 122.0, v + 165.0, 48.0, 70.0, 46.0);
     let torso = smooth_max(chest, deltoid, 20.0) * rim;
@@ -759,10 +759,10 @@ fn frontal_body(u: f32, v: f32) -> f32 {
             * smoothstep(0.0, 0.15, s2)
             * (1.0 - smoothstep(0.85, 1.0, s2))
             * (-(d2 / 7.0).powi(2)).exp();
-        body -= 3.0 * bump(u - side * 72.0, v + 172.0, 24.0, 14.0);
+        body -= 1.5 * bump(u - side * 72.0, v + 172.0, 28.0, 18.0);
     }
-    body += 2.5 * bump(u, v + 112.0, 14.0, 24.0);
-    body -= 3.5 * bump(u, v + 196.0, 20.0, 14.0);
+    body += 2.0 * bump(u, v + 112.0, 16.0, 26.0);
+    body -= 2.0 * bump(u, v + 196.0, 24.0, 16.0);
     // The mantle: over the viewer's right shoulder, pinned by a brooch, and across the chest
     // below a neckline.
     let neckline = -250.0 + 0.9 * (u - 40.0);

@@ -826,3 +826,42 @@ fn the_profile_edge_has_no_groove_inside() {
         );
     }
 }
+
+/// The frontal shoulders are one rounded mass: walking in from the left shoulder's outline
+/// (the mantle hangs on the right), the relief rises and does not fall back by more than
+/// 0.12 mm within 4 mm of the edge. A rim rounded over a short quarter-round (its slope
+/// steepest at the outline) came out of the compression's detail boost as a raised lip with
+/// a trough inside it: a yoke (0.2 mm deep on the mean face).
+#[test]
+fn the_frontal_shoulders_have_no_trough_inside_their_rim() {
+    let m = model();
+    let builder = gem::CameoBuilder::new(&View::Frontal.cameo()).unwrap();
+    for (name, face) in identities(&m) {
+        let r = builder.relief(&face, &m.shape.triangles).unwrap();
+        let steps = (4.0 / r.cell) as usize;
+        let (mut rows, mut worst) = (0, 0f32);
+        for y in 0..r.rows {
+            let row = y * r.cols;
+            let Some(x0) = (0..r.cols).find(|&x| r.height[row + x] > 0.0) else {
+                continue;
+            };
+            // Rows through the shoulder: the outline well left of the neck.
+            if x0 > r.cols / 4 || x0 + steps >= r.cols {
+                continue;
+            }
+            rows += 1;
+            let mut high = 0f32;
+            for x in x0..x0 + steps {
+                let h = r.height[row + x];
+                high = high.max(h);
+                worst = worst.max(high - h);
+            }
+        }
+        println!("{name}: {rows} rows, deepest trough inside the shoulder {worst:.3} mm");
+        assert!(rows > 20, "{name}: {rows} rows");
+        assert!(
+            worst < 0.12,
+            "{name}: a trough {worst} mm deep inside the shoulder"
+        );
+    }
+}
