@@ -514,14 +514,19 @@ impl WallCut<'_> {
         [out[0] * cos, out[1] * cos, sin]
     }
 
-    /// The outline's slope interpolated along the edge from `p` to `q`.
-    fn slope_between(&self, p: usize, q: usize, t: f32) -> [f32; 2] {
+    /// The wall's normal a share `t` along the grid edge from `inner` to `outer`: from the
+    /// outline's slope interpolated there, outward along the edge where it vanishes.
+    fn edge_wall_normal(&self, inner: usize, outer: usize, t: f32) -> [f32; 3] {
         let outline = |j: usize| self.relief.outline[j];
-        let (gp, gq) = (
-            central_difference(self.relief, p, outline),
-            central_difference(self.relief, q, outline),
+        let (gi, go) = (
+            central_difference(self.relief, inner, outline),
+            central_difference(self.relief, outer, outline),
         );
-        [gp[0] + t * (gq[0] - gp[0]), gp[1] + t * (gq[1] - gp[1])]
+        let (pi, po) = (node_xy(self.relief, inner), node_xy(self.relief, outer));
+        Self::wall_normal(
+            [gi[0] + t * (go[0] - gi[0]), gi[1] + t * (go[1] - gi[1])],
+            normalised([po[0] - pi[0], po[1] - pi[1]]),
+        )
     }
 
     /// The portrait's node nearest to node `i` (the highest coverage among the top's nodes
@@ -585,11 +590,7 @@ impl WallCut<'_> {
         let t = rim_t(self.relief, inner, outer);
         let xy = self.position(inner, outer, t);
         let z = (r.top[inner] + t * (r.top[outer] - r.top[inner])).max(GROUND_EPS);
-        let (pi, po) = (node_xy(r, inner), node_xy(r, outer));
-        let normal = Self::wall_normal(
-            self.slope_between(inner, outer, t),
-            normalised([po[0] - pi[0], po[1] - pi[1]]),
-        );
+        let normal = self.edge_wall_normal(inner, outer, t);
         let on = mesh.vertices[self.index[inner] as usize];
         let top = Vertex {
             position: [xy[0], xy[1], z],
@@ -627,11 +628,7 @@ impl WallCut<'_> {
         let s = (fa / (fa - fb).max(1e-6)).clamp(0.01, 0.99);
         let t = start + s * (1.0 - start);
         let xy = self.position(inner, outer, t);
-        let (pi, po) = (node_xy(self.relief, inner), node_xy(self.relief, outer));
-        let normal = Self::wall_normal(
-            self.slope_between(inner, outer, t),
-            normalised([po[0] - pi[0], po[1] - pi[1]]),
-        );
+        let normal = self.edge_wall_normal(inner, outer, t);
         let off = mesh.vertices[self.index[outer] as usize];
         let ground = Vertex {
             position: [xy[0], xy[1], 0.0],
