@@ -206,6 +206,59 @@ fn a_closed_stdout_does_not_stop_the_work() {
     assert!(out.exists(), "no gem written");
 }
 
+/// A closed or full stderr never panics: `glyptic photo /nonexist.jpg -o o.png 2>&1 | head
+/// -0` exited 101 ("failed printing to stderr: Broken pipe", issue #40); the error's exit
+/// code is the ordinary 1, and a run that succeeds still writes its gem and exits 0.
+#[test]
+fn a_closed_or_full_stderr_never_panics() {
+    let dir = scratch("closed-stderr");
+    let out = dir.join("gem.png");
+    let _ = std::fs::remove_file(&out);
+    let full = || {
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap()
+    };
+    // An error to report, stderr full.
+    let status = glyptic()
+        .args(["photo", "/nonexistent/photo.jpg", "-o"])
+        .arg(dir.join("never.png"))
+        .stdout(std::process::Stdio::null())
+        .stderr(full())
+        .status()
+        .unwrap();
+    assert_eq!(status.code(), Some(1), "an error with stderr full");
+    // An error to report, stderr a pipe already closed.
+    let mut child = glyptic()
+        .args(["photo", "/nonexistent/photo.jpg", "-o"])
+        .arg(dir.join("never.png"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stderr.take());
+    assert_eq!(
+        child.wait().unwrap().code(),
+        Some(1),
+        "an error with stderr closed"
+    );
+    // Work that succeeds, with its stage table and notes going to a full stderr.
+    let status = glyptic()
+        .args(["-v", "render", "--size", "48x60", "--sss", "off", "-o"])
+        .arg(&out)
+        .stdout(full())
+        .stderr(full())
+        .status()
+        .unwrap();
+    assert_eq!(
+        status.code(),
+        Some(0),
+        "a render with stdout and stderr full"
+    );
+    assert!(out.exists(), "no gem written");
+}
+
 /// An output never replaces an input of the same run, another output, or anything but a
 /// regular file; each is refused by name before any work and the file is left as it was
 /// (issue #19: `photo a.jpg -o a.jpg` replaced the photo, a symlink or a device was replaced by

@@ -35,14 +35,14 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("glyptic: error: {}", one_line(&err));
+            complain(format_args!("glyptic: error: {}", one_line(&err)));
             let (root, _) = glyptic::assets::locate_root();
             if hint && !glyptic::assets::looks_like_root(&root) {
-                eprintln!(
+                complain(format_args!(
                     "glyptic: {} holds no models: `glyptic doctor` says where glyptic looks \
                      and how to get them",
                     root.display()
-                );
+                ));
             }
             ExitCode::FAILURE
         }
@@ -104,6 +104,15 @@ fn report(line: std::fmt::Arguments<'_>) {
     }
 }
 
+/// `eprintln!` that survives a closed or full stderr (`glyptic ... 2>&1 | head -0`, `2>/dev/full`):
+/// `eprintln!` panics there, and an error to report would end as exit 101 instead of 1. The
+/// line is dropped; the exit code still says what happened.
+pub(crate) fn complain(line: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_fmt(line).and_then(|()| err.write_all(b"\n"));
+}
+
 /// The log's filter for `-v` / `-q`: glyptic's own notes and everyone's warnings by default.
 /// wgpu's and naga's warnings about the software rasteriser are kept for `-v`: on a machine
 /// without a GPU they repeat what the stage table already says.
@@ -125,6 +134,9 @@ fn init_log(verbose: u8, quiet: bool) {
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        // A log line that cannot be written (stderr closed or full) is dropped: the
+        // subscriber's own complaint about it is an `eprintln!`, which panics there.
+        .log_internal_errors(false)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()));
     // A second subscriber (a test harness) is not an error worth stopping for.
     let _ = if detailed {

@@ -419,7 +419,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
             if row.status != "ok" {
                 let line = format!("skipped {name}: {}", row.error);
                 if bar.is_hidden() {
-                    eprintln!("{line}");
+                    crate::complain(format_args!("{line}"));
                 } else {
                     bar.println(line);
                 }
