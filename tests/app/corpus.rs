@@ -549,6 +549,28 @@ fn cases() -> Vec<Case> {
                 words(d, &["landmarks", "@a.jpg", "--pts", "@dir.pts"])
             },
         ),
+        // Refused by the command line, not run to an empty list and "no face found" (#40).
+        case(
+            "landmarks-max-faces-zero",
+            2,
+            &["--max-faces", "0"],
+            p(&["landmarks", "@a.jpg", "--max-faces", "0"]),
+        ),
+        // A negative count is a value out of range, not "unexpected argument '-1'" (#40).
+        case(
+            "fit-iterations-negative",
+            2,
+            &["--iterations", "-1", "1..=100"],
+            p(&[
+                "fit",
+                "--landmarks",
+                "@a.pts",
+                "--size",
+                "100x100",
+                "--iterations",
+                "-1",
+            ]),
+        ),
         case(
             "landmarks-prefer-unknown",
             2,

@@ -44,9 +44,9 @@ pub struct LandmarksArgs {
     /// ...68]}], "times_ms": {...}}`, image pixels, 0-based, subject first (see --prefer).
     #[arg(long)]
     pub json: bool,
-    /// At most this many faces (the first in --prefer's order).
-    #[arg(long, value_name = "N")]
-    pub max_faces: Option<usize>,
+    /// At most this many faces (the first in --prefer's order); at least 1.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_faces: Option<u32>,
     #[command(flatten)]
     pub choice: ChoiceArgs,
     /// Also write the subject's landmarks as iBUG .pts (1-based, as menpo reads them).
@@ -72,9 +72,10 @@ pub struct FitArgs {
     /// Leave out the contour landmarks (face outline).
     #[arg(long)]
     pub no_contour: bool,
-    /// Outer iterations.
-    #[arg(long, default_value_t = 5)]
-    pub iterations: usize,
+    /// Outer iterations, 1 to 100.
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub iterations: u32,
     /// Use a perspective (pinhole) camera with this horizontal field of view, degrees, centred
     /// on the image; for faces close to the camera (a webcam: about 60). Default: orthographic.
     #[arg(long, value_name = "DEG", allow_negative_numbers = true,
@@ -102,7 +103,7 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
             .detect(&img)
             .with_context(|| path.display().to_string())?;
         if let Some(n) = args.max_faces {
-            detections.truncate(n);
+            detections.truncate(n as usize);
         }
         let faces = pipeline
             .landmarks(&img, &detections)
@@ -135,10 +136,8 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
                 "height": img.height(), "faces": faces, "times_ms": times })
         );
     } else {
+        // (A faceless image is said once, as the error below.)
         super::print_stages(&stages);
-        if faces.is_empty() {
-            say!("no face found in {}", path.display());
-        }
         for (i, f) in faces.iter().enumerate() {
             let [x, y, w, h] = f.detection.bbox;
             say!(
@@ -191,7 +190,7 @@ pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
     let load_ms = load.elapsed().as_secs_f64() * 1e3;
     let opts = glyptic::fit::FitOptions {
         contour: !args.no_contour,
-        iterations: args.iterations,
+        iterations: args.iterations as usize,
         ..Default::default()
     };
     let intrinsics = match args.fov {
