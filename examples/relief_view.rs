@@ -17,19 +17,23 @@ fn load_obj(path: &Path) -> Result<(Vec<f32>, Vec<[u32; 3]>)> {
     Ok(gem::parse_obj(&text)?)
 }
 
+/// Lambert light on a surface of slope (`sx`, `sy`) (height per unit, y up) from the upper
+/// left, 20 degrees above the stone.
+fn lit(sx: f32, sy: f32) -> f32 {
+    let (az, el) = (135f32.to_radians(), 20f32.to_radians());
+    let l = [az.cos() * el.cos(), az.sin() * el.cos(), el.sin()];
+    let n = [-sx, -sy, 1.0];
+    let len = (n[0] * n[0] + n[1] * n[1] + 1.0).sqrt();
+    ((n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) / len).max(0.0)
+}
+
 /// Hillshade of a relief: light from the upper left, 20 degrees above the stone.
 pub fn hillshade(r: &gem::Relief) -> image::GrayImage {
-    let l = {
-        let (az, el) = (135f32.to_radians(), 20f32.to_radians());
-        [az.cos() * el.cos(), az.sin() * el.cos(), el.sin()]
-    };
     image::GrayImage::from_fn(r.cols as u32, r.rows as u32, |x, y| {
         let (c, row) = (x as usize, r.rows - 1 - y as usize);
         let dx = r.at((c + 1).min(r.cols - 1), row) - r.at(c.saturating_sub(1), row);
         let dy = r.at(c, (row + 1).min(r.rows - 1)) - r.at(c, row.saturating_sub(1));
-        let n = [-dx / (2.0 * r.cell), -dy / (2.0 * r.cell), 1.0];
-        let len = (n[0] * n[0] + n[1] * n[1] + 1.0).sqrt();
-        let d = ((n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) / len).max(0.0);
+        let d = lit(dx / (2.0 * r.cell), dy / (2.0 * r.cell));
         let ao = r.occlusion[row * r.cols + c];
         let v = 30.0 + 200.0 * d * (0.6 + 0.4 * ao) + 25.0 * ao;
         image::Luma([v.clamp(0.0, 255.0) as u8])
@@ -44,16 +48,10 @@ fn template_hillshade(view: gem::View) -> image::GrayImage {
     let at = |x: u32, y: u32| {
         gem::template::sample(view, &style, x as f32 - 200.0, 200.0 - y as f32).height
     };
-    let l = {
-        let (az, el) = (135f32.to_radians(), 20f32.to_radians());
-        [az.cos() * el.cos(), az.sin() * el.cos(), el.sin()]
-    };
     image::GrayImage::from_fn(w, h, |x, y| {
         let dx = at((x + 1).min(w - 1), y) - at(x.saturating_sub(1), y);
         let dy = at(x, y.saturating_sub(1)) - at(x, (y + 1).min(h - 1));
-        let n = [-dx / 2.0, -dy / 2.0, 1.0];
-        let len = (n[0] * n[0] + n[1] * n[1] + 1.0).sqrt();
-        let d = ((n[0] * l[0] + n[1] * l[1] + n[2] * l[2]) / len).max(0.0);
+        let d = lit(dx / 2.0, dy / 2.0);
         image::Luma([(30.0 + 220.0 * d).clamp(0.0, 255.0) as u8])
     })
 }

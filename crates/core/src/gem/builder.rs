@@ -65,10 +65,10 @@ impl CameoBuilder {
         };
         let inside = (0..cols * rows).map(|i| oval(i) <= 1.0).collect();
         let allowed: Vec<bool> = (0..cols * rows).map(|i| oval(i) <= PORTRAIT_OVAL).collect();
+        let (a, b) = (p.half_width * PORTRAIT_OVAL, p.half_height * PORTRAIT_OVAL);
         let oval_cover = (0..cols * rows)
             .map(|i| {
                 let (x, y) = node(i);
-                let (a, b) = (p.half_width * PORTRAIT_OVAL, p.half_height * PORTRAIT_OVAL);
                 let s = ((x / a).powi(2) + (y / b).powi(2)).sqrt();
                 // First-order signed distance (mm, positive outside): the ellipse's level
                 // over its gradient.
@@ -717,9 +717,6 @@ struct Template {
     coverage: Vec<f32>,
 }
 
-/// The photo's detail per face node (canonical mm): the photo point each node shows, from its
-/// vertices' photo positions interpolated over the face, faded where the photo sees the face
-/// edge-on; 0 off the face.
 /// The wall's least height where the relief falls steeply to its outline, a share of
 /// [`CameoParams::wall`].
 const MIN_WALL_SHARE: f32 = 0.5;
@@ -787,6 +784,9 @@ fn extrapolate(
     out
 }
 
+/// The photo's detail per face node (canonical mm): the photo point each node shows, from its
+/// vertices' photo positions interpolated over the face, faded where the photo sees the face
+/// edge-on; 0 off the face.
 fn photo_detail(
     detail: &FaceDetail,
     points: &[Option<[f32; 3]>],

@@ -615,14 +615,10 @@ impl WallCut<'_> {
         if let Some(f) = self.feet.get(&(inner, outer)) {
             return *f;
         }
-        let from = if self.on_top(inner) {
-            Corner::Rim(inner, outer)
+        let (from, start) = if self.on_top(inner) {
+            (Corner::Rim(inner, outer), rim_t(self.relief, inner, outer))
         } else {
-            Corner::Node(inner)
-        };
-        let start = match from {
-            Corner::Rim(i, o) => rim_t(self.relief, i, o),
-            _ => 0.0,
+            (Corner::Node(inner), 0.0)
         };
         let (fa, fb) = (self.foot_at(from), self.plan.foot[outer]);
         let s = (fa / (fa - fb).max(1e-6)).clamp(0.01, 0.99);
