@@ -133,6 +133,14 @@ impl ModelPaths {
     }
 }
 
+/// A path from the environment; an empty value counts as unset (`GLYPTIC_ROOT= glyptic ...`
+/// looked for the models in the current folder's "" and said nothing of it; issue #40).
+fn env_path(name: &str) -> Option<PathBuf> {
+    std::env::var_os(name)
+        .filter(|v| !v.is_empty())
+        .map(PathBuf::from)
+}
+
 /// Whether `dir` holds set-up's files (a project root or an installed data folder).
 pub fn looks_like_root(dir: &Path) -> bool {
     dir.join("models").join(ROOT_MARK).is_file() || dir.join("shapemodel").join("sfm").is_dir()
@@ -173,8 +181,8 @@ pub enum RootSource {
 
 /// The project root holding set-up's files and how it was found (see the module doc).
 pub fn locate_root() -> (PathBuf, RootSource) {
-    if let Some(dir) = std::env::var_os(ROOT_ENV) {
-        return (PathBuf::from(dir), RootSource::Env);
+    if let Some(dir) = env_path(ROOT_ENV) {
+        return (dir, RootSource::Env);
     }
     let mut starts: Vec<(PathBuf, RootSource)> = Vec::new();
     if let Ok(cwd) = std::env::current_dir() {
@@ -223,8 +231,8 @@ pub fn installed_files(root: &Path) -> Vec<(PathBuf, &'static str, bool)> {
 
 /// Folder of the Surrey Face Model files (`GLYPTIC_SFM_DIR` or `<root>/shapemodel/sfm`).
 pub fn sfm_dir() -> PathBuf {
-    match std::env::var_os(SFM_ENV) {
-        Some(dir) => PathBuf::from(dir),
+    match env_path(SFM_ENV) {
+        Some(dir) => dir,
         None => root().join("shapemodel").join("sfm"),
     }
 }
@@ -236,8 +244,8 @@ pub fn models_dir() -> PathBuf {
 
 /// The CenterFace detector model set-up puts in [`models_dir`].
 pub fn detector_model() -> PathBuf {
-    match std::env::var_os(DETECTOR_ENV) {
-        Some(path) => PathBuf::from(path),
+    match env_path(DETECTOR_ENV) {
+        Some(path) => path,
         None => models_dir().join(DETECTOR_FILE),
     }
 }
@@ -255,8 +263,8 @@ pub fn segmenter_model() -> PathBuf {
 
 /// The ONNX Runtime shared library (`ORT_DYLIB_PATH` or the copy set-up made).
 pub fn onnxruntime_lib() -> PathBuf {
-    match std::env::var_os(ORT_ENV) {
-        Some(p) => PathBuf::from(p),
+    match env_path(ORT_ENV) {
+        Some(p) => p,
         None => ModelPaths::under(&root()).onnxruntime,
     }
 }

@@ -227,6 +227,16 @@ impl KioskConfig {
                 format!("is {}, not within 0..=2000 faces", self.likeness_search),
             );
         }
+        if self
+            .video
+            .as_ref()
+            .is_some_and(|v| v.as_os_str().is_empty())
+        {
+            return invalid(
+                "video",
+                "is empty: name a video or photo file, or leave it out for the camera".into(),
+            );
+        }
         for (key, v) in [("width", self.width), ("height", self.height)] {
             if !(64..=8192).contains(&v) {
                 return invalid(key, format!("is {v}, not within 64..=8192 pixels"));

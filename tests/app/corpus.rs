@@ -270,9 +270,10 @@ fn cases() -> Vec<Case> {
             },
         ),
         case(
+            // A device is no .png (a link named .png to one: photo-output-is-link).
             "photo-output-device",
-            1,
-            &["null", "not a regular file"],
+            2,
+            &["/dev/null", ".png"],
             |d| {
                 write(d, "a.jpg", einstein());
                 words(d, &["photo", "@a.jpg", "-o", "/dev/null"])
@@ -286,25 +287,33 @@ fn cases() -> Vec<Case> {
                 write(d, "a.jpg", einstein());
                 words(
                     d,
-                    &["photo", "@a.jpg", "-o", "@gem.png", "--obj", "@gem.png"],
+                    &[
+                        "photo",
+                        "@a.jpg",
+                        "-o",
+                        "@gem.png",
+                        "--heightmap",
+                        "@gem.png",
+                    ],
                 )
             },
         ),
         case(
             "photo-landmarks-out-is-input",
             1,
-            &["a.jpg", "also an input"],
+            &["a.pts", "also an input"],
             |d| {
-                write(d, "a.jpg", einstein());
+                // A photo whose name ends .pts (the decoder reads the bytes, not the name).
+                write(d, "a.pts", einstein());
                 words(
                     d,
                     &[
                         "photo",
-                        "@a.jpg",
+                        "@a.pts",
                         "-o",
                         "@gem.png",
                         "--landmarks-out",
-                        "@a.jpg",
+                        "@a.pts",
                     ],
                 )
             },
@@ -490,7 +499,7 @@ fn cases() -> Vec<Case> {
                 "render",
                 "-o",
                 "@gem.png",
-                "--gem-obj",
+                "--heightmap",
                 "@gem.png",
                 "--size",
                 "32x40",
@@ -498,8 +507,8 @@ fn cases() -> Vec<Case> {
         ),
         case(
             "render-output-device",
-            1,
-            &["full", "not a regular file"],
+            2,
+            &["/dev/full", ".png"],
             p(&["render", "-o", "/dev/full", "--size", "32x40"]),
         ),
         case(
@@ -526,17 +535,17 @@ fn cases() -> Vec<Case> {
         }),
         case(
             "render-output-unknown-format",
-            1,
+            2,
             &["gem.gif", ".png or .jpg"],
             p(&["render", "-o", "@gem.gif", "--size", "32x40"]),
         ),
         case(
             "landmarks-pts-is-input",
             1,
-            &["a.jpg", "also an input"],
+            &["a.pts", "also an input"],
             |d| {
-                write(d, "a.jpg", einstein());
-                words(d, &["landmarks", "@a.jpg", "--pts", "@a.jpg"])
+                write(d, "a.pts", einstein());
+                words(d, &["landmarks", "@a.pts", "--pts", "@a.pts"])
             },
         ),
         case(
@@ -655,18 +664,19 @@ fn cases() -> Vec<Case> {
                 &["fit", "--landmarks", "@long.pts", "--size", "817x1024"],
             )
         }),
-        case("fit-obj-is-input", 1, &["face.pts", "also an input"], |d| {
-            write(d, "face.pts", pts_with(|_| ()));
+        case("fit-obj-is-input", 1, &["face.obj", "also an input"], |d| {
+            // Landmarks in a file named .obj: the one name an --obj output could clash with.
+            write(d, "face.obj", pts_with(|_| ()));
             words(
                 d,
                 &[
                     "fit",
                     "--landmarks",
-                    "@face.pts",
+                    "@face.obj",
                     "--size",
                     "817x1024",
                     "--obj",
-                    "@face.pts",
+                    "@face.obj",
                 ],
             )
         }),
@@ -735,7 +745,8 @@ fn cases() -> Vec<Case> {
             write(d, "a.jpg", einstein());
             words(d, &["batch", "@a.jpg", "-o", "@out"])
         }),
-        case("batch-csv-is-photo", 1, &["a.jpg", "also an input"], |d| {
+        // The CSV must be named .csv, which no photo of the batch is: refused when read.
+        case("batch-csv-is-photo", 2, &["a.jpg", ".csv"], |d| {
             std::fs::create_dir_all(d.join("in")).unwrap();
             write(d, "in/a.jpg", einstein());
             words(d, &["batch", "@in", "-o", "@in", "--csv", "@in/a.jpg"])
@@ -775,10 +786,13 @@ fn cases() -> Vec<Case> {
         case(
             "track-jsonl-is-source",
             1,
-            &["a.jpg", "also an input"],
+            &["a.jsonl", "also an input"],
             |d| {
-                write(d, "a.jpg", einstein());
-                words(d, &["track", "@a.jpg", "--all-frames", "--jsonl", "@a.jpg"])
+                write(d, "a.jsonl", einstein());
+                words(
+                    d,
+                    &["track", "@a.jsonl", "--all-frames", "--jsonl", "@a.jsonl"],
+                )
             },
         ),
         case(
@@ -846,6 +860,239 @@ fn cases() -> Vec<Case> {
             1,
             &["shot.png", "output folder does not exist"],
             p(&["kiosk", "--frames", "1", "--screenshot", "@no/shot.png"]),
+        ),
+        // ------------------------------------------------ issue #40: refused when read
+        case(
+            "photo-heightmap-named-jpg",
+            2,
+            &["h.jpg", "--heightmap", "16-bit PNG", ".png"],
+            |d| {
+                write(d, "a.jpg", einstein());
+                words(
+                    d,
+                    &["photo", "@a.jpg", "-o", "@o.png", "--heightmap", "@h.jpg"],
+                )
+            },
+        ),
+        case(
+            "render-gltf-named-gltf",
+            2,
+            &["g.gltf", "--gltf", ".glb"],
+            p(&["render", "-o", "@o.png", "--gltf", "@g.gltf"]),
+        ),
+        case(
+            "render-gem-obj-named-stl",
+            2,
+            &["g.stl", "--gem-obj", ".obj"],
+            p(&["render", "-o", "@o.png", "--gem-obj", "@g.stl"]),
+        ),
+        case(
+            "render-stl-named-obj",
+            2,
+            &["s.obj", "--stl", ".stl"],
+            p(&["render", "-o", "@o.png", "--stl", "@s.obj"]),
+        ),
+        case(
+            "photo-landmarks-out-named-txt",
+            2,
+            &["l.txt", "--landmarks-out", ".pts"],
+            |d| {
+                write(d, "a.jpg", einstein());
+                words(
+                    d,
+                    &[
+                        "photo",
+                        "@a.jpg",
+                        "-o",
+                        "@o.png",
+                        "--landmarks-out",
+                        "@l.txt",
+                    ],
+                )
+            },
+        ),
+        case("fit-obj-named-ply", 2, &["f.ply", "--obj", ".obj"], |d| {
+            write(d, "face.pts", pts_with(|_| ()));
+            words(d, &["fit", "--landmarks", "@face.pts", "--obj", "@f.ply"])
+        }),
+        case("batch-csv-named-txt", 2, &["r.txt", "--csv", ".csv"], |d| {
+            std::fs::create_dir_all(d.join("in")).unwrap();
+            words(d, &["batch", "@in", "-o", "@out", "--csv", "@r.txt"])
+        }),
+        case(
+            "track-jsonl-named-csv",
+            2,
+            &["t.csv", "--jsonl", ".jsonl"],
+            |d| {
+                write(d, "a.jpg", einstein());
+                words(d, &["track", "@a.jpg", "--jsonl", "@t.csv"])
+            },
+        ),
+        case(
+            "kiosk-screenshot-named-jpg",
+            2,
+            &["shot.jpg", "--screenshot", ".png"],
+            p(&["kiosk", "--check", "--screenshot", "@shot.jpg"]),
+        ),
+        case(
+            "render-size-over-the-renderers-pixels",
+            2,
+            &["4097x4097", "16777216"],
+            p(&["render", "-o", "@o.png", "--size", "4097x4097"]),
+        ),
+        case(
+            "render-pitch-past-edge-on",
+            2,
+            &["--pitch", "-89..=89"],
+            p(&["render", "-o", "@o.png", "--pitch", "120"]),
+        ),
+        case(
+            "render-transparent-with-a-style",
+            2,
+            &["transparent", "styles"],
+            p(&[
+                "render",
+                "-o",
+                "@o.png",
+                "--background",
+                "transparent",
+                "--style",
+                "toon",
+            ]),
+        ),
+        case(
+            "render-transparent-as-jpeg",
+            2,
+            &["o.jpg", "transparency"],
+            p(&["render", "-o", "@o.jpg", "--background", "transparent"]),
+        ),
+        case(
+            "render-output-folder-is-a-file",
+            1,
+            &["afile/o.png", "not a folder"],
+            |d| {
+                write(d, "afile", "x");
+                words(d, &["render", "-o", "@afile/o.png", "--size", "32x40"])
+            },
+        ),
+        case(
+            "render-output-read-only",
+            1,
+            &["ro.png", "read-only"],
+            |d| {
+                use std::os::unix::fs::PermissionsExt as _;
+                write(d, "ro.png", "keep me");
+                std::fs::set_permissions(d.join("ro.png"), std::fs::Permissions::from_mode(0o444))
+                    .unwrap();
+                words(d, &["render", "-o", "@ro.png", "--size", "32x40"])
+            },
+        ),
+        case("photo-stl-read-only", 1, &["ro.stl", "read-only"], |d| {
+            use std::os::unix::fs::PermissionsExt as _;
+            write(d, "a.jpg", einstein());
+            write(d, "ro.stl", "keep me");
+            std::fs::set_permissions(d.join("ro.stl"), std::fs::Permissions::from_mode(0o444))
+                .unwrap();
+            words(d, &["photo", "@a.jpg", "-o", "@o.png", "--stl", "@ro.stl"])
+        }),
+        case(
+            "track-garbage-video-quiet",
+            1,
+            &["garbage.mp4", "no frame could be read"],
+            |d| {
+                // An MP4's first box and nothing playable: FFmpeg's "moov atom not found".
+                let mut mp4 = b"\x00\x00\x00\x18ftypmp42\x00\x00\x00\x00mp42isom".to_vec();
+                mp4.resize(4096, 0);
+                write(d, "garbage.mp4", mp4);
+                words(d, &["track", "@garbage.mp4", "-q"])
+            },
+        ),
+        case(
+            "kiosk-video-empty-name",
+            1,
+            &["k.toml", "video", "empty"],
+            |d| {
+                write(d, "k.toml", "video = \"\"\n");
+                words(d, &["kiosk", "--check", "--config", "@k.toml"])
+            },
+        ),
+        case(
+            "kiosk-check-video-not-a-video",
+            1,
+            &["notes.mp4", "not a video"],
+            |d| {
+                write(d, "notes.mp4", "root:x:0:0:root:/root:/bin/bash\n");
+                words(
+                    d,
+                    &[
+                        "kiosk",
+                        "--check",
+                        "--video",
+                        "@notes.mp4",
+                        "--snapshots",
+                        "@snaps",
+                    ],
+                )
+            },
+        ),
+        case(
+            "kiosk-check-video-empty-file",
+            1,
+            &["empty.mp4", "not a video"],
+            |d| {
+                write(d, "empty.mp4", b"");
+                words(
+                    d,
+                    &[
+                        "kiosk",
+                        "--check",
+                        "--video",
+                        "@empty.mp4",
+                        "--snapshots",
+                        "@snaps",
+                    ],
+                )
+            },
+        ),
+        case(
+            "kiosk-check-snapshots-unwritable",
+            1,
+            &["/proc", "snapshots", "cannot write"],
+            |d| {
+                write(d, "a.jpg", einstein());
+                words(
+                    d,
+                    &[
+                        "kiosk",
+                        "--check",
+                        "--video",
+                        "@a.jpg",
+                        "--snapshots",
+                        "/proc/glyptic",
+                    ],
+                )
+            },
+        ),
+        case(
+            "kiosk-check-screenshot-unwritable",
+            1,
+            &["/proc", "screenshot", "cannot write"],
+            |d| {
+                write(d, "a.jpg", einstein());
+                words(
+                    d,
+                    &[
+                        "kiosk",
+                        "--check",
+                        "--video",
+                        "@a.jpg",
+                        "--snapshots",
+                        "@snaps",
+                        "--screenshot",
+                        "/proc/shot.png",
+                    ],
+                )
+            },
         ),
         case(
             "kiosk-seconds-nan",

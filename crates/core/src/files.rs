@@ -4,7 +4,7 @@
 //! files whose size lies). Units: bytes.
 
 use std::io::Read as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Caps per kind of input: generous for real files, far below what would hurt the machine.
 pub const MAX_PHOTO_BYTES: u64 = 256 << 20;
@@ -162,10 +162,39 @@ pub fn read_verified(path: &Path) -> std::io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// Writes `bytes` to `path` whole or not at all: into a hidden file beside it, synced, then
-/// renamed over it, so a reader (or a crash) never sees half a file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    use std::io::Write as _;
+/// The hidden files this process is writing or holding staged right now: what an
+/// interrupted run must remove ([`remove_pending`]). Held locked while staged files are put
+/// in place, so an interruption waits for a commit to finish rather than splitting it.
+static PENDING: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+fn pending() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    PENDING
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+fn forget_pending(path: &Path) {
+    pending().retain(|p| p != path);
+}
+
+/// Removes every hidden file this process is writing or holding staged, and keeps the list
+/// locked so that no new one starts: for a signal handler about to end the process
+/// (SIGINT, SIGTERM), so an interrupted command leaves no `.NAME.PID.N.tmp` behind. A
+/// commit under way finishes first. Returns how many files were removed.
+pub fn remove_pending() -> usize {
+    let list = pending();
+    let removed = list
+        .iter()
+        .filter(|p| std::fs::remove_file(p).is_ok())
+        .count();
+    // The guard is leaked: the process is about to end, and nothing may stage after this.
+    std::mem::forget(list);
+    removed
+}
+
+/// A hidden name beside `path`, unique per process and call (two threads may write the
+/// same file at once): `.NAME.PID.N.tag`.
+fn hidden_beside(path: &Path, tag: &str) -> std::io::Result<PathBuf> {
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
@@ -173,24 +202,165 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let name = path
         .file_name()
         .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"))?;
-    // Unique per process and call: two threads may write the same file at once.
     static CALLS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tmp = dir.join(format!(
-        ".{}.{}.{call}.tmp",
+    Ok(dir.join(format!(
+        ".{}.{}.{call}.{tag}",
         name.to_string_lossy(),
         std::process::id()
-    ));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
+    )))
+}
+
+/// Whether this process may write the existing file at `path` (opened for writing, neither
+/// truncated nor changed): a rename in a writable folder would replace a file its owner
+/// protected, so callers ask this first.
+pub fn may_write(path: &Path) -> bool {
+    std::fs::OpenOptions::new().write(true).open(path).is_ok()
+}
+
+/// Writes `bytes` to the new hidden file `tmp`, registered as pending, with the permissions
+/// of the file it will replace (a 0600 file stays 0600), synced.
+fn write_hidden(tmp: &Path, target: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write as _;
+    pending().push(tmp.to_path_buf());
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(tmp)?;
+    if let Ok(meta) = std::fs::metadata(target) {
+        f.set_permissions(meta.permissions())?;
+    }
+    f.write_all(bytes)?;
+    f.sync_all()
+}
+
+/// Writes `bytes` to `path` whole or not at all: into a hidden file beside it, synced, then
+/// renamed over it, so a reader (or a crash) never sees half a file. For one file; a
+/// command with several outputs stages them together ([`Staged`]).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let tmp = hidden_beside(path, "tmp")?;
+    let result = write_hidden(&tmp, path, bytes).and_then(|()| std::fs::rename(&tmp, path));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
+    forget_pending(&tmp);
     result
+}
+
+/// A file [`Staged::commit`] could not put in place, and why.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {source}", path.display())]
+pub struct StageError {
+    pub path: PathBuf,
+    #[source]
+    pub source: std::io::Error,
+}
+
+/// A command's output files, written together or not at all (issue #40): each is written
+/// whole into a hidden file beside its target ([`Staged::add`]), and only when all are
+/// written are they renamed into place ([`Staged::commit`]); a failure there puts back what
+/// the earlier renames replaced. Dropped uncommitted (an error, a panic), or the process
+/// interrupted ([`remove_pending`]), the hidden files are removed and no target changes.
+#[derive(Debug, Default)]
+pub struct Staged {
+    /// (target, hidden file) in the order added.
+    files: Vec<(PathBuf, PathBuf)>,
+}
+
+impl Staged {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Writes `bytes` for `target` into a hidden file beside it; nothing is replaced yet.
+    pub fn add(&mut self, target: &Path, bytes: &[u8]) -> Result<(), StageError> {
+        let fail = |source| StageError {
+            path: target.to_path_buf(),
+            source,
+        };
+        let tmp = hidden_beside(target, "tmp").map_err(fail)?;
+        // Recorded before writing, so a half-written file is removed too.
+        self.files.push((target.to_path_buf(), tmp.clone()));
+        write_hidden(&tmp, target, bytes).map_err(fail)
+    }
+
+    /// How many files are staged.
+    pub fn len(&self) -> usize {
+        self.files.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.files.is_empty()
+    }
+
+    /// Renames every staged file over its target. An existing target is first linked to a
+    /// hidden backup, so if a later rename fails, the targets already replaced get their old
+    /// contents back and new ones are removed: the folder is as before, and the error names
+    /// the file that failed.
+    pub fn commit(mut self) -> Result<(), StageError> {
+        let files = std::mem::take(&mut self.files);
+        let mut list = pending();
+        let mut done: Vec<(&Path, Option<PathBuf>)> = Vec::new();
+        let mut failed = None;
+        for (target, tmp) in &files {
+            let backup = match std::fs::symlink_metadata(target) {
+                Ok(_) => match hidden_beside(target, "old")
+                    .and_then(|b| std::fs::hard_link(target, &b).map(|()| b))
+                {
+                    Ok(b) => Some(b),
+                    Err(source) => {
+                        failed = Some(StageError {
+                            path: target.clone(),
+                            source,
+                        });
+                        break;
+                    }
+                },
+                Err(_) => None,
+            };
+            match std::fs::rename(tmp, target) {
+                Ok(()) => done.push((target, backup)),
+                Err(source) => {
+                    if let Some(b) = backup {
+                        let _ = std::fs::remove_file(b);
+                    }
+                    failed = Some(StageError {
+                        path: target.clone(),
+                        source,
+                    });
+                    break;
+                }
+            }
+        }
+        if failed.is_some() {
+            for (target, backup) in done.iter().rev() {
+                let _ = match backup {
+                    Some(b) => std::fs::rename(b, target),
+                    None => std::fs::remove_file(target),
+                };
+            }
+        } else {
+            for (_, backup) in &done {
+                if let Some(b) = backup {
+                    let _ = std::fs::remove_file(b);
+                }
+            }
+        }
+        for (_, tmp) in &files {
+            let _ = std::fs::remove_file(tmp);
+        }
+        list.retain(|p| !files.iter().any(|(_, tmp)| tmp == p));
+        failed.map_or(Ok(()), Err)
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        for (_, tmp) in &self.files {
+            let _ = std::fs::remove_file(tmp);
+            forget_pending(tmp);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -241,6 +411,75 @@ mod tests {
         assert!(e.to_string().contains("10 bytes"), "{e}");
         let missing = read_limited(&dir.join("none"), 9).unwrap_err();
         assert_eq!(missing.kind(), std::io::ErrorKind::NotFound);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// The names in a folder, sorted (hidden files included).
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn staged_outputs_appear_together_or_not_at_all() {
+        use std::os::unix::fs::PermissionsExt as _;
+        let dir = std::env::temp_dir().join(format!("glyptic-staged-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let (a, b, c) = (dir.join("a.png"), dir.join("b.obj"), dir.join("c.stl"));
+        std::fs::write(&a, b"old a").unwrap();
+        std::fs::set_permissions(&a, std::fs::Permissions::from_mode(0o600)).unwrap();
+
+        // Dropped before the commit (an error after staging): nothing changes.
+        let mut s = Staged::new();
+        s.add(&a, b"new a").unwrap();
+        s.add(&b, b"new b").unwrap();
+        assert_eq!(names(&dir).len(), 3, "staged beside: {:?}", names(&dir));
+        drop(s);
+        assert_eq!(names(&dir), ["a.png"]);
+        assert_eq!(std::fs::read(&a).unwrap(), b"old a");
+
+        // Interrupted (the signal handler's cleanup) while staged: the hidden files go.
+        let mut s = Staged::new();
+        s.add(&b, b"new b").unwrap();
+        assert!(pending().iter().any(|p| p.starts_with(&dir)));
+        // (remove_pending would keep the list locked for the dying process: emulate it.)
+        for p in pending().iter().filter(|p| p.starts_with(&dir)) {
+            std::fs::remove_file(p).unwrap();
+        }
+        assert_eq!(names(&dir), ["a.png"]);
+        drop(s);
+
+        // A rename that fails midway (the third target became a folder holding a file):
+        // the first file's old contents come back, the second new file goes, nothing
+        // hidden is left, and the error names the file.
+        let mut s = Staged::new();
+        s.add(&a, b"new a").unwrap();
+        s.add(&b, b"new b").unwrap();
+        s.add(&c, b"new c").unwrap();
+        std::fs::create_dir(&c).unwrap();
+        std::fs::write(c.join("x"), b"x").unwrap();
+        let e = s.commit().unwrap_err();
+        assert_eq!(e.path, c, "{e}");
+        assert_eq!(names(&dir), ["a.png", "c.stl"]);
+        assert_eq!(std::fs::read(&a).unwrap(), b"old a");
+        std::fs::remove_dir_all(&c).unwrap();
+
+        // All well: every file in place, a replaced file keeps its permissions.
+        let mut s = Staged::new();
+        s.add(&a, b"new a").unwrap();
+        s.add(&b, b"new b").unwrap();
+        s.commit().unwrap();
+        assert_eq!(names(&dir), ["a.png", "b.obj"]);
+        assert_eq!(std::fs::read(&a).unwrap(), b"new a");
+        assert_eq!(std::fs::read(&b).unwrap(), b"new b");
+        let mode = std::fs::metadata(&a).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o600);
+        assert!(!pending().iter().any(|p| p.starts_with(&dir)));
         std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -18,7 +18,7 @@ pub const FOV_Y_DEG: f32 = 20.0;
 /// Extra room around the bounding sphere (1.0 = touching the frame edge).
 const MARGIN: f32 = 1.06;
 /// Pitch is kept short of the poles, where the orbit's up vector degenerates.
-const MAX_PITCH_DEG: f32 = 89.0;
+pub const MAX_PITCH_DEG: f32 = 89.0;
 
 /// Everything the shaders need from the camera for one frame.
 #[derive(Clone, Debug)]

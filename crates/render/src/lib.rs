@@ -63,7 +63,7 @@ use std::sync::{Arc, Mutex};
 
 use self::gpu::{MeshBuffers, Pipelines, Targets};
 
-pub use self::camera::{FOV_Y_DEG, ZOOM_RANGE};
+pub use self::camera::{FOV_Y_DEG, MAX_PITCH_DEG, ZOOM_RANGE};
 pub use self::timing::{InitTimes, PassTimes};
 use self::timing::{PassTimer, TimedPass};
 pub use glyptic_core::scene::{
@@ -637,6 +637,22 @@ impl Renderer {
                 max_pixels: MAX_PIXELS,
             });
         }
+        params.check()
+    }
+}
+
+impl RenderParams {
+    /// The checks that need no device: finite numbers, options that go together, each part's
+    /// ranges. The renderer adds its device's limits; a command line asks this alone when it
+    /// is read, so a contradiction is refused before any work (issue #40).
+    pub fn check(&self) -> Result<(), RenderError> {
+        let params = self;
+        let (w, h) = (params.width, params.height);
+        if w == 0 || h == 0 || u64::from(w) * u64::from(h) > MAX_PIXELS {
+            return Err(RenderError::InvalidParams(format!(
+                "image size {w}x{h}: a side of 0 or more than {MAX_PIXELS} pixels"
+            )));
+        }
         let m = &params.marble;
         let numbers = [
             ("yaw_deg", params.yaw_deg),
@@ -693,7 +709,9 @@ impl Renderer {
         }
         Ok(())
     }
+}
 
+impl Renderer {
     /// Uploads, encodes the passes and the copy into the readback buffer, and submits.
     fn encode_and_submit(
         &mut self,

@@ -17,6 +17,7 @@ macro_rules! say {
 
 mod cli;
 mod kiosk;
+mod signals;
 
 use std::process::ExitCode;
 
@@ -26,7 +27,12 @@ use tracing_subscriber::EnvFilter;
 fn main() -> ExitCode {
     ensure_runtime_dir();
     let args = cli::Cli::parse();
+    if let Err(e) = args.check() {
+        e.exit();
+    }
+    quiet_ffmpeg(args.verbose);
     init_log(args.verbose, args.quiet);
+    signals::install();
     // doctor and setup say themselves where the models are and what is missing.
     let hint = !matches!(
         args.command,
@@ -36,6 +42,9 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             complain(format_args!("glyptic: error: {}", one_line(&err)));
+            if let Some(stop) = err.downcast_ref::<signals::Interrupted>() {
+                return ExitCode::from(u8::try_from(128 + stop.signal).unwrap_or(1));
+            }
             let (root, _) = glyptic::assets::locate_root();
             if hint && !glyptic::assets::looks_like_root(&root) {
                 complain(format_args!(
@@ -89,6 +98,18 @@ fn ensure_runtime_dir() {
         // SAFETY: called first thing in `main`, before any thread exists that could read the
         // environment concurrently.
         unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
+    }
+}
+
+/// OpenCV's FFmpeg prints its own errors raw on stderr ("moov atom not found" for a file
+/// that is no video), even with `-q`, beside glyptic's one line that says the same. Silenced
+/// unless `-vv` asks for the libraries' debug notes or the user set OpenCV's own variable.
+fn quiet_ffmpeg(verbose: u8) {
+    const VAR: &str = "OPENCV_FFMPEG_LOGLEVEL";
+    if verbose < 2 && std::env::var_os(VAR).is_none() {
+        // SAFETY: called from `main` before any thread is started (the log, the signal
+        // thread and the work come after).
+        unsafe { std::env::set_var(VAR, "-8") };
     }
 }
 

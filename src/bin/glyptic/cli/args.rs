@@ -21,9 +21,10 @@ pub struct ViewArgs {
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true,
           value_parser = finite_in::<f32>(-360.0, 360.0))]
     pub yaw: f32,
-    /// Tilt the view, degrees, -360..=360.
+    /// Tilt the view, degrees, -89..=89 (at 90 the gem is seen edge-on).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true,
-          value_parser = finite_in::<f32>(-360.0, 360.0))]
+          value_parser = finite_in::<f32>(-glyptic::render::MAX_PITCH_DEG as f64,
+                                          glyptic::render::MAX_PITCH_DEG as f64))]
     pub pitch: f32,
     /// How the portrait is carved: facing the viewer (the default: a face-recognition network,
     /// and a friend, know the sitter best this way; BENCHMARKS.md, issue #37) or in profile
@@ -329,7 +330,38 @@ impl std::str::FromStr for Size {
                 SIZE_RANGE.end()
             ));
         }
+        let pixels = u64::from(width) * u64::from(height);
+        if pixels > glyptic::render::MAX_PIXELS {
+            return Err(format!(
+                "{width}x{height}: {pixels} pixels, more than the renderer's {} (4096x4096)",
+                glyptic::render::MAX_PIXELS
+            ));
+        }
         Ok(Size { width, height })
+    }
+}
+
+/// A path option's parser for a file glyptic writes: its name must end in one of
+/// `extensions` (any case), since what is written follows the option, not the name
+/// (`--heightmap h.jpg` wrote PNG bytes under .jpg; issue #40). `what` names the format.
+pub fn file_named(
+    extensions: &'static [&'static str],
+    what: &'static str,
+) -> impl Fn(&str) -> Result<std::path::PathBuf, String> + Clone + Send + Sync + 'static {
+    move |s: &str| {
+        let path = std::path::PathBuf::from(s);
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        if ext.is_some_and(|e| extensions.contains(&e.as_str())) {
+            return Ok(path);
+        }
+        let names: Vec<String> = extensions.iter().map(|e| format!(".{e}")).collect();
+        Err(format!(
+            "{s}: this option writes {what}: name the file {}",
+            names.join(" or ")
+        ))
     }
 }
 

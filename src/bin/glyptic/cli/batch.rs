@@ -27,7 +27,8 @@ use super::ViewArgs;
       beside each NAME-gem.png: NAME-gem.stl, NAME-height.png and NAME-gem.glb
 
 Exit codes: 0 every photo made a gem; 1 some did not (the CSV says which and why) or the run
-could not start; 2 a bad option.")]
+could not start; 2 a bad option; 130 (SIGINT) or 143 (SIGTERM): interrupted, the images in
+hand finished and the CSV written (a second signal ends it at once).")]
 pub struct BatchArgs {
     /// Folder of photos (JPEG, PNG, PPM, BMP, TIFF, WebP; not recursive).
     pub dir: PathBuf,
@@ -38,7 +39,7 @@ pub struct BatchArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
     pub jobs: Option<u16>,
     /// Per-image status and times (default: OUTDIR/batch.csv).
-    #[arg(long, value_name = "FILE.csv")]
+    #[arg(long, value_name = "FILE.csv", value_parser = super::args::file_named(&["csv"], "CSV"))]
     pub csv: Option<PathBuf>,
     /// Also write each stone for a 3D printer as OUTDIR/NAME-gem.stl (as `photo --stl`:
     /// binary STL in mm, a closed solid on a flat slab).
@@ -135,7 +136,9 @@ fn outputs_for(files: &[PathBuf], out_dir: &Path, args: &BatchArgs) -> Vec<Outpu
         .collect()
 }
 
-/// Output names: `NAME`, or `NAME.ext` for names shared by several inputs.
+/// Output names: `NAME`, or `NAME.ext` for names shared by several inputs; a name that
+/// still clashes (`a.jpg`, `a.png` and `a.jpg.ppm` give `a.jpg` twice) gets `-2`, `-3`, ...
+/// in input order, so every input has its own files.
 fn output_names(files: &[PathBuf]) -> Vec<String> {
     let stem = |p: &Path| {
         p.file_stem()
@@ -145,7 +148,7 @@ fn output_names(files: &[PathBuf]) -> Vec<String> {
     for f in files {
         *count.entry(stem(f)).or_insert(0usize) += 1;
     }
-    files
+    let names: Vec<String> = files
         .iter()
         .map(|f| {
             let s = stem(f);
@@ -156,7 +159,58 @@ fn output_names(files: &[PathBuf]) -> Vec<String> {
                 s
             }
         })
-        .collect()
+        .collect();
+    let mut taken: std::collections::HashSet<String> = std::collections::HashSet::new();
+    let mut seen: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
+    let mut out = Vec::with_capacity(names.len());
+    for name in &names {
+        let k = seen.entry(name).or_insert(0);
+        *k += 1;
+        let mut candidate = if *k == 1 {
+            name.clone()
+        } else {
+            format!("{name}-{k}")
+        };
+        while !taken.insert(candidate.clone()) {
+            *k += 1;
+            candidate = format!("{name}-{k}");
+        }
+        out.push(candidate);
+    }
+    out
+}
+
+/// The output folder, made with its missing parents; removed again (those it made, if still
+/// empty) when the batch ends before writing its CSV, so a refused run leaves no empty tree.
+struct OutFolder {
+    /// The folders made, deepest first.
+    made: Vec<PathBuf>,
+    keep: bool,
+}
+
+impl OutFolder {
+    fn make(dir: &Path) -> Result<Self> {
+        let made: Vec<PathBuf> = dir
+            .ancestors()
+            .take_while(|d| !d.as_os_str().is_empty() && !d.exists())
+            .map(Path::to_path_buf)
+            .collect();
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot make the output folder", dir.display()))?;
+        Ok(OutFolder { made, keep: false })
+    }
+}
+
+impl Drop for OutFolder {
+    fn drop(&mut self) {
+        if !self.keep {
+            for d in &self.made {
+                if std::fs::remove_dir(d).is_err() {
+                    break;
+                }
+            }
+        }
+    }
 }
 
 /// The CSV: a header, then one row an image (RFC 4180 quoting by the `csv` crate).
@@ -267,8 +321,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
             args.output.display()
         );
     }
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("{}: cannot make the output folder", args.output.display()))?;
+    let mut out_folder = OutFolder::make(&args.output)?;
     let outputs = outputs_for(&files, &args.output, args);
     let csv = args
         .csv
@@ -313,6 +366,9 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
 
+    // The first SIGINT/SIGTERM stops the batch after the images in hand: the CSV is
+    // written (the rest marked "interrupted") and the exit code says the signal.
+    let interruptible = crate::signals::Interruptible::new();
     let files = Arc::new(files);
     let next = Arc::new(AtomicUsize::new(0));
     // Bounded: workers wait while the renderer is behind rather than piling up meshes.
@@ -332,9 +388,12 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     std::thread::scope(|scope| -> Result<()> {
         for mut pipeline in pipelines {
             let (files, next, tx) = (files.clone(), next.clone(), tx.clone());
-            let (outputs, view) = (&outputs, &view);
+            let (outputs, view, interruptible) = (&outputs, &view, &interruptible);
             scope.spawn(move || {
                 loop {
+                    if interruptible.asked().is_some() {
+                        break;
+                    }
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(input) = files.get(i) else { break };
                     let mut row = Row {
@@ -388,17 +447,23 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default();
-            if let Some((mesh, made)) = mesh {
+            if interruptible.asked().is_some() {
+                row.status = "interrupted";
+                row.error = "the batch was interrupted before this image was written".into();
+            } else if let Some((mesh, made)) = mesh {
                 let (written, stages) = glyptic::stage::record(|| -> Result<()> {
                     let png = glyptic::pipeline::gem::render_png(&mut renderer, &mesh, &view)?;
                     glyptic::stage::timed(
                         "write",
                         || {
-                            // The gem last: it says the image is done.
+                            // An image's files together or not at all: an image marked
+                            // "error" in the CSV has none of them.
+                            let mut staged = glyptic::files::Staged::new();
                             for (path, bytes, _) in &made.files {
-                                super::write_atomic(path, bytes)?;
+                                super::stage(&mut staged, path, bytes)?;
                             }
-                            super::write_atomic(&outputs[i].gem, &png)
+                            super::stage(&mut staged, &outputs[i].gem, &png)?;
+                            super::commit(staged)
                         },
                         |_| String::new(),
                     )
@@ -416,7 +481,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                     }
                 }
             }
-            if row.status != "ok" {
+            if row.status != "ok" && row.status != "interrupted" {
                 let line = format!("skipped {name}: {}", row.error);
                 if bar.is_hidden() {
                     crate::complain(format_args!("{line}"));
@@ -431,7 +496,14 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         Ok(())
     })?;
     bar.finish_and_clear();
+    let asked = interruptible.asked();
+    for row in rows.iter_mut().filter(|r| r.status.is_empty()) {
+        row.status = "interrupted";
+        row.error = "the batch was interrupted before this image".into();
+    }
     write_csv(&csv, &rows)?;
+    out_folder.keep = true;
+    drop(interruptible);
     let ok = rows.iter().filter(|r| r.status == "ok").count();
     let secs = start.elapsed().as_secs_f64();
     // The one renderer's share of the run after start-up: near 100 % it is what limits the
@@ -493,6 +565,17 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
             100.0 * render_s / working_s,
             csv.display()
         );
+    }
+    if let Some(signal) = asked {
+        return Err(crate::signals::Interrupted {
+            signal,
+            what: format!(
+                "{ok} of {} images made into gems before it; the rest are marked \"interrupted\" in {}",
+                rows.len(),
+                csv.display()
+            ),
+        }
+        .into());
     }
     if ok < rows.len() {
         bail!(

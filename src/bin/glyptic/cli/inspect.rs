@@ -50,7 +50,7 @@ pub struct LandmarksArgs {
     #[command(flatten)]
     pub choice: ChoiceArgs,
     /// Also write the subject's landmarks as iBUG .pts (1-based, as menpo reads them).
-    #[arg(long, value_name = "FILE.pts")]
+    #[arg(long, value_name = "FILE.pts", value_parser = super::args::file_named(&["pts"], "iBUG points"))]
     pub pts: Option<PathBuf>,
 }
 
@@ -85,7 +85,7 @@ pub struct FitArgs {
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub repeat: u32,
     /// Also write the fitted face mesh (model millimetres) as Wavefront OBJ.
-    #[arg(long, value_name = "FILE.obj")]
+    #[arg(long, value_name = "FILE.obj", value_parser = super::args::file_named(&["obj"], "Wavefront OBJ"))]
     pub obj: Option<PathBuf>,
 }
 

@@ -74,6 +74,33 @@ pub enum Command {
     Doctor(DoctorArgs),
 }
 
+impl Cli {
+    /// What clap cannot check alone, checked when the command line is read (exit 2, before
+    /// any work): options that contradict each other by value (`--background transparent`
+    /// with `--style toon`, or with a `.jpg` output), settings the renderer would refuse
+    /// after the whole pipeline (issue #40).
+    pub fn check(&self) -> Result<(), clap::Error> {
+        let (view, output): (&ViewArgs, Option<&Path>) = match &self.command {
+            #[cfg(feature = "face")]
+            Command::Photo(a) => (&a.view, Some(&a.output)),
+            Command::Render(a) => (&a.view, Some(&a.output)),
+            #[cfg(feature = "face")]
+            Command::Batch(a) => (&a.view, None),
+            _ => return Ok(()),
+        };
+        let refuse = |msg: String| {
+            <Cli as clap::CommandFactory>::command()
+                .error(clap::error::ErrorKind::ArgumentConflict, msg)
+        };
+        let params = view.params().map_err(|e| refuse(format!("{e:#}")))?;
+        params.check().map_err(|e| refuse(e.to_string()))?;
+        if let Some(output) = output {
+            photo::output_kind(output, &params).map_err(|e| refuse(e.to_string()))?;
+        }
+        Ok(())
+    }
+}
+
 pub fn run(cli: Cli) -> Result<()> {
     QUIET.store(cli.quiet, std::sync::atomic::Ordering::Relaxed);
     match cli.command {
@@ -109,6 +136,13 @@ pub(crate) fn check_outputs<'a>(
         if let Some(dir) = dir
             && !dir.is_dir()
         {
+            if dir.exists() {
+                bail!(
+                    "{}: {} is not a folder (a file or device stands there)",
+                    out.display(),
+                    dir.display()
+                );
+            }
             bail!(
                 "{}: output folder does not exist ({})",
                 out.display(),
@@ -138,6 +172,30 @@ pub(crate) fn check_outputs<'a>(
     Ok(())
 }
 
+/// The folder a file goes into (`.` for a bare name).
+pub(crate) fn folder_of(path: &Path) -> &Path {
+    path.parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+}
+
+/// Whether a file can be made in `dir`: one is made there and removed (the only way to know
+/// on every filesystem: a read-only mount, an ACL, a full disk's quota; root passes mode
+/// bits). For checks before a long run, so a folder nobody can write is said at the start.
+pub(crate) fn check_writable_folder(dir: &Path) -> Result<()> {
+    if !dir.is_dir() {
+        bail!("{}: not a folder", dir.display());
+    }
+    let probe = dir.join(format!(".glyptic-check.{}", std::process::id()));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .with_context(|| format!("{}: cannot write a file here", dir.display()))?;
+    std::fs::remove_file(&probe)
+        .with_context(|| format!("{}: cannot remove a file made here", probe.display()))
+}
+
 /// A path as a comparable key: its folder resolved (links, `..`) and its name.
 fn same_file_key(path: &Path) -> PathBuf {
     if let Ok(full) = std::fs::canonicalize(path) {
@@ -154,12 +212,19 @@ fn same_file_key(path: &Path) -> PathBuf {
     }
 }
 
-/// An existing output must be a regular file for glyptic to replace it.
+/// An existing output must be a regular file the user could write for glyptic to replace
+/// it: a read-only file (no write permission for anyone, or none for this user) is
+/// protected, not replaced behind its owner's back by a rename in a writable folder.
 fn check_replaceable(path: &Path) -> Result<()> {
     match std::fs::symlink_metadata(path) {
         Ok(m) if !m.file_type().is_file() => bail!(
             "{}: exists and is not a regular file (a link, folder or device); glyptic replaces \
              only regular files",
+            path.display()
+        ),
+        Ok(m) if m.permissions().readonly() || !glyptic::files::may_write(path) => bail!(
+            "{}: exists and is read-only; glyptic does not replace a file you could not write \
+             (make it writable or choose another name)",
             path.display()
         ),
         _ => Ok(()),
@@ -218,9 +283,30 @@ fn print_stages(stages: &[Stage]) {
 }
 
 /// Writes `bytes` to `path` through a temporary file in the same folder, so that a failure
-/// never leaves a partial file and an existing file is replaced whole.
+/// never leaves a partial file and an existing file is replaced whole. For a command's one
+/// output; several go through [`stage`] and [`commit`].
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     check_replaceable(path)?;
     glyptic::files::write_atomic(path, bytes)
         .with_context(|| format!("{}: cannot write", path.display()))
+}
+
+/// Stages one of a command's outputs ([`glyptic::files::Staged`]): written beside its
+/// target, put in place by [`commit`] with the others or not at all.
+fn stage(staged: &mut glyptic::files::Staged, path: &Path, bytes: &[u8]) -> Result<()> {
+    check_replaceable(path)?;
+    staged
+        .add(path, bytes)
+        .with_context(|| format!("{}: cannot write", path.display()))
+}
+
+/// Puts a command's staged outputs in place together; on failure none changed.
+fn commit(staged: glyptic::files::Staged) -> Result<()> {
+    staged.commit().map_err(|e| {
+        anyhow::anyhow!(
+            "{}: cannot write ({}); no output was written",
+            e.path.display(),
+            e.source
+        )
+    })
 }

@@ -12,7 +12,8 @@ use glyptic::stage::{Stage, timed};
 
 #[cfg(feature = "face")]
 use super::{ChoiceArgs, GlassesArg};
-use super::{ViewArgs, check_outputs, print_stages, write_atomic};
+use super::{ViewArgs, check_outputs, commit, print_stages, stage};
+use glyptic::files::Staged;
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
@@ -23,7 +24,7 @@ use super::{ViewArgs, check_outputs, print_stages, write_atomic};
   glyptic render -o clear.png --background transparent --material agate")]
 pub struct RenderArgs {
     /// Output image: .png or .jpg (the format follows the extension).
-    #[arg(short, long)]
+    #[arg(short, long, value_parser = super::args::file_named(&["png", "jpg", "jpeg"], "PNG or JPEG"))]
     pub output: PathBuf,
     #[command(flatten)]
     pub view: ViewArgs,
@@ -35,7 +36,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "IMAGE")]
     pub photo: Option<PathBuf>,
     /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
-    #[arg(long, value_name = "FILE.obj")]
+    #[arg(long, value_name = "FILE.obj",
+          value_parser = super::args::file_named(&["obj"], "Wavefront OBJ"))]
     pub gem_obj: Option<PathBuf>,
     #[command(flatten)]
     pub make: MakeArgs,
@@ -51,7 +53,8 @@ pub struct RenderArgs {
 pub struct MakeArgs {
     /// Also write the stone as a closed solid for a 3D printer or CAM program: binary STL in
     /// millimetres, the relief on a flat-bottomed oval slab (the bezel left out).
-    #[arg(long, value_name = "FILE.stl")]
+    #[arg(long, value_name = "FILE.stl",
+          value_parser = super::args::file_named(&["stl"], "binary STL"))]
     pub stl: Option<PathBuf>,
     /// The slab's thickness below the ground, mm (with --stl).
     #[arg(long, default_value_t = 3.0, value_name = "MM",
@@ -60,11 +63,13 @@ pub struct MakeArgs {
     /// Also write the relief as a 16-bit grey PNG for a CNC router: one pixel per 0.2 mm
     /// grid node, 0 the ground; the millimetres per level are printed and stored in the PNG's
     /// text (`glyptic:mm_per_level`).
-    #[arg(long, value_name = "FILE.png")]
+    #[arg(long, value_name = "FILE.png",
+          value_parser = super::args::file_named(&["png"], "a 16-bit PNG"))]
     pub heightmap: Option<PathBuf>,
     /// Also write the cameo as shown (stone and gold bezel, with their materials) as binary
     /// glTF 2.0 for a 3D viewer: metres, +Y up, facing +Z.
-    #[arg(long, value_name = "FILE.glb")]
+    #[arg(long, value_name = "FILE.glb",
+          value_parser = super::args::file_named(&["glb"], "binary glTF (.glb)"))]
     pub gltf: Option<PathBuf>,
 }
 
@@ -103,20 +108,23 @@ pub struct PhotoArgs {
     /// Portrait photo (JPEG, PNG, PPM, BMP, TIFF, WebP).
     pub image: PathBuf,
     /// Output image: .png or .jpg (the format follows the extension).
-    #[arg(short, long)]
+    #[arg(short, long, value_parser = super::args::file_named(&["png", "jpg", "jpeg"], "PNG or JPEG"))]
     pub output: PathBuf,
     #[command(flatten)]
     pub view: ViewArgs,
     #[command(flatten)]
     pub choice: ChoiceArgs,
     /// Also write the 68 landmarks as an iBUG .pts file (1-based, like menpo's).
-    #[arg(long, value_name = "FILE.pts")]
+    #[arg(long, value_name = "FILE.pts",
+          value_parser = super::args::file_named(&["pts"], "iBUG points"))]
     pub landmarks_out: Option<PathBuf>,
     /// Also write the fitted face mesh (model millimetres) as Wavefront OBJ.
-    #[arg(long, value_name = "FILE.obj")]
+    #[arg(long, value_name = "FILE.obj",
+          value_parser = super::args::file_named(&["obj"], "Wavefront OBJ"))]
     pub obj: Option<PathBuf>,
     /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
-    #[arg(long, value_name = "FILE.obj")]
+    #[arg(long, value_name = "FILE.obj",
+          value_parser = super::args::file_named(&["obj"], "Wavefront OBJ"))]
     pub gem_obj: Option<PathBuf>,
     #[command(flatten)]
     pub make: MakeArgs,
@@ -260,12 +268,12 @@ fn height_map_png(map: &gem::solid::HeightMap, source: &str) -> Result<Vec<u8>> 
     Ok(bytes)
 }
 
-/// Writes the files of [`make_files`] and prints their stage line (making and writing).
-fn write_made(made: Made) -> Result<()> {
+/// Stages the files of [`make_files`] and prints their stage line (making and writing).
+fn stage_made(staged: &mut Staged, made: Made) -> Result<()> {
     let t = Instant::now();
     let mut details = Vec::new();
     for (path, bytes, detail) in made.files {
-        write_atomic(&path, &bytes)?;
+        stage(staged, &path, &bytes)?;
         details.push(detail);
     }
     if !details.is_empty() {
@@ -413,11 +421,14 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
     )?;
     let mut renderer = join_renderer(renderer_thread)?;
     let png = render_png(&mut renderer, &mesh, &params, &args.output)?;
+    // All or nothing: every file staged, then all put in place together.
+    let mut staged = Staged::new();
     if let Some(obj) = &args.gem_obj {
-        write_gem_obj(obj, &mesh, &source)?;
+        stage_gem_obj(&mut staged, obj, &mesh, &source)?;
     }
-    write_made(made)?;
-    write_atomic(&args.output, &png)?;
+    stage_made(&mut staged, made)?;
+    stage(&mut staged, &args.output, &png)?;
+    commit(staged)?;
     print_stages(&[Stage {
         name: "total",
         ms: start.elapsed().as_secs_f64() * 1e3,
@@ -493,12 +504,17 @@ fn read_face_obj(path: &Path) -> Result<(Vec<f32>, Vec<[u32; 3]>)> {
     Ok(mesh)
 }
 
-/// Writes the cameo mesh as OBJ (gem millimetres, normals).
-fn write_gem_obj(path: &Path, mesh: &glyptic::render::Mesh, source: &str) -> Result<()> {
+/// Stages the cameo mesh as OBJ (gem millimetres, normals).
+fn stage_gem_obj(
+    staged: &mut Staged,
+    path: &Path,
+    mesh: &glyptic::render::Mesh,
+    source: &str,
+) -> Result<()> {
     let comment = format!(
         "glyptic cameo from {source}\ngem millimetres: the cameo in the XY plane facing +Z, ground at z = 0"
     );
-    write_atomic(path, gem::mesh_to_obj(mesh, &comment).as_bytes())
+    stage(staged, path, gem::mesh_to_obj(mesh, &comment).as_bytes())
 }
 
 #[cfg(feature = "face")]
@@ -548,11 +564,14 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     )?;
     let mut renderer = join_renderer(renderer_thread)?;
     let png = render_png(&mut renderer, &gem.mesh, &params, &args.output)?;
-    write_made(made)?;
+    // Everything succeeded: now write, all or nothing, so a failure above or here leaves
+    // no output behind and no existing file changed.
+    let mut staged = Staged::new();
+    stage_made(&mut staged, made)?;
     let t = Instant::now();
-    // Everything succeeded: now write, so a failure above leaves no output behind.
     if let Some(pts) = &args.landmarks_out {
-        write_atomic(
+        stage(
+            &mut staged,
             pts,
             glyptic::landmarks::pts::write_pts(&gem.face.landmarks).as_bytes(),
         )?;
@@ -562,15 +581,22 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
             "glyptic fitted face from {}\nSurrey Face Model mesh, model millimetres (non-commercial licence)",
             image_path.display()
         );
-        write_atomic(
+        stage(
+            &mut staged,
             obj,
             gem::to_obj(&gem.face.mesh, triangles, &comment).as_bytes(),
         )?;
     }
     if let Some(obj) = &args.gem_obj {
-        write_gem_obj(obj, &gem.mesh, &image_path.display().to_string())?;
+        stage_gem_obj(
+            &mut staged,
+            obj,
+            &gem.mesh,
+            &image_path.display().to_string(),
+        )?;
     }
-    write_atomic(&args.output, &png)?;
+    stage(&mut staged, &args.output, &png)?;
+    commit(staged)?;
     print_stages(&[
         Stage {
             name: "write",

@@ -151,8 +151,10 @@ pub(super) fn doctor(_: &DoctorArgs) -> Result<()> {
         assets::DETECTOR_ENV,
         assets::ORT_ENV,
     ] {
-        if let Some(value) = std::env::var_os(var) {
-            say!("{var:<12} {}", PathBuf::from(value).display());
+        match std::env::var_os(var) {
+            Some(value) if value.is_empty() => say!("{var:<12} set but empty: ignored"),
+            Some(value) => say!("{var:<12} {}", PathBuf::from(value).display()),
+            None => {}
         }
     }
     // The files the program will open (the environment may point some elsewhere), and the

@@ -36,7 +36,8 @@ pub struct TrackArgs {
     #[arg(long, value_name = "N")]
     pub frames: Option<u64>,
     /// Write one JSON object per processed frame (pose, stages, latency) to this file.
-    #[arg(long, value_name = "FILE.jsonl")]
+    #[arg(long, value_name = "FILE.jsonl",
+          value_parser = super::args::file_named(&["jsonl", "json"], "JSON lines"))]
     pub jsonl: Option<PathBuf>,
     /// Turn smoothing off (each frame's own fit).
     #[arg(long)]

@@ -67,7 +67,7 @@ impl FrameSource for Faulty {
     }
 }
 
-fn open_source(config: &KioskConfig) -> Box<dyn FrameSource> {
+pub(super) fn open_source(config: &KioskConfig) -> Box<dyn FrameSource> {
     match &config.video {
         // A photo: seen as a camera pointed at it would see it.
         Some(path) if glyptic::capture::source::is_image_path(path) => {

@@ -77,7 +77,7 @@ pub struct KioskArgs {
           value_parser = crate::cli::finite_in::<f64>(0.0, 1e7))]
     pub seconds: Option<f64>,
     /// When quitting, save the last presented frame (controls included) as PNG.
-    #[arg(long, value_name = "FILE.png")]
+    #[arg(long, value_name = "FILE.png", value_parser = crate::cli::file_named(&["png"], "PNG"))]
     pub screenshot: Option<PathBuf>,
     /// Where the "Save" button writes its PNGs.
     #[arg(long, value_name = "DIR", default_value = ".")]
@@ -133,10 +133,16 @@ pub fn kiosk(args: &KioskArgs) -> Result<()> {
     }
     // A screenshot that cannot be written is said now, not after the run.
     crate::cli::check_outputs(config.video.as_deref(), args.screenshot.as_deref())?;
-    std::fs::create_dir_all(&args.snapshots)
-        .with_context(|| format!("{}: cannot create", args.snapshots.display()))?;
     if args.check {
         return check(&config, args);
+    }
+    std::fs::create_dir_all(&args.snapshots)
+        .with_context(|| format!("{}: cannot create", args.snapshots.display()))?;
+    crate::cli::check_writable_folder(&args.snapshots)
+        .context("the snapshots folder (--snapshots)")?;
+    if let Some(shot) = &args.screenshot {
+        crate::cli::check_writable_folder(crate::cli::folder_of(shot))
+            .context("the screenshot's folder (--screenshot)")?;
     }
 
     let event_loop = EventLoop::new().context("opening the display (is DISPLAY set?)")?;
@@ -155,7 +161,10 @@ pub fn kiosk(args: &KioskArgs) -> Result<()> {
     }
 }
 
-/// `--check`: the models the kiosk loads are there; what it would show and where.
+/// `--check`: tries what the run will do and changes nothing: the models the kiosk loads
+/// are there, the video (or photo) gives a frame, the snapshots folder (or, not made yet,
+/// the folder it would be made in) and the screenshot's folder take a file (one made and
+/// removed); then says what it would show and where.
 fn check(config: &KioskConfig, args: &KioskArgs) -> Result<()> {
     let paths = glyptic::assets::ModelPaths::locate();
     // The build without the face pipeline needs only the shape model (the default face).
@@ -174,6 +183,33 @@ fn check(config: &KioskConfig, args: &KioskArgs) -> Result<()> {
             "missing {}: `glyptic setup` fetches what may be fetched, `glyptic doctor` says more",
             missing.join(", ")
         );
+    }
+    // Not made yet: the folder it would be made in must take it.
+    let snapshots = args
+        .snapshots
+        .ancestors()
+        .map(|d| {
+            if d.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                d
+            }
+        })
+        .find(|d| d.exists())
+        .unwrap_or(Path::new("."));
+    crate::cli::check_writable_folder(snapshots).context("the snapshots folder (--snapshots)")?;
+    if let Some(shot) = &args.screenshot {
+        crate::cli::check_writable_folder(crate::cli::folder_of(shot))
+            .context("the screenshot's folder (--screenshot)")?;
+    }
+    if let Some(video) = &config.video {
+        // The first frame, as the face thread will read it (a camera may come later).
+        let mut source = face_thread::open_source(config);
+        match source.next_frame() {
+            Ok(Some(_)) => {}
+            Ok(None) => anyhow::bail!("{}: no frame could be read", video.display()),
+            Err(e) => return Err(anyhow!(e)),
+        }
     }
     let source = match &config.video {
         Some(v) => v.display().to_string(),
