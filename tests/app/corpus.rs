@@ -140,6 +140,37 @@ fn damaged(bytes: &[u8]) -> Vec<u8> {
     b
 }
 
+/// A 12 x 12 grid of vertices over -0.5..0.5 (242 triangles) as OBJ, each vertex placed by
+/// `at(x, y)`.
+fn grid_obj(at: impl Fn(f32, f32) -> [f32; 3]) -> String {
+    let n = 12;
+    let mut obj = String::new();
+    for j in 0..n {
+        for i in 0..n {
+            let p = at(
+                i as f32 / (n - 1) as f32 - 0.5,
+                j as f32 / (n - 1) as f32 - 0.5,
+            );
+            obj += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+        }
+    }
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let a = j * n + i + 1;
+            obj += &format!(
+                "f {} {} {}\nf {} {} {}\n",
+                a,
+                a + 1,
+                a + n,
+                a + 1,
+                a + n + 1,
+                a + n
+            );
+        }
+    }
+    obj
+}
+
 fn cases() -> Vec<Case> {
     let p = |list: &'static [&'static str]| move |d: &Path| words(d, list);
     let mut v = vec![
@@ -395,6 +426,60 @@ fn cases() -> Vec<Case> {
                 d,
                 &[
                     "render", "--face", "@nan.obj", "-o", "@gem.png", "--size", "32x40",
+                ],
+            )
+        }),
+        // Issue #40: each carved a faceless head.
+        case(
+            "render-face-obj-one-triangle",
+            1,
+            &["tri.obj", "1 triangles", "too few"],
+            |d| {
+                write(d, "tri.obj", "v 0 0 0\nv 100 0 0\nv 0 100 50\nf 1 2 3\n");
+                words(
+                    d,
+                    &[
+                        "render", "--face", "@tri.obj", "-o", "@gem.png", "--size", "32x40",
+                    ],
+                )
+            },
+        ),
+        case(
+            "render-face-obj-huge-coordinates",
+            1,
+            &["huge.obj", "model millimetres"],
+            |d| {
+                write(
+                    d,
+                    "huge.obj",
+                    grid_obj(|x, y| [x * 1e28, y * 1e28, (x * y) * 1e28]),
+                );
+                words(
+                    d,
+                    &[
+                        "render",
+                        "--face",
+                        "@huge.obj",
+                        "-o",
+                        "@gem.png",
+                        "--size",
+                        "32x40",
+                    ],
+                )
+            },
+        ),
+        case("render-face-obj-flat", 1, &["flat.obj", "flat"], |d| {
+            write(d, "flat.obj", grid_obj(|x, y| [x * 150.0, y * 200.0, 0.0]));
+            words(
+                d,
+                &[
+                    "render",
+                    "--face",
+                    "@flat.obj",
+                    "-o",
+                    "@gem.png",
+                    "--size",
+                    "32x40",
                 ],
             )
         }),

@@ -194,6 +194,7 @@ impl CameoBuilder {
         if positions.iter().any(|v| !v.is_finite()) {
             return Err(GemError::NonFinite);
         }
+        check_face_mesh(positions, triangles)?;
         let p = &self.params;
         let (cols, rows, cell) = (self.cols, self.rows, p.cell);
         let n = cols * rows;
@@ -812,4 +813,55 @@ fn photo_detail(
             }
         })
         .collect()
+}
+
+/// The fewest triangles a face mesh may have: a relief is carved from its surface, and a
+/// coarse face has a few hundred (the Surrey mesh 6736).
+pub const MIN_FACE_TRIANGLES: usize = 100;
+/// A face mesh's extent, model millimetres: a head is about 150-250 mm across; anything from
+/// a tenth of that to ten times it is taken (a scan in centimetres would be 15-25 "mm").
+pub const FACE_EXTENT_MM: std::ops::RangeInclusive<f32> = 10.0..=2500.0;
+
+/// Refuses a mesh no relief can be carved from: too few triangles, a size far from a
+/// head's (1e30 coordinates placed to the gem's scale carved nothing), or flat (a picture
+/// of a face, not a surface). A face mesh in other units or of another topology passes:
+/// the builder places it by its box.
+pub fn check_face_mesh(positions: &[f32], triangles: &[[u32; 3]]) -> Result<(), GemError> {
+    if triangles.len() < MIN_FACE_TRIANGLES {
+        return Err(GemError::NotAFace(format!(
+            "has {} triangles: too few to carve a face from (at least {MIN_FACE_TRIANGLES}; \
+             the Surrey mesh of `glyptic photo --obj` has 6736)",
+            triangles.len()
+        )));
+    }
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for v in positions.chunks_exact(3) {
+        for k in 0..3 {
+            lo[k] = lo[k].min(v[k]);
+            hi[k] = hi[k].max(v[k]);
+        }
+    }
+    let extent: Vec<f32> = (0..3).map(|k| hi[k] - lo[k]).collect();
+    let largest = extent.iter().fold(0f32, |a, &b| a.max(b));
+    let far = lo.iter().chain(&hi).fold(0f32, |a, &b| a.max(b.abs()));
+    if !largest.is_finite()
+        || !FACE_EXTENT_MM.contains(&largest)
+        || far > 100.0 * FACE_EXTENT_MM.end()
+    {
+        return Err(GemError::NotAFace(format!(
+            "spans {largest:.3e} model millimetres, {far:.3e} from the origin: a face in \
+             model millimetres spans {}..={} mm near the origin",
+            FACE_EXTENT_MM.start(),
+            FACE_EXTENT_MM.end()
+        )));
+    }
+    let smallest = extent.iter().fold(f32::INFINITY, |a, &b| a.min(b));
+    if smallest < 0.05 * largest {
+        return Err(GemError::NotAFace(format!(
+            "is flat ({smallest:.1} mm deep against {largest:.1} mm across): a relief needs \
+             the face's depth"
+        )));
+    }
+    Ok(())
 }

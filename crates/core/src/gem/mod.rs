@@ -38,7 +38,7 @@ mod tessellate;
 
 use crate::scene::Mesh;
 pub use basrelief::Compression;
-pub use builder::CameoBuilder;
+pub use builder::{CameoBuilder, FACE_EXTENT_MM, MIN_FACE_TRIANGLES, check_face_mesh};
 pub use detail::{DetailParams, FaceDetail};
 pub use face::Placement;
 pub use obj::{ObjError, mesh_to_obj, parse_obj, to_obj};
@@ -52,6 +52,10 @@ pub enum GemError {
     EmptyFace,
     #[error("the face mesh has non-finite coordinates")]
     NonFinite,
+    /// A mesh that is no face a relief could be carved from (issue #40: one triangle, or
+    /// coordinates of 1e30, carved a faceless head).
+    #[error("the face mesh {0}")]
+    NotAFace(String),
     #[error("invalid cameo parameter: {0}")]
     BadParams(String),
     #[error(transparent)]

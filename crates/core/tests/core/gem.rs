@@ -471,8 +471,29 @@ fn bad_input_is_an_error() {
         Err(GemError::BadParams(_))
     ));
     // Triangles pointing past the vertex list are skipped, not a panic.
-    let bogus = vec![[0u32, 1, 99_999]];
+    let mut bogus = m.shape.triangles.clone();
+    bogus.push([0u32, 1, 99_999]);
     assert!(gem::build_relief(&m.instance(&[], &[]), &bogus, &CameoParams::default()).is_ok());
+    // No face to carve (issue #40: each carved a faceless head): one triangle, a face a
+    // hundred thousand billion times too large, a flat face.
+    let mean = m.instance(&[], &[]);
+    let not_a_face = |positions: &[f32], triangles: &[[u32; 3]]| {
+        matches!(
+            gem::build_relief(positions, triangles, &CameoParams::default()),
+            Err(GemError::NotAFace(_))
+        )
+    };
+    assert!(not_a_face(&mean, &m.shape.triangles[..1]));
+    let huge: Vec<f32> = mean.iter().map(|v| v * 1e28).collect();
+    assert!(not_a_face(&huge, &m.shape.triangles));
+    let flat: Vec<f32> = mean
+        .chunks_exact(3)
+        .flat_map(|v| [v[0], v[1], 0.0])
+        .collect();
+    assert!(not_a_face(&flat, &m.shape.triangles));
+    // A face in centimetres is still a face (placed by its box).
+    let cm: Vec<f32> = mean.iter().map(|v| v * 0.1).collect();
+    assert!(gem::build_relief(&cm, &m.shape.triangles, &CameoParams::default()).is_ok());
 }
 
 /// Facial hair on the mean face: a beard moves the chin out by its thickness and leaves nose,
