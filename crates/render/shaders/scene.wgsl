@@ -307,6 +307,16 @@ const GOLD_F0: vec3<f32> = vec3<f32>(1.0, 0.71, 0.29);
 
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
+    // With MSAA a pixel on a triangle's edge is shaded once, at its centre, which may lie
+    // outside the triangle: the varyings are extrapolated there, past the vertices' range.
+    // A negative occlusion or key light made the light negative, and the pixel black once
+    // resolved (isolated dead pixels, issue #40); so each weight is held to its range here.
+    let relief = max(in.relief, 0.0);
+    let hair = clamp(in.hair, 0.0, 1.0);
+    let gold = clamp(in.gold, 0.0, 1.0);
+    let in_occlusion = clamp(in.occlusion, 0.0, 1.0);
+    let key_light = clamp(in.key_light, 0.0, 1.0);
+    let transmit = clamp(in.transmit, 0.0, 1.0);
     let v = normalize(frame.eye.xyz - in.world);
     // The mesh normal, or the facet normal where the data gives none; flipped towards the
     // viewer, so the lighting does not depend on the triangles' winding.
@@ -334,9 +344,9 @@ fn fs_main(in: VsOut) -> FsOut {
     // vertex has a tangent frame, and within the band (elsewhere the map is flat anyway).
     var p = in.world;
     var occlusion = 1.0;
-    let ground_w = 1.0 - smoothstep(0.02, 0.08, in.relief);
+    let ground_w = 1.0 - smoothstep(0.02, 0.08, relief);
     let inset = inset_mm(in.world);
-    if ENGRAVING && frame.engraving.x > 0.5 && in.gold < 0.5 && ground_w > 0.0 && !flipped
+    if ENGRAVING && frame.engraving.x > 0.5 && gold < 0.5 && ground_w > 0.0 && !flipped
         && abs(in.tangent.w) > 0.5 && inset > frame.engraving.z && inset < frame.engraving.w {
         let t_raw = in.tangent.xyz - n * dot(n, in.tangent.xyz);
         if dot(t_raw, t_raw) > 1e-8 {
@@ -361,14 +371,14 @@ fn fs_main(in: VsOut) -> FsOut {
     // Sky light from the room in front of the stone, and a soft fill from the camera's side so
     // slopes turned from the key never go black; both dimmed in hollows and at the foot of
     // walls (the relief's cavity term).
-    let cavity = in.occlusion * occlusion;
+    let cavity = in_occlusion * occlusion;
     let ambient = frame.marble.w * cavity * (0.55 + 0.45 * max(n.z, 0.0))
         + FILL_LIGHT * cavity * max(dot(n, v), 0.0);
     let ndl = max(dot(n, l), 0.0);
     // The key light (fixed to the stone, raking; the relief's cast shadows come with the
     // vertices), and the lamp where it has one (falling off with the square of the distance,
     // 1 at the gem's centre, and shadowed).
-    var light = frame.light_dir.w * occlusion * in.key_light;
+    var light = frame.light_dir.w * occlusion * key_light;
     var lamp = 0.0;
     var lamp_l = vec3<f32>(0.0, 0.0, 1.0);
     if LAMP && frame.lamp.w > 0.0 {
@@ -385,12 +395,12 @@ fn fs_main(in: VsOut) -> FsOut {
     let lit = ambient + ndl * light + ndl_lamp * lamp;
     // The key light that came through a thin part (an ear's rim, a lock) leaves it on every
     // side, whatever the normal, warmer than it came in (red travels furthest in stone).
-    let glow = frame.depth.z * frame.light_dir.w * in.transmit * GLOW_TINT;
+    let glow = frame.depth.z * frame.light_dir.w * transmit * GLOW_TINT;
 
     var diffuse: vec3<f32>;
     var specular = vec3<f32>(0.0);
     var sss = 1.0;
-    if in.gold > 0.5 {
+    if gold > 0.5 {
         // Polished gold: little diffuse, a coloured mirror of the studio plus a key highlight,
         // its normal rippled faintly (`gold_ripple`, baked).
         var ripple: vec3<f32>;
@@ -408,7 +418,7 @@ fn fs_main(in: VsOut) -> FsOut {
         let h_lamp = normalize(lamp_l + v);
         let highlight = (pow(max(dot(n, h), 0.0), 120.0) * light
             + pow(max(dot(n, h_lamp), 0.0), 120.0) * lamp) * 3.0;
-        specular = fresnel * (0.8 * environment(r) * in.occlusion + highlight);
+        specular = fresnel * (0.8 * environment(r) * in_occlusion + highlight);
         sss = 0.0;
     } else if frame.material.x == 0u {
         diffuse = marble_albedo(p) * (lit + glow);
@@ -420,7 +430,7 @@ fn fs_main(in: VsOut) -> FsOut {
         specular = vec3<f32>(0.12 * pow(max(dot(n, h), 0.0), 90.0) * light)
             + 0.35 * fresnel * environment(reflect(-v, n));
     } else {
-        diffuse = layered_albedo(p, in.relief, in.hair) * (lit + glow);
+        diffuse = layered_albedo(p, relief, hair) * (lit + glow);
         // Phong with the stone's exponent (agate's 500, as in 2021), plus a Fresnel reflection
         // of the studio for the polish, and the stone's share of the scattering.
         let polish = frame.layers[4];

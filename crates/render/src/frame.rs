@@ -345,13 +345,14 @@ impl Renderer {
         }
         // The slowly varying noise, baked over the mesh once it has been drawn twice (again only
         // when a mesh leaves the volume).
-        let baked_noise = self.surface.ensure_volume(
-            &self.device,
-            &mut self.pipelines,
-            bounds.min,
-            bounds.max,
-            TEXTURE_SCALE,
-        );
+        let baked_noise = self.noise_baking
+            && self.surface.ensure_volume(
+                &self.device,
+                &mut self.pipelines,
+                bounds.min,
+                bounds.max,
+                TEXTURE_SCALE,
+            );
         // The band the engraving's parallax search covers (mm inside the outline): a groove's
         // width beyond it each side.
         let band_mm = params.engraving.as_ref().map(|e| {

@@ -341,6 +341,9 @@ pub struct Renderer {
     /// Whether the full-screen passes that have a compute form (the SSS blur; the composite
     /// into an image) run as compute passes, where the device has them.
     compute_passes: bool,
+    /// Whether the slowly varying noise may be baked once a mesh is drawn a second time
+    /// ([`Renderer::set_noise_baking`]).
+    noise_baking: bool,
     init: InitTimes,
 }
 
@@ -474,6 +477,7 @@ impl Renderer {
             // (BENCHMARKS.md) and stamps compute passes before their work is done, so its
             // pass times stay truthful with the fragment passes.
             compute_passes,
+            noise_baking: true,
             init,
         })
     }
@@ -490,6 +494,16 @@ impl Renderer {
     pub fn set_compute_passes(&mut self, on: bool) -> bool {
         self.compute_passes = on && self.pipelines.sss_compute.is_some();
         self.compute_passes
+    }
+
+    /// Whether the slowly varying noise is baked into a volume from a mesh's second frame
+    /// (the default: an interactive view draws many) or always computed per fragment. The
+    /// baked noise differs from the computed one by up to a grey level, so a renderer making
+    /// one image after another for files (`photo`, `batch`) turns it off: each image is then
+    /// what the same input gives alone, whatever came before it (issue #40: a batch's
+    /// identical inputs after the first differed in 9,000 pixels).
+    pub fn set_noise_baking(&mut self, on: bool) {
+        self.noise_baking = on;
     }
 
     /// Whether the full-screen passes run as compute passes.

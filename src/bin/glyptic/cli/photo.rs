@@ -320,7 +320,12 @@ impl Drop for RendererStart {
 pub(super) fn spawn_renderer() -> RendererStart {
     RendererStart(Some(std::thread::spawn(|| {
         let t = Instant::now();
-        Renderer::new_headless().map(|r| (r, t.elapsed().as_secs_f64() * 1e3))
+        Renderer::new_headless().map(|mut r| {
+            // Images for files: each one what its input gives alone (batch's order and
+            // repeats change nothing).
+            r.set_noise_baking(false);
+            (r, t.elapsed().as_secs_f64() * 1e3)
+        })
     })))
 }
 
