@@ -15,8 +15,9 @@ use crate::styles::Style;
 pub mod visitor;
 pub use visitor::Labels;
 pub use visitor::{
-    ATTRACT, Attract, Change, HoldGesture, Mode, Presence, Prompt, STAFF_HOLD_S, Situation,
-    StaffAction, Texts, prompt, staff_action,
+    ATTRACT, Attract, Change, HoldGesture, Mode, PIN_MAX_PAUSE_S, PIN_PAUSE_S, PIN_TRIES, PinGate,
+    PinOutcome, Presence, Prompt, STAFF_HOLD_S, Situation, StaffAction, Texts, prompt,
+    staff_action,
 };
 
 /// The SSS strength the reset button returns to (red's, as `glyptic render --sss-strength`).
@@ -82,8 +83,18 @@ pub struct KioskConfig {
     /// Seconds without a face or a touch before the attract mode (never before the visitor
     /// has left, after `idle_seconds`).
     pub attract_seconds: f32,
-    /// A finger held on the screen's top-left corner for four seconds opens the staff panel.
+    /// A finger held on the screen's top-left corner for four seconds asks for the staff's
+    /// PIN (`staff_pin`), then opens the staff panel; without a PIN it opens nothing.
     pub staff_gesture: bool,
+    /// The staff's PIN as `glyptic kiosk --hash-pin` prints it (a salted hash, never the
+    /// PIN). Set, every way to the staff panel and to Quit asks for it (the corner, the
+    /// keys); unset, only the keys open the panel. A few wrong PINs pause the pad.
+    pub staff_pin: Option<String>,
+    /// The most pictures the Save button keeps in the snapshots folder, and the most
+    /// megabytes they take; past either, Save says the gallery is full and the staff panel
+    /// lists it (nothing is deleted).
+    pub snapshots_max: u32,
+    pub snapshots_max_mb: u32,
     /// The visitor's words ([`visitor::Texts`]): another language, the museum's voice.
     pub texts: visitor::Texts,
     /// The controls' labels ([`visitor::Labels`]), for the same reasons.
@@ -116,6 +127,14 @@ pub struct KioskConfig {
 }
 
 impl KioskConfig {
+    /// The staff's PIN, read from `staff_pin` (`Ok(None)`: none set).
+    pub fn staff_pin(&self) -> Result<Option<crate::pin::StaffPin>, crate::pin::PinError> {
+        self.staff_pin
+            .as_deref()
+            .map(crate::pin::StaffPin::parse)
+            .transpose()
+    }
+
     /// The cameo the gem thread builds: the portrait's view in this setting.
     pub fn cameo(&self) -> CameoParams {
         CameoParams {
@@ -144,6 +163,9 @@ impl Default for KioskConfig {
             attract: true,
             attract_seconds: 30.0,
             staff_gesture: true,
+            staff_pin: None,
+            snapshots_max: 1000,
+            snapshots_max_mb: 2000,
             texts: visitor::Texts::default(),
             labels: visitor::Labels::default(),
             engraving: false,
@@ -226,6 +248,17 @@ impl KioskConfig {
                 "likeness_search",
                 format!("is {}, not within 0..=2000 faces", self.likeness_search),
             );
+        }
+        if let Err(e) = self.staff_pin() {
+            return invalid("staff_pin", e.to_string());
+        }
+        for (key, v, hi) in [
+            ("snapshots_max", self.snapshots_max, 1_000_000),
+            ("snapshots_max_mb", self.snapshots_max_mb, 10_000_000),
+        ] {
+            if !(1..=hi).contains(&v) {
+                return invalid(key, format!("is {v}, not within 1..={hi}"));
+            }
         }
         if self
             .video

@@ -6,7 +6,8 @@
 //! no I/O and no GPU work; [`shapemodel`] and [`assets`] are where files are read.
 
 pub use glyptic_core::{
-    files, fit, gem, identity, landmarks, person, photometric, raster, scene, shapemodel, smooth,
+    files, fit, gem, identity, landmarks, person, photometric, pin, raster, scene, shapemodel,
+    smooth,
 };
 pub use glyptic_render as render;
 pub use glyptic_render::{sss, styles};

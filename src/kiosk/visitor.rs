@@ -446,6 +446,64 @@ pub fn staff_action(
     }
 }
 
+/// Wrong PINs in a row before the pad pauses.
+pub const PIN_TRIES: u32 = 3;
+/// The first pause after [`PIN_TRIES`] wrong PINs, seconds; each pause after it doubles, up
+/// to [`PIN_MAX_PAUSE_S`]. A right PIN clears both.
+pub const PIN_PAUSE_S: f64 = 30.0;
+pub const PIN_MAX_PAUSE_S: f64 = 900.0;
+
+/// What a PIN typed on the staff pad did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PinOutcome {
+    /// The right PIN: the staff panel opens.
+    Open,
+    /// A wrong one; this many tries before a pause.
+    Wrong { tries_left: u32 },
+    /// Too many wrong ones (this one included, or it came during a pause, unread): the pad
+    /// takes nothing for this many seconds.
+    Paused { seconds: f64 },
+}
+
+/// The lock on the staff panel where a PIN is configured: a few tries, then a pause that
+/// doubles each time (a visitor trying PINs at the screen gets a handful an hour). Times are
+/// the kiosk's seconds.
+#[derive(Clone, Debug, Default)]
+pub struct PinGate {
+    wrong: u32,
+    pauses: u32,
+    paused_until: f64,
+}
+
+impl PinGate {
+    /// Seconds the pad is still paused at `now_s` (`None`: it takes a PIN).
+    pub fn paused(&self, now_s: f64) -> Option<f64> {
+        (now_s < self.paused_until).then_some(self.paused_until - now_s)
+    }
+
+    /// `attempt` typed at `now_s`, checked against `pin` (not at all during a pause).
+    pub fn submit(&mut self, pin: &crate::pin::StaffPin, attempt: &str, now_s: f64) -> PinOutcome {
+        if let Some(seconds) = self.paused(now_s) {
+            return PinOutcome::Paused { seconds };
+        }
+        if pin.matches(attempt) {
+            *self = PinGate::default();
+            return PinOutcome::Open;
+        }
+        self.wrong += 1;
+        if self.wrong < PIN_TRIES {
+            return PinOutcome::Wrong {
+                tries_left: PIN_TRIES - self.wrong,
+            };
+        }
+        let seconds = (PIN_PAUSE_S * 2f64.powi(self.pauses.min(16) as i32)).min(PIN_MAX_PAUSE_S);
+        self.wrong = 0;
+        self.pauses += 1;
+        self.paused_until = now_s + seconds;
+        PinOutcome::Paused { seconds }
+    }
+}
+
 /// The staff's gesture on a touch screen: a finger held on the screen's top-left corner for
 /// `hold_s` opens the staff panel (once per hold).
 #[derive(Clone, Debug)]
@@ -678,5 +736,51 @@ mod tests {
         assert!(!g.update(16.9, true));
         assert!(g.update(17.0, true));
         assert!(!g.update(f64::NAN, true));
+    }
+
+    #[test]
+    fn the_pin_pad_pauses_after_a_few_wrong_pins_and_longer_each_time() {
+        let pin = crate::pin::StaffPin::new("4711", [3; 16]).unwrap();
+        let mut gate = PinGate::default();
+        assert_eq!(
+            gate.submit(&pin, "0000", 0.0),
+            PinOutcome::Wrong { tries_left: 2 }
+        );
+        assert_eq!(gate.submit(&pin, "4711", 1.0), PinOutcome::Open);
+        // A right PIN forgets the wrong ones: three more before a pause.
+        assert_eq!(
+            gate.submit(&pin, "1", 2.0),
+            PinOutcome::Wrong { tries_left: 2 }
+        );
+        assert_eq!(
+            gate.submit(&pin, "2", 3.0),
+            PinOutcome::Wrong { tries_left: 1 }
+        );
+        assert_eq!(
+            gate.submit(&pin, "3", 4.0),
+            PinOutcome::Paused { seconds: 30.0 }
+        );
+        // During the pause even the right PIN is not read.
+        assert_eq!(gate.paused(20.0), Some(14.0));
+        assert_eq!(
+            gate.submit(&pin, "4711", 20.0),
+            PinOutcome::Paused { seconds: 14.0 }
+        );
+        // After it, three tries again, then twice the pause; and so on up to the cap.
+        for (k, pause) in [(0, 60.0), (1, 120.0), (2, 240.0), (3, 480.0), (4, 900.0)] {
+            let t = 1e4 * f64::from(k + 1);
+            assert_eq!(gate.paused(t), None);
+            gate.submit(&pin, "9", t);
+            gate.submit(&pin, "9", t);
+            assert_eq!(
+                gate.submit(&pin, "9", t),
+                PinOutcome::Paused { seconds: pause }
+            );
+        }
+        assert_eq!(gate.submit(&pin, "4711", 1e6), PinOutcome::Open);
+        assert_eq!(
+            gate.submit(&pin, "9", 1e6),
+            PinOutcome::Wrong { tries_left: 2 }
+        );
     }
 }

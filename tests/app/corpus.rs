@@ -921,6 +921,31 @@ fn cases() -> Vec<Case> {
             write(d, "k.toml", "colour = \"red\"\n");
             words(d, &["kiosk", "--config", "@k.toml", "--frames", "1"])
         }),
+        // Issue #40: the staff's PIN is stored hashed, never as the digits themselves.
+        case(
+            "kiosk-config-staff-pin-in-clear",
+            1,
+            &["k.toml", "staff_pin", "pbkdf2-sha256", "--hash-pin"],
+            |d| {
+                write(d, "k.toml", "staff_pin = \"4711\"\n");
+                words(d, &["kiosk", "--config", "@k.toml", "--check"])
+            },
+        ),
+        case(
+            "kiosk-config-snapshots-unbounded",
+            1,
+            &["k.toml", "snapshots_max", "1..="],
+            |d| {
+                write(d, "k.toml", "snapshots_max = 0\n");
+                words(d, &["kiosk", "--config", "@k.toml", "--check"])
+            },
+        ),
+        case(
+            "kiosk-hash-pin-nothing-on-stdin",
+            1,
+            &["PIN", "4 to 12 digits"],
+            p(&["kiosk", "--hash-pin"]),
+        ),
         case("kiosk-config-binary", 1, &["k.toml", "UTF-8"], |d| {
             write(d, "k.toml", [0xc3, 0x28, 0xa0, 0xa1]);
             words(d, &["kiosk", "--config", "@k.toml", "--frames", "1"])
@@ -1361,7 +1386,7 @@ fn run(c: &Case, base: &Path) -> Result<(), String> {
 fn the_bad_input_corpus_is_refused_cleanly() {
     let base = common::test_out().join("corpus");
     let all = cases();
-    assert!(all.len() >= 60, "the corpus has {} cases", all.len());
+    assert!(all.len() >= 120, "the corpus has {} cases", all.len());
     let mut names: Vec<&str> = all.iter().map(|c| c.name).collect();
     names.sort();
     names.dedup();

@@ -1066,3 +1066,184 @@ fn the_deployed_kiosk_command_passes_its_own_check() {
     assert_eq!(run.status.code(), Some(1), "{err}");
     assert!(err.contains("bad.toml") && err.contains("look"), "{err}");
 }
+
+/// Every file under `dir`, relative, sorted.
+fn files_under(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push(p.strip_prefix(dir).unwrap().display().to_string());
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// Issue #40, the kiosk in a museum. A visitor in a video: nothing of them (frames, faces,
+/// landmarks) is written anywhere but the pictures Save makes (the process's home, caches,
+/// temporary and working folders all start empty and stay so, but for the GPU driver's
+/// shader cache), and the snapshots folder is bounded (`snapshots_max = 2`: the third Save
+/// is refused and the staff panel says why). With `staff_pin` set the staff panel and Quit
+/// ask for the PIN, by key and by the corner held: a wrong PIN is refused, the right one
+/// opens the panel, and Quit from the keys only works once it is open.
+#[test]
+fn a_visitor_leaves_nothing_but_saved_pictures_and_a_pin_guards_the_staff() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let x = Xvfb::start();
+    let dir = scratch("privacy");
+    let sandbox = dir.join("sandbox");
+    let _ = std::fs::remove_dir_all(&sandbox);
+    let [home, cache, config, data, tmp, cwd, snaps] =
+        ["home", "cache", "config", "data", "tmp", "cwd", "snaps"].map(|d| {
+            let p = sandbox.join(d);
+            std::fs::create_dir_all(&p).unwrap();
+            p
+        });
+    let video = clip(&dir, "lenna.png");
+    let pin = glyptic::pin::StaffPin::new("4711", [9; 16]).unwrap();
+    let toml = dir.join("kiosk.toml");
+    std::fs::write(
+        &toml,
+        format!("staff_pin = \"{pin}\"\nsnapshots_max = 2\nlikeness_search = 0\n"),
+    )
+    .unwrap();
+    let mut live = Live::spawn(
+        kiosk(&x)
+            .arg("--video")
+            .arg(&video)
+            .arg("--config")
+            .arg(&toml)
+            .arg("--snapshots")
+            .arg(&snaps)
+            .args(["--size", "400x600", "--trace", "--seconds", "240"])
+            .current_dir(&cwd)
+            .env("HOME", &home)
+            .env("XDG_CACHE_HOME", &cache)
+            .env("XDG_CONFIG_HOME", &config)
+            .env("XDG_DATA_HOME", &data)
+            .env("TMPDIR", &tmp),
+    );
+    live.wait_for(120, "the visitor's gem", |l| {
+        l["status"]
+            .as_str()
+            .is_some_and(|s| s.starts_with("face found"))
+            && l["gems"].as_u64() >= Some(2)
+    });
+    let frame = live.latest().unwrap();
+    let save = centre(&frame, "save");
+    for k in 1..=3 {
+        click(&x, save);
+        let t = Instant::now();
+        while files_under(&snaps).len() < k.min(2) && t.elapsed() < Duration::from_secs(20) {
+            std::thread::sleep(Duration::from_millis(200));
+        }
+        std::thread::sleep(Duration::from_secs(1));
+        let saved = files_under(&snaps).len();
+        assert_eq!(
+            saved,
+            k.min(2),
+            "after {k} presses: {:?}",
+            files_under(&snaps)
+        );
+    }
+    live.wait_for(10, "the refusal on the staff's list", |l| {
+        l["problems"].as_u64() >= Some(1)
+    });
+
+    // The staff panel by key: the pad asks; a wrong PIN, then the right one.
+    let pad_says =
+        |l: &serde_json::Value, what: &str| l["pin_pad"].as_str().is_some_and(|s| s.contains(what));
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowfocus --sync %1 key ctrl+shift+s"),
+    );
+    live.wait_for(10, "the PIN pad", |l| pad_says(l, "Staff PIN"));
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowfocus --sync %1 key 1 2 3 4 Return"),
+    );
+    live.wait_for(10, "a wrong PIN said", |l| pad_says(l, "Wrong PIN"));
+    assert_eq!(live.latest().unwrap()["staff"], false);
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowfocus --sync %1 key 4 7 1 1 Return"),
+    );
+    live.wait_for(10, "the staff panel", |l| {
+        l["staff"] == true && l["pin_pad"].is_null()
+    });
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowfocus --sync %1 key Escape"),
+    );
+    live.wait_for(10, "the panel closed", |l| l["staff"] == false);
+    // Quit by key asks too (and Escape cancels the pad).
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowfocus --sync %1 key ctrl+shift+q"),
+    );
+    live.wait_for(10, "the PIN pad for Quit", |l| pad_says(l, "Staff PIN"));
+    assert!(
+        live.child.try_wait().unwrap().is_none(),
+        "quit without the PIN"
+    );
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowfocus --sync %1 key Escape"),
+    );
+    live.wait_for(10, "the pad cancelled", |l| l["pin_pad"].is_null());
+    // The corner held four seconds asks for it as well.
+    xdotool(
+        &x,
+        &words(
+            "search --name ^glyptic$ mousemove --window %1 12 12 mousedown 1 sleep 4.8 mouseup 1",
+        ),
+    );
+    live.wait_for(10, "the PIN pad from the corner", |l| {
+        pad_says(l, "Staff PIN")
+    });
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowfocus --sync %1 key 4 7 1 1 Return"),
+    );
+    live.wait_for(10, "the staff panel", |l| l["staff"] == true);
+    xdotool(
+        &x,
+        &words("search --name ^glyptic$ windowfocus --sync %1 key ctrl+shift+q"),
+    );
+    let status = live.wait_exit(60);
+    let log = live.log.lock().unwrap().clone();
+    let Some(status) = status else {
+        let _ = live.child.kill();
+        panic!("Ctrl+Shift+Q from the open panel did not quit; log:\n{log}");
+    };
+    assert!(status.success(), "{status}; log:\n{log}");
+    assert!(log.contains("snapshot not saved"), "{log}");
+    assert!(log.contains("snapshots_max 2"), "{log}");
+
+    let saved = files_under(&snaps);
+    assert_eq!(saved.len(), 2, "{saved:?}");
+    assert!(
+        saved
+            .iter()
+            .all(|f| f.starts_with("glyptic-") && f.ends_with(".png"))
+    );
+    // Nothing else anywhere the process could write on its own: its home, caches, config,
+    // data, temporary and working folders (the GPU driver's shader cache aside: compiled
+    // shaders, nothing of the visitor).
+    let elsewhere: Vec<String> = [&home, &cache, &config, &data, &tmp, &cwd]
+        .iter()
+        .flat_map(|d| {
+            files_under(d)
+                .into_iter()
+                .map(move |f| format!("{}/{f}", d.display()))
+        })
+        .filter(|f| !f.contains("mesa_shader_cache"))
+        .collect();
+    assert!(elsewhere.is_empty(), "files written: {elsewhere:?}");
+}

@@ -20,6 +20,7 @@ pub mod landmarks;
 pub mod person;
 mod photo_grid;
 pub mod photometric;
+pub mod pin;
 pub mod raster;
 pub mod scene;
 pub mod shapemodel;

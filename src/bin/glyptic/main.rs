@@ -26,6 +26,7 @@ use tracing_subscriber::EnvFilter;
 
 fn main() -> ExitCode {
     ensure_runtime_dir();
+    no_telemetry();
     let args = cli::Cli::parse();
     if let Err(e) = args.check() {
         e.exit();
@@ -111,6 +112,18 @@ fn quiet_ffmpeg(verbose: u8) {
         // thread and the work come after).
         unsafe { std::env::set_var(VAR, "-8") };
     }
+}
+
+/// ONNX Runtime (1.29 on, on Linux) starts a telemetry uploader with its environment: it
+/// writes a device id and an event store under `~/.cache/Microsoft/DeveloperTools/`, a
+/// session file in the temporary folder, and queues an event for Microsoft, on every run
+/// (found by the kiosk's privacy test, issue #40). The environment's own switch
+/// (`DisableTelemetryEvents`) comes too late for that; `ORT_DISABLE_TELEMETRY=1` before the
+/// library starts stops all of it. Always set: a museum's visitors, and glyptic's users,
+/// are not asked.
+fn no_telemetry() {
+    // SAFETY: called first thing in `main`, before any thread exists.
+    unsafe { std::env::set_var("ORT_DISABLE_TELEMETRY", "1") };
 }
 
 /// Writes one line of the report to stdout; see `say!`.

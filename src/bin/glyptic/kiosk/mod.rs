@@ -46,7 +46,10 @@ use window::Running;
 
 Staff: Ctrl+Shift+S or F12 (or a finger held on the top-left corner for 4 s) opens the staff
 panel (timings, recent problems, Quit); Ctrl+Shift+Q quits; Esc closes the panel, and quits in
-a window. Problems are logged to stderr (the journal under systemd), never shown to visitors.
+a window. With staff_pin in the configuration every one of these asks for the PIN first (three
+wrong ones pause the pad 30 s, then twice as long each time); without it the corner opens
+nothing. `echo 4711 | glyptic kiosk --hash-pin` prints the line to put in the configuration.
+Problems are logged to stderr (the journal under systemd), never shown to visitors.
 deploy/ holds a systemd unit that starts the kiosk on its own X server and restarts it.
 
 Exit codes: 0 quit by the staff or --frames/--seconds reached; 1 a bad configuration, a
@@ -93,9 +96,16 @@ pub struct KioskArgs {
     /// Print one JSON line per presented frame to stdout (frame, gem, controls, orbit, status).
     #[arg(long)]
     pub trace: bool,
+    /// Read a staff PIN (4-12 digits) from stdin and print the `staff_pin = "..."` line for
+    /// the configuration (a salted hash), then exit.
+    #[arg(long)]
+    pub hash_pin: bool,
 }
 
 pub fn kiosk(args: &KioskArgs) -> Result<()> {
+    if args.hash_pin {
+        return hash_pin();
+    }
     let mut config = match &args.config {
         Some(path) => KioskConfig::load(path)?,
         None => KioskConfig::default(),
@@ -159,6 +169,25 @@ pub fn kiosk(args: &KioskArgs) -> Result<()> {
         Some(e) => Err(e),
         None => Ok(()),
     }
+}
+
+/// `--hash-pin`: a PIN from stdin (one line) to the configuration's line, salted from the
+/// system's random source.
+fn hash_pin() -> Result<()> {
+    use std::io::Read as _;
+    let mut line = String::new();
+    std::io::stdin()
+        .take(256)
+        .read_to_string(&mut line)
+        .context("reading the PIN from stdin")?;
+    let mut salt = [0u8; 16];
+    std::fs::File::open("/dev/urandom")
+        .and_then(|mut f| f.read_exact(&mut salt))
+        .context("/dev/urandom: cannot read a salt")?;
+    let pin = glyptic::pin::StaffPin::new(line.trim(), salt)
+        .map_err(|e| anyhow!("the PIN on stdin: {e}"))?;
+    say!("staff_pin = \"{pin}\"");
+    Ok(())
 }
 
 /// `--check`: tries what the run will do and changes nothing: the models the kiosk loads
@@ -351,6 +380,26 @@ fn key_name(event: &winit::event::KeyEvent) -> Option<&'static str> {
         (PhysicalKey::Code(KeyCode::KeyS), _) => Some("s"),
         (_, Key::Named(NamedKey::F12)) => Some("F12"),
         (_, Key::Named(NamedKey::Escape)) => Some("Escape"),
+        // The PIN pad's keys, on the top row or the keypad.
+        (_, Key::Named(NamedKey::Backspace)) => Some("BackSpace"),
+        (_, Key::Named(NamedKey::Enter)) => Some("Return"),
+        (PhysicalKey::Code(code), _) => {
+            const DIGITS: [&str; 10] = ["0", "1", "2", "3", "4", "5", "6", "7", "8", "9"];
+            let k = match code {
+                KeyCode::Digit0 | KeyCode::Numpad0 => 0,
+                KeyCode::Digit1 | KeyCode::Numpad1 => 1,
+                KeyCode::Digit2 | KeyCode::Numpad2 => 2,
+                KeyCode::Digit3 | KeyCode::Numpad3 => 3,
+                KeyCode::Digit4 | KeyCode::Numpad4 => 4,
+                KeyCode::Digit5 | KeyCode::Numpad5 => 5,
+                KeyCode::Digit6 | KeyCode::Numpad6 => 6,
+                KeyCode::Digit7 | KeyCode::Numpad7 => 7,
+                KeyCode::Digit8 | KeyCode::Numpad8 => 8,
+                KeyCode::Digit9 | KeyCode::Numpad9 => 9,
+                _ => return None,
+            };
+            Some(DIGITS[k])
+        }
         _ => None,
     }
 }

@@ -87,7 +87,7 @@ impl Running {
     }
 
     pub(super) fn trace_line(&self, rendered_gem: bool) -> serde_json::Value {
-        serde_json::json!({
+        let mut line = serde_json::json!({
             "frame": self.timeline.frames,
             "t_s": self.timeline.started.elapsed().as_secs_f64(),
             "gem_rendered": rendered_gem,
@@ -129,7 +129,10 @@ impl Running {
             "face_restarts": self.face_restarts(),
             "rss_kb": resident_kb(),
             "controls": self.control_rects.iter().map(|(k, r)| (k.to_string(), serde_json::json!(r))).collect::<serde_json::Map<_, _>>(),
-        })
+        });
+        // (Added apart: one more key in the literal passes `json!`'s recursion limit.)
+        line["pin_pad"] = serde_json::json!(self.staff.pad.as_ref().map(|p| p.said.clone()));
+        line
     }
 }
 

@@ -73,6 +73,12 @@ pub(super) struct StaffView {
     pub(super) log: Vec<String>,
 }
 
+/// What the staff's PIN pad shows: a dot per digit typed and its last word.
+pub(super) struct PadView {
+    pub(super) dots: usize,
+    pub(super) said: String,
+}
+
 /// One frame of the controls.
 pub(super) struct UiFrame<'a> {
     pub(super) controls: &'a mut Controls,
@@ -85,6 +91,9 @@ pub(super) struct UiFrame<'a> {
     pub(super) caption: Option<(String, String)>,
     /// The staff panel, when open.
     pub(super) staff: Option<StaffView>,
+    /// The PIN pad, while it asks; what was pressed on it this frame.
+    pub(super) pad: Option<PadView>,
+    pub(super) pad_inputs: Vec<super::visit::PadInput>,
     pub(super) toast: Option<String>,
     /// Where the gem is shown (points).
     pub(super) gem_rect: Option<egui::Rect>,
@@ -197,9 +206,9 @@ impl UiFrame<'_> {
                 let r = toggle(ui, &mut self.controls.lamp, label);
                 self.rects.push(("lamp", r.rect));
             });
-            if let Some(t) = &self.toast {
-                ui.label(t);
-            }
+            // The toast's line is always there, so that a message never moves the buttons
+            // up under the visitor's finger (a second tap on Save missed it).
+            ui.label(self.toast.as_deref().unwrap_or(" "));
             ui.add_space(6.0);
         });
         egui::CentralPanel::default()
@@ -241,7 +250,80 @@ impl UiFrame<'_> {
             self.close_staff |= close;
             self.quit |= quit;
         }
+        if let Some(pad) = &self.pad {
+            self.pad_inputs.extend(pin_pad(&ctx, pad));
+        }
     }
+}
+
+/// The staff's PIN pad: big keys a finger hits (1-9, back, 0, OK; Cancel), the digits as
+/// dots. What was pressed this frame.
+fn pin_pad(ctx: &egui::Context, pad: &PadView) -> Vec<super::visit::PadInput> {
+    use super::visit::PadInput;
+    let mut pressed = Vec::new();
+    let text = |s: &str, size: f32| egui::RichText::new(s).size(size).color(LIGHT);
+    egui::Area::new(egui::Id::unique("pin pad"))
+        .anchor(egui::Align2::CENTER_CENTER, egui::vec2(0.0, 0.0))
+        .order(egui::Order::Foreground)
+        .show(ctx, |ui| {
+            egui::Frame::window(ui.style())
+                .fill(egui::Color32::from_rgba_unmultiplied(16, 18, 22, 245))
+                .inner_margin(egui::Margin::same(20))
+                .show(ui, |ui| {
+                    ui.vertical_centered(|ui| {
+                        ui.label(text(&pad.said, 22.0));
+                        // (egui's fonts have no bullet glyphs.)
+                        let dots = "* ".repeat(pad.dots);
+                        ui.label(text(if dots.is_empty() { " " } else { &dots }, 28.0));
+                        ui.add_space(8.0);
+                    });
+                    let key = egui::vec2(96.0, 72.0);
+                    let rows: [[(&str, PadInput); 3]; 4] = [
+                        [
+                            ("1", PadInput::Digit('1')),
+                            ("2", PadInput::Digit('2')),
+                            ("3", PadInput::Digit('3')),
+                        ],
+                        [
+                            ("4", PadInput::Digit('4')),
+                            ("5", PadInput::Digit('5')),
+                            ("6", PadInput::Digit('6')),
+                        ],
+                        [
+                            ("7", PadInput::Digit('7')),
+                            ("8", PadInput::Digit('8')),
+                            ("9", PadInput::Digit('9')),
+                        ],
+                        [
+                            ("Del", PadInput::Back),
+                            ("0", PadInput::Digit('0')),
+                            ("OK", PadInput::Enter),
+                        ],
+                    ];
+                    egui::Grid::new("pin keys")
+                        .spacing(egui::vec2(10.0, 10.0))
+                        .show(ui, |ui| {
+                            for row in rows {
+                                for (label, input) in row {
+                                    let b = egui::Button::new(text(label, 28.0)).min_size(key);
+                                    if ui.add(b).clicked() {
+                                        pressed.push(input);
+                                    }
+                                }
+                                ui.end_row();
+                            }
+                        });
+                    ui.add_space(8.0);
+                    ui.vertical_centered(|ui| {
+                        let b = egui::Button::new(text("Cancel", 22.0))
+                            .min_size(egui::vec2(3.0 * key.x + 20.0, 56.0));
+                        if ui.add(b).clicked() {
+                            pressed.push(PadInput::Cancel);
+                        }
+                    });
+                });
+        });
+    pressed
 }
 
 /// The staff panel: the kiosk's figures, its recent problems, and the way out. Only staff

@@ -7,9 +7,10 @@ use std::collections::VecDeque;
 use std::time::Instant;
 
 use glyptic::kiosk::{
-    ATTRACT, Change, Controls, HoldGesture, Mode, Orbit, Prompt, STAFF_HOLD_S, Situation,
-    StaffAction, prompt, staff_action,
+    ATTRACT, Change, Controls, HoldGesture, Mode, Orbit, PinGate, PinOutcome, Prompt, STAFF_HOLD_S,
+    Situation, StaffAction, prompt, staff_action,
 };
+use glyptic::pin::StaffPin;
 
 use super::ui::StaffView;
 use super::window::Running;
@@ -24,19 +25,50 @@ pub(super) struct Staff {
     pub(super) gesture: HoldGesture,
     /// The staff asked to quit (a key or the panel's button).
     pub(super) quit: bool,
+    /// The staff's PIN (`None`: the keys open the panel, the corner nothing).
+    pin: Option<StaffPin>,
+    gate: PinGate,
+    /// The PIN pad, while it asks.
+    pub(super) pad: Option<PinPad>,
+    /// The corner was held without a PIN configured (said once on the log).
+    gesture_noted: bool,
 }
+
+/// The PIN pad's state: the digits typed (shown as dots), what it said last, when it was
+/// last touched (it closes itself after [`PAD_IDLE_S`]).
+pub(super) struct PinPad {
+    pub(super) digits: String,
+    pub(super) said: String,
+    touched_s: f64,
+}
+
+/// A key or a button of the PIN pad.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum PadInput {
+    Digit(char),
+    Back,
+    Enter,
+    Cancel,
+}
+
+/// Seconds an untouched PIN pad stays (a visitor who opened it and walked away).
+const PAD_IDLE_S: f64 = 30.0;
 
 /// Problems the staff panel keeps.
 const LOG_LINES: usize = 12;
 
 impl Staff {
-    pub(super) fn new(open: bool) -> Self {
+    pub(super) fn new(open: bool, pin: Option<StaffPin>) -> Self {
         Staff {
             open,
             log: VecDeque::new(),
             problems: 0,
             gesture: HoldGesture::new(STAFF_HOLD_S),
             quit: false,
+            pin,
+            gate: PinGate::default(),
+            pad: None,
+            gesture_noted: false,
         }
     }
 
@@ -183,17 +215,123 @@ impl Running {
         })
     }
 
-    /// A key press: the staff's chords (see [`staff_action`]).
+    /// A key press: the staff's chords (see [`staff_action`]), or the PIN pad's digits,
+    /// Backspace, Return and Escape while it asks.
     pub(super) fn key(&mut self, key: &str) {
+        if self.staff.pad.is_some() {
+            let input = match key {
+                "BackSpace" => Some(PadInput::Back),
+                "Return" => Some(PadInput::Enter),
+                "Escape" => Some(PadInput::Cancel),
+                d if d.len() == 1 && d.as_bytes()[0].is_ascii_digit() => {
+                    d.chars().next().map(PadInput::Digit)
+                }
+                _ => None,
+            };
+            if let Some(input) = input {
+                self.pad_input(input);
+            }
+            return;
+        }
         let (ctrl, shift) = (self.modifiers.control_key(), self.modifiers.shift_key());
         match staff_action(key, ctrl, shift, self.staff.open, self.config.fullscreen) {
-            Some(StaffAction::Quit) => {
+            // With a PIN, quitting is for the staff who opened the panel with it.
+            Some(StaffAction::Quit) if self.staff.open || self.staff.pin.is_none() => {
                 tracing::info!("kiosk: quit by the staff ({key})");
                 self.staff.quit = true;
             }
-            Some(StaffAction::TogglePanel) => self.staff.open = !self.staff.open,
+            Some(StaffAction::Quit) => self.ask_for_staff(key),
+            Some(StaffAction::TogglePanel) if self.staff.open => self.staff.open = false,
+            Some(StaffAction::TogglePanel) => self.ask_for_staff(key),
             Some(StaffAction::ClosePanel) => self.staff.open = false,
             None => {}
+        }
+    }
+
+    /// Someone asks for the staff panel (`how`: the key or the gesture): with a PIN
+    /// configured the pad asks for it first; without, the keys open the panel and the
+    /// corner opens nothing (a visitor's finger must not reach Quit).
+    pub(super) fn ask_for_staff(&mut self, how: &str) {
+        if self.staff.open {
+            return;
+        }
+        let now = self.now_s();
+        match &self.staff.pin {
+            Some(_) => {
+                let said = match self.staff.gate.paused(now) {
+                    Some(s) => format!("Paused: try again in {s:.0} s"),
+                    None => "Staff PIN".to_string(),
+                };
+                self.staff.pad = Some(PinPad {
+                    digits: String::new(),
+                    said,
+                    touched_s: now,
+                });
+            }
+            None if how == "corner" => {
+                if !self.staff.gesture_noted {
+                    self.staff.gesture_noted = true;
+                    tracing::warn!(
+                        "kiosk: the corner was held, but it opens the staff panel only with \
+                         staff_pin set in the configuration (`glyptic kiosk --hash-pin`)"
+                    );
+                }
+            }
+            None => {
+                tracing::info!("kiosk: staff panel opened ({how})");
+                self.staff.open = true;
+            }
+        }
+    }
+
+    /// A key or button of the PIN pad.
+    pub(super) fn pad_input(&mut self, input: PadInput) {
+        let now = self.now_s();
+        let (Some(pad), Some(pin)) = (self.staff.pad.as_mut(), self.staff.pin.as_ref()) else {
+            return;
+        };
+        pad.touched_s = now;
+        match input {
+            PadInput::Digit(d) if pad.digits.len() < *glyptic::pin::DIGITS.end() => {
+                pad.digits.push(d)
+            }
+            PadInput::Digit(_) => {}
+            PadInput::Back => {
+                pad.digits.pop();
+            }
+            PadInput::Cancel => self.staff.pad = None,
+            PadInput::Enter => {
+                let attempt = std::mem::take(&mut pad.digits);
+                match self.staff.gate.submit(pin, &attempt, now) {
+                    PinOutcome::Open => {
+                        tracing::info!("kiosk: staff panel opened (PIN)");
+                        self.staff.pad = None;
+                        self.staff.open = true;
+                    }
+                    PinOutcome::Wrong { tries_left } => {
+                        pad.said = format!("Wrong PIN: {tries_left} more before a pause");
+                    }
+                    PinOutcome::Paused { seconds } => {
+                        pad.said = format!("Paused: try again in {seconds:.0} s");
+                        self.note_problem(format!(
+                            "wrong staff PINs: the pad pauses {seconds:.0} s"
+                        ));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Closes a PIN pad nobody has touched for a while.
+    pub(super) fn pad_step(&mut self) {
+        let now = self.now_s();
+        if self
+            .staff
+            .pad
+            .as_ref()
+            .is_some_and(|p| now - p.touched_s > PAD_IDLE_S)
+        {
+            self.staff.pad = None;
         }
     }
 

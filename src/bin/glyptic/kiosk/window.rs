@@ -235,7 +235,7 @@ impl Running {
             presence: Presence::new(config, 0.0),
             attract_since: None,
             attract_frame_at: None,
-            staff: Staff::new(staff_open),
+            staff: Staff::new(staff_open, config.staff_pin().ok().flatten()),
             modifiers: Default::default(),
             face_now: false,
             visitor_gem: false,
@@ -443,6 +443,10 @@ impl Running {
         let prompt = self.config.texts.get(self.prompt()).to_owned();
         let caption = self.caption();
         let staff = self.staff.open.then(|| self.staff_view());
+        let pad = self.staff.pad.as_ref().map(|p| super::ui::PadView {
+            dots: p.digits.len(),
+            said: p.said.clone(),
+        });
         let mut ui = UiFrame {
             controls: &mut self.controls,
             labels: &self.config.labels,
@@ -451,6 +455,8 @@ impl Running {
             prompt,
             caption,
             staff,
+            pad,
+            pad_inputs: Vec::new(),
             toast: self
                 .toast
                 .as_ref()
@@ -466,6 +472,7 @@ impl Running {
         let mut output = self.egui_ctx.run_ui(raw_input, |ui_root| ui.draw(ui_root));
         let (gem_rect, snapshot) = (ui.gem_rect, ui.snapshot);
         let (close_staff, quit, corner_held) = (ui.close_staff, ui.quit, ui.corner_held);
+        let pad_inputs = std::mem::take(&mut ui.pad_inputs);
         let ppp = output.pixels_per_point;
         self.control_rects = ui
             .rects
@@ -485,9 +492,12 @@ impl Running {
         }
         let now = self.now_s();
         if self.config.staff_gesture && self.staff.gesture.update(now, corner_held) {
-            tracing::info!("kiosk: staff panel opened by the corner gesture");
-            self.staff.open = true;
+            self.ask_for_staff("corner");
         }
+        for input in pad_inputs {
+            self.pad_input(input);
+        }
+        self.pad_step();
         if self.cursor_hidden {
             // egui would show the cursor again over a button (its pointing hand).
             output.platform_output.cursor_icon = egui::CursorIcon::None;
@@ -712,6 +722,27 @@ impl Running {
             .map(|d| d.as_millis())
             .unwrap_or(0);
         let path = dir.join(format!("glyptic-{stamp}.png"));
+        // The folder is bounded (count and bytes, as configured): past either, nothing is
+        // written and the staff panel says why; nothing is deleted.
+        let (count, bytes) = snapshots_in(dir);
+        let (max, max_bytes) = (
+            u64::from(self.config.snapshots_max),
+            u64::from(self.config.snapshots_max_mb) << 20,
+        );
+        let full = (count >= max || bytes >= max_bytes).then(|| {
+            format!(
+                "snapshot not saved: {} holds {count} pictures, {} MB (snapshots_max {max}, \
+                 snapshots_max_mb {})",
+                dir.display(),
+                bytes >> 20,
+                max_bytes >> 20
+            )
+        });
+        if let Some(why) = full {
+            self.note_problem(why);
+            self.toast = Some((self.config.texts.not_saved.clone(), Instant::now()));
+            return;
+        }
         // The visitor hears that it worked or not; the path and the reason go to the log.
         let message = match crate::cli::write_png(image.clone(), &path) {
             Ok(()) => {
@@ -886,4 +917,20 @@ impl ScreenCopy {
         image::RgbaImage::from_raw(self.width, self.height, pixels)
             .ok_or_else(|| anyhow!("screenshot smaller than the window"))
     }
+}
+
+/// The Save button's pictures in `dir` (`glyptic-*.png`): how many, and their bytes.
+fn snapshots_in(dir: &Path) -> (u64, u64) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return (0, 0);
+    };
+    entries
+        .flatten()
+        .filter(|e| {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            name.starts_with("glyptic-") && name.ends_with(".png")
+        })
+        .filter_map(|e| e.metadata().ok().filter(|m| m.is_file()))
+        .fold((0, 0), |(n, b), m| (n + 1, b + m.len()))
 }
