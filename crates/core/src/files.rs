@@ -247,6 +247,31 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     result
 }
 
+/// Copies the file `from` to `to` whole or not at all, as [`write_atomic`] writes: into a
+/// hidden file beside `to` (registered, so an interruption removes it), synced, renamed over
+/// it; on any failure (a full disk) the hidden file is removed and `to` is as it was.
+/// Streams, so a 100 MB model is never held in memory.
+pub fn copy_atomic(from: &Path, to: &Path) -> std::io::Result<u64> {
+    let tmp = hidden_beside(to, "tmp")?;
+    pending().push(tmp.clone());
+    let result = (|| {
+        let mut src = std::fs::File::open(from)?;
+        let mut dst = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)?;
+        let n = std::io::copy(&mut src, &mut dst)?;
+        dst.sync_all()?;
+        std::fs::rename(&tmp, to)?;
+        Ok(n)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    forget_pending(&tmp);
+    result
+}
+
 /// A file [`Staged::commit`] could not put in place, and why.
 #[derive(Debug, thiserror::Error)]
 #[error("{}: {source}", path.display())]
@@ -480,6 +505,17 @@ mod tests {
         let mode = std::fs::metadata(&a).unwrap().permissions().mode() & 0o777;
         assert_eq!(mode, 0o600);
         assert!(!pending().iter().any(|p| p.starts_with(&dir)));
+
+        // A streamed copy: whole, or nothing left beside its target when the rename fails.
+        let copy = dir.join("copy.bin");
+        assert_eq!(copy_atomic(&b, &copy).unwrap(), 5);
+        assert_eq!(std::fs::read(&copy).unwrap(), b"new b");
+        let blocked = dir.join("blocked");
+        std::fs::create_dir(&blocked).unwrap();
+        std::fs::write(blocked.join("x"), b"x").unwrap();
+        assert!(copy_atomic(&b, &blocked).is_err());
+        assert!(copy_atomic(&dir.join("none"), &dir.join("never")).is_err());
+        assert_eq!(names(&dir), ["a.png", "b.obj", "blocked", "copy.bin"]);
         std::fs::remove_dir_all(&dir).ok();
     }
 }

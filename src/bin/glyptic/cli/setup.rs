@@ -75,12 +75,10 @@ fn install_file(from: &Path, to: &Path, checkout: &Path) -> Result<&'static str>
     if std::fs::metadata(to).is_ok_and(|m| m.is_file() && m.len() == size) {
         return Ok("up to date");
     }
-    let mut tmp = to.as_os_str().to_owned();
-    tmp.push(".part");
-    let tmp = PathBuf::from(tmp);
-    std::fs::copy(from, &tmp)
-        .with_context(|| format!("{}: cannot copy to {}", from.display(), tmp.display()))?;
-    std::fs::rename(&tmp, to).with_context(|| format!("{}: cannot write", to.display()))?;
+    // Whole or not at all: a full disk or an interruption leaves no part file (issue #40:
+    // a 44 MB `.compact.part` stayed).
+    glyptic::files::copy_atomic(from, to)
+        .with_context(|| format!("{}: cannot copy to {}", from.display(), to.display()))?;
     Ok("copied")
 }
 
