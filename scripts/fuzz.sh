@@ -33,6 +33,11 @@ mkdir -p fuzz/seeds/kiosk_toml
 sed -n '/^```toml$/,/^```$/p' README.md | sed '1d;$d' > fuzz/seeds/kiosk_toml/readme.toml
 printf 'video = "visitor.avi"\nmaterial = "agate"\nportrait = "frontal"\nsss = false\n' \
   > fuzz/seeds/kiosk_toml/video.toml
+# The staff's PIN (its hash's form) and the snapshots' bounds.
+printf 'staff_pin = "pbkdf2-sha256$60000$%s$%s"\nsnapshots_max = 2\nsnapshots_max_mb = 10\n' \
+  0909090909090909090909090909090909 \
+  5d2f6ad1e0c84b0bfa6a58f1cbd5a4c8e7b8c0e0f6a0f5c0e6a1b7c9d0e1f2a3 \
+  > fuzz/seeds/kiosk_toml/staff.toml
 
 echo "fuzz: building the targets (instrumented, $TRIPLE)"
 # --target keeps the instrumentation out of build scripts and proc macros.

@@ -13,5 +13,9 @@ fuzz_target!(|data: &[u8]| {
         assert!(positions.iter().all(|v| v.is_finite()));
         let n = positions.len() / 3;
         assert!(triangles.iter().flatten().all(|&v| (v as usize) < n));
+        // What a face mesh must be to be carved (issue #40): said, never a panic.
+        if glyptic_core::gem::check_face_mesh(&positions, &triangles).is_ok() {
+            assert!(triangles.len() >= glyptic_core::gem::MIN_FACE_TRIANGLES);
+        }
     }
 });
