@@ -9,7 +9,7 @@
 
 use sha2::{Digest as _, Sha256};
 
-/// The iterations a new hash uses: about 40 ms on one core of the project's VM, once per
+/// The iterations a new hash uses: 15 ms on one core of the project's VM, once per
 /// attempt (staff type a PIN rarely; a guesser pays it every time).
 pub const ITERATIONS: u32 = 60_000;
 /// The fewest and most digits a PIN may have.
