@@ -48,9 +48,12 @@ pub fn install() {
 }
 
 /// While alive, the first SIGINT/SIGTERM/SIGHUP only asks the command to stop
-/// ([`Interruptible::asked`]); a second one ends the process.
+/// ([`Interruptible::asked`]); a second one ends the process. (`batch`'s, which the build
+/// without the face pipeline lacks.)
+#[cfg_attr(not(feature = "face"), allow(dead_code))]
 pub struct Interruptible(());
 
+#[cfg_attr(not(feature = "face"), allow(dead_code))]
 impl Interruptible {
     pub fn new() -> Self {
         ASKED.store(0, Ordering::SeqCst);

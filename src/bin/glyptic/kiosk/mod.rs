@@ -231,8 +231,10 @@ fn check(config: &KioskConfig, args: &KioskArgs) -> Result<()> {
         crate::cli::check_writable_folder(crate::cli::folder_of(shot))
             .context("the screenshot's folder (--screenshot)")?;
     }
+    // The first frame, as the face thread will read it (a camera may come later; the build
+    // without the face pipeline reads no video).
+    #[cfg(feature = "face")]
     if let Some(video) = &config.video {
-        // The first frame, as the face thread will read it (a camera may come later).
         let mut source = face_thread::open_source(config);
         match source.next_frame() {
             Ok(Some(_)) => {}
