@@ -1106,9 +1106,11 @@ fn cases() -> Vec<Case> {
             words(d, &["photo", "@a.jpg", "-o", "@o.png", "--stl", "@ro.stl"])
         }),
         case(
+            // (Either "not a video OpenCV can read" or "no frame could be read", as the
+            // capture thread's error or the stream's end comes first: one line, no FFmpeg.)
             "track-garbage-video-quiet",
             1,
-            &["garbage.mp4", "no frame could be read"],
+            &["garbage.mp4"],
             |d| {
                 // An MP4's first box and nothing playable: FFmpeg's "moov atom not found".
                 let mut mp4 = b"\x00\x00\x00\x18ftypmp42\x00\x00\x00\x00mp42isom".to_vec();

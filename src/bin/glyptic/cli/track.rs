@@ -257,7 +257,12 @@ pub fn track(args: &TrackArgs) -> Result<()> {
                         bail!("{}: {reason}", source_name(args))
                     }
                     StreamEvent::Capture(CaptureEvent::Failed { error }) => {
-                        bail!("{}: {error}", source_name(args))
+                        // The source's error names it already (the file said once).
+                        let (name, said) = (source_name(args), error.to_string());
+                        if said.contains(&name) {
+                            bail!("{said}")
+                        }
+                        bail!("{name}: {said}")
                     }
                     StreamEvent::Capture(e) => tracing::warn!("capture: {e}"),
                     StreamEvent::Error { frame_index, error } => {
