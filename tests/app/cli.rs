@@ -1859,7 +1859,7 @@ fn photo_gems_have_no_dead_pixels_and_repeat_exactly() {
                 .args(["--material", material, "-q"]),
         );
         let img = image::open(&out).unwrap().to_rgba8();
-        let dead = common::dead_pixels(&img);
+        let dead = glyptic::render::inspect::dead_pixels(&img);
         assert!(
             dead.is_empty(),
             "{photo} {material}: dead pixels at {dead:?}"

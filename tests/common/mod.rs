@@ -161,27 +161,3 @@ pub fn rotated(img: &image::RgbImage, centre: [f32; 2], deg: f32) -> image::RgbI
         image::Rgb(acc.map(|v| v.round().clamp(0.0, 255.0) as u8))
     })
 }
-
-/// Isolated dead pixels: near black (mean of the channels at most 12) while all four
-/// neighbours are lit (at least 60): a NaN or a negative light in a shader, black after the
-/// MSAA resolve (issue #40; the render tests' goldens are scanned the same way).
-pub fn dead_pixels(img: &image::RgbaImage) -> Vec<(u32, u32)> {
-    let (w, h) = img.dimensions();
-    let grey = |x: u32, y: u32| {
-        let p = img.get_pixel(x, y);
-        (u32::from(p[0]) + u32::from(p[1]) + u32::from(p[2])) / 3
-    };
-    let mut out = Vec::new();
-    for y in 1..h.saturating_sub(1) {
-        for x in 1..w.saturating_sub(1) {
-            if grey(x, y) <= 12
-                && [(x - 1, y), (x + 1, y), (x, y - 1), (x, y + 1)]
-                    .iter()
-                    .all(|&(u, v)| grey(u, v) >= 60)
-            {
-                out.push((x, y));
-            }
-        }
-    }
-    out
-}

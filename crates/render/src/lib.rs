@@ -52,6 +52,7 @@
 mod camera;
 mod frame;
 mod gpu;
+pub mod inspect;
 mod mesh;
 pub mod shaders;
 pub mod sss;

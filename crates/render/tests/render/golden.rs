@@ -37,7 +37,7 @@ pub fn check_golden(img: &image::RgbaImage, name: &str) -> Result<(), String> {
     }
     // The styles draw black dots and lines on purpose (dither, toon's outlines).
     if !name.starts_with("style-") {
-        let dead = dead_pixels(img);
+        let dead = glyptic_render::inspect::dead_pixels(img);
         if !dead.is_empty() {
             return Err(format!(
                 "{name}: {} isolated dead pixels, first at {:?}",
@@ -70,30 +70,6 @@ pub fn check_golden(img: &image::RgbaImage, name: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// Isolated dead pixels: near black (mean of the channels at most 12) while all four
-/// neighbours are lit (at least 60), where a shader made a NaN or a negative light that the
-/// MSAA resolve turned black (issue #40). Returns their positions.
-pub fn dead_pixels(img: &image::RgbaImage) -> Vec<(u32, u32)> {
-    let (w, h) = img.dimensions();
-    let grey = |x: u32, y: u32| {
-        let p = img.get_pixel(x, y);
-        (u32::from(p[0]) + u32::from(p[1]) + u32::from(p[2])) / 3
-    };
-    let mut out = Vec::new();
-    for y in 1..h.saturating_sub(1) {
-        for x in 1..w.saturating_sub(1) {
-            if grey(x, y) <= 12
-                && [(x - 1, y), (x + 1, y), (x, y - 1), (x, y + 1)]
-                    .iter()
-                    .all(|&(u, v)| grey(u, v) >= 60)
-            {
-                out.push((x, y));
-            }
-        }
-    }
-    out
-}
-
 /// No golden image holds a dead pixel (blessing one would make it the reference); the
 /// styles' goldens are left out, their black dots and lines are the style.
 #[test]
@@ -109,7 +85,7 @@ fn no_golden_image_has_a_dead_pixel() {
             continue;
         }
         let img = image::open(&path).expect("golden").to_rgba8();
-        let dead = dead_pixels(&img);
+        let dead = glyptic_render::inspect::dead_pixels(&img);
         assert!(dead.is_empty(), "{name}: dead pixels at {dead:?}");
         checked += 1;
     }
