@@ -204,11 +204,10 @@ fn hidden_beside(path: &Path, tag: &str) -> std::io::Result<PathBuf> {
         .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"))?;
     static CALLS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    Ok(dir.join(format!(
-        ".{}.{}.{call}.{tag}",
-        name.to_string_lossy(),
-        std::process::id()
-    )))
+    // At most 120 characters of the name: a target named near the filesystem's 255-byte
+    // limit must not fail for its hidden twin's longer name.
+    let name: String = name.to_string_lossy().chars().take(120).collect();
+    Ok(dir.join(format!(".{name}.{}.{call}.{tag}", std::process::id())))
 }
 
 /// Whether this process may write the existing file at `path` (opened for writing, neither
@@ -505,6 +504,13 @@ mod tests {
         let mode = std::fs::metadata(&a).unwrap().permissions().mode() & 0o777;
         assert_eq!(mode, 0o600);
         assert!(!pending().iter().any(|p| p.starts_with(&dir)));
+
+        // A name at the filesystem's limit (255 bytes) is written too (its hidden twin's
+        // name is shortened).
+        let long = dir.join(format!("{}.png", "n".repeat(251)));
+        write_atomic(&long, b"long").unwrap();
+        assert_eq!(std::fs::read(&long).unwrap(), b"long");
+        std::fs::remove_file(&long).unwrap();
 
         // A streamed copy: whole, or nothing left beside its target when the rename fails.
         let copy = dir.join("copy.bin");
