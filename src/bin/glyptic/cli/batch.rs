@@ -288,7 +288,7 @@ fn export_job(
                     &pipeline.face.model.shape.triangles,
                     &gem.cameo,
                     (&gem.mesh, view),
-                    &input.display().to_string(),
+                    &super::photo::source_label(input),
                 )
             },
             |m| {

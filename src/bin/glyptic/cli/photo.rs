@@ -83,6 +83,14 @@ impl MakeArgs {
     }
 }
 
+/// How a made file names what it was made from: the input's file name only. The files travel
+/// (a print shop, a CNC shop, a viewer online) and must not carry the user's folders
+/// (issue #41: the STL header held the photo's absolute path).
+pub(super) fn source_label(path: &Path) -> String {
+    path.file_name()
+        .map_or_else(|| "a photo".into(), |n| n.to_string_lossy().into_owned())
+}
+
 /// Files made in memory, written only once everything else has succeeded.
 pub(super) struct Made {
     /// Each file's path, bytes and what it holds (for the stage line).
@@ -251,6 +259,13 @@ fn height_map_png(map: &gem::solid::HeightMap, source: &str) -> Result<Vec<u8>> 
         let mut encoder = png::Encoder::new(&mut bytes, map.width, map.height);
         encoder.set_color(png::ColorType::Grayscale);
         encoder.set_depth(png::BitDepth::Sixteen);
+        // The pixel's size where CAM programs look for it (pHYs, pixels per metre).
+        let per_metre = (1000.0 / f64::from(map.mm_per_pixel)).round() as u32;
+        encoder.set_pixel_dims(Some(png::PixelDimensions {
+            xppu: per_metre,
+            yppu: per_metre,
+            unit: png::Unit::Meter,
+        }));
         encoder.add_text_chunk(
             "Description".into(),
             format!(
@@ -413,7 +428,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
     print_stages(&stages);
     let (mesh, face, triangles, cameo) = mesh?;
     let source = match &args.face {
-        Some(path) => path.display().to_string(),
+        Some(path) => source_label(path),
         None => "the mean face".to_string(),
     };
     let made = make_files(
@@ -574,7 +589,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
         triangles,
         &gem.cameo,
         (&gem.mesh, &params),
-        &image_path.display().to_string(),
+        &source_label(image_path),
     )?;
     let mut renderer = join_renderer(renderer_thread)?;
     let png = render_png(&mut renderer, &gem.mesh, &params, &args.output)?;
@@ -593,7 +608,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     if let Some(obj) = &args.obj {
         let comment = format!(
             "glyptic fitted face from {}\nSurrey Face Model mesh, model millimetres (non-commercial licence)",
-            image_path.display()
+            source_label(image_path)
         );
         stage(
             &mut staged,
@@ -602,12 +617,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
         )?;
     }
     if let Some(obj) = &args.gem_obj {
-        stage_gem_obj(
-            &mut staged,
-            obj,
-            &gem.mesh,
-            &image_path.display().to_string(),
-        )?;
+        stage_gem_obj(&mut staged, obj, &gem.mesh, &source_label(image_path))?;
     }
     stage(&mut staged, &args.output, &png)?;
     commit(staged)?;
