@@ -20,6 +20,18 @@ pub use visitor::{
     staff_action,
 };
 
+/// The window width (logical pixels) the controls are laid out for: the default window.
+pub const CONTROLS_WIDTH: f32 = 800.0;
+
+/// How much the controls are scaled in a window `width_px` physical pixels wide whose
+/// display scale is `scale_factor`: wider than [`CONTROLS_WIDTH`] they grow with it (a
+/// 1024-pixel kiosk screen gets finger-sized buttons across its width, not a windowed
+/// layout in its lower left; issue #41), never smaller than designed, at most 3x.
+pub fn controls_zoom(width_px: u32, scale_factor: f64) -> f32 {
+    let logical = width_px as f32 / scale_factor.max(0.1) as f32;
+    (logical / CONTROLS_WIDTH).clamp(1.0, 3.0)
+}
+
 /// The SSS strength the reset button returns to (red's, as `glyptic render --sss-strength`).
 pub const DEFAULT_SSS_STRENGTH: f32 = crate::sss::DEFAULT_STRENGTH;
 /// Degrees of orbit per pixel dragged.
@@ -522,6 +534,16 @@ mod tests {
 
     fn parse(text: &str) -> Result<KioskConfig, ConfigError> {
         KioskConfig::parse(text, Path::new("kiosk.toml"))
+    }
+
+    #[test]
+    fn the_controls_grow_with_a_wide_screen_only() {
+        assert_eq!(controls_zoom(800, 1.0), 1.0);
+        assert_eq!(controls_zoom(400, 1.0), 1.0);
+        assert!((controls_zoom(1024, 1.0) - 1.28).abs() < 1e-6);
+        assert!((controls_zoom(2048, 2.0) - 1.28).abs() < 1e-6);
+        assert_eq!(controls_zoom(10_000, 1.0), 3.0);
+        assert_eq!(controls_zoom(1024, 0.0), 3.0);
     }
 
     #[test]

@@ -176,6 +176,10 @@ impl Running {
 
         let egui_ctx = egui::Context::default();
         style(&egui_ctx);
+        egui_ctx.set_zoom_factor(glyptic::kiosk::controls_zoom(
+            size.width,
+            window.scale_factor(),
+        ));
         let egui_state = egui_winit::State::new(
             egui_ctx.clone(),
             egui::ViewportId::ROOT,
@@ -281,6 +285,10 @@ impl Running {
         self.surface_config.height = height;
         self.surface
             .configure(self.renderer.device(), &self.surface_config);
+        self.egui_ctx.set_zoom_factor(glyptic::kiosk::controls_zoom(
+            width,
+            self.window.scale_factor(),
+        ));
         self.dirty = true;
         self.window.request_redraw();
     }
