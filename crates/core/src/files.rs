@@ -217,10 +217,14 @@ pub fn may_write(path: &Path) -> bool {
     std::fs::OpenOptions::new().write(true).open(path).is_ok()
 }
 
-/// Writes `bytes` to the new hidden file `tmp`, registered as pending, with the permissions
-/// of the file it will replace (a 0600 file stays 0600), synced.
-fn write_hidden(tmp: &Path, target: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    use std::io::Write as _;
+/// Creates the new hidden file `tmp`, registered as pending (so an interruption removes it),
+/// with the permissions of the file it will replace (a 0600 file stays 0600), lets `fill`
+/// write it, and syncs it.
+fn fill_hidden<T>(
+    tmp: &Path,
+    target: &Path,
+    fill: impl FnOnce(&mut std::fs::File) -> std::io::Result<T>,
+) -> std::io::Result<T> {
     pending().push(tmp.to_path_buf());
     let mut f = std::fs::OpenOptions::new()
         .write(true)
@@ -229,46 +233,42 @@ fn write_hidden(tmp: &Path, target: &Path, bytes: &[u8]) -> std::io::Result<()> 
     if let Ok(meta) = std::fs::metadata(target) {
         f.set_permissions(meta.permissions())?;
     }
-    f.write_all(bytes)?;
-    f.sync_all()
+    let out = fill(&mut f)?;
+    f.sync_all()?;
+    Ok(out)
+}
+
+/// Replaces `target` whole or not at all with what `fill` writes: into a hidden file beside
+/// it ([`fill_hidden`]), renamed over it; on any failure the hidden file is removed and
+/// `target` is as it was.
+fn replace_with<T>(
+    target: &Path,
+    fill: impl FnOnce(&mut std::fs::File) -> std::io::Result<T>,
+) -> std::io::Result<T> {
+    let tmp = hidden_beside(target, "tmp")?;
+    let result =
+        fill_hidden(&tmp, target, fill).and_then(|out| std::fs::rename(&tmp, target).map(|()| out));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    forget_pending(&tmp);
+    result
 }
 
 /// Writes `bytes` to `path` whole or not at all: into a hidden file beside it, synced, then
 /// renamed over it, so a reader (or a crash) never sees half a file. For one file; a
 /// command with several outputs stages them together ([`Staged`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let tmp = hidden_beside(path, "tmp")?;
-    let result = write_hidden(&tmp, path, bytes).and_then(|()| std::fs::rename(&tmp, path));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    forget_pending(&tmp);
-    result
+    use std::io::Write as _;
+    replace_with(path, |f| f.write_all(bytes))
 }
 
-/// Copies the file `from` to `to` whole or not at all, as [`write_atomic`] writes: into a
-/// hidden file beside `to` (registered, so an interruption removes it), synced, renamed over
-/// it; on any failure (a full disk) the hidden file is removed and `to` is as it was.
-/// Streams, so a 100 MB model is never held in memory.
+/// Copies the file `from` to `to` whole or not at all, as [`write_atomic`] writes (on a full
+/// disk `to` is as it was and nothing is left beside it). Streams, so a 100 MB model is never
+/// held in memory. Returns the bytes copied.
 pub fn copy_atomic(from: &Path, to: &Path) -> std::io::Result<u64> {
-    let tmp = hidden_beside(to, "tmp")?;
-    pending().push(tmp.clone());
-    let result = (|| {
-        let mut src = std::fs::File::open(from)?;
-        let mut dst = std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)?;
-        let n = std::io::copy(&mut src, &mut dst)?;
-        dst.sync_all()?;
-        std::fs::rename(&tmp, to)?;
-        Ok(n)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    forget_pending(&tmp);
-    result
+    let mut src = std::fs::File::open(from)?;
+    replace_with(to, |f| std::io::copy(&mut src, f))
 }
 
 /// A file [`Staged::commit`] could not put in place, and why.
@@ -305,16 +305,11 @@ impl Staged {
         let tmp = hidden_beside(target, "tmp").map_err(fail)?;
         // Recorded before writing, so a half-written file is removed too.
         self.files.push((target.to_path_buf(), tmp.clone()));
-        write_hidden(&tmp, target, bytes).map_err(fail)
-    }
-
-    /// How many files are staged.
-    pub fn len(&self) -> usize {
-        self.files.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.files.is_empty()
+        fill_hidden(&tmp, target, |f| {
+            use std::io::Write as _;
+            f.write_all(bytes)
+        })
+        .map_err(fail)
     }
 
     /// Renames every staged file over its target. An existing target is first linked to a

@@ -160,24 +160,18 @@ fn output_names(files: &[PathBuf]) -> Vec<String> {
             }
         })
         .collect();
-    let mut taken: std::collections::HashSet<String> = std::collections::HashSet::new();
-    let mut seen: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
-    let mut out = Vec::with_capacity(names.len());
-    for name in &names {
-        let k = seen.entry(name).or_insert(0);
-        *k += 1;
-        let mut candidate = if *k == 1 {
-            name.clone()
-        } else {
-            format!("{name}-{k}")
-        };
-        while !taken.insert(candidate.clone()) {
-            *k += 1;
-            candidate = format!("{name}-{k}");
-        }
-        out.push(candidate);
-    }
-    out
+    let mut taken = std::collections::HashSet::new();
+    names
+        .into_iter()
+        .map(|name| {
+            let (mut candidate, mut k) = (name.clone(), 1);
+            while !taken.insert(candidate.clone()) {
+                k += 1;
+                candidate = format!("{name}-{k}");
+            }
+            candidate
+        })
+        .collect()
 }
 
 /// The output folder, made with its missing parents; removed again (those it made, if still

@@ -522,12 +522,7 @@ fn read_face_obj(path: &Path) -> Result<(Vec<f32>, Vec<[u32; 3]>)> {
         bail!("{}: the face mesh has no triangles", path.display());
     }
     // Said now, before the GPU and the cameo: the builder would refuse it too, unnamed.
-    if !mesh.0.iter().all(|v| v.is_finite()) {
-        bail!(
-            "{}: the face mesh has non-finite coordinates",
-            path.display()
-        );
-    }
+    // (`parse_obj` has refused non-finite coordinates already.)
     glyptic::gem::check_face_mesh(&mesh.0, &mesh.1)
         .with_context(|| format!("{}: cannot carve this face mesh", path.display()))?;
     Ok(mesh)

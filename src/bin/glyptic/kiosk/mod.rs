@@ -148,12 +148,7 @@ pub fn kiosk(args: &KioskArgs) -> Result<()> {
     }
     std::fs::create_dir_all(&args.snapshots)
         .with_context(|| format!("{}: cannot create", args.snapshots.display()))?;
-    crate::cli::check_writable_folder(&args.snapshots)
-        .context("the snapshots folder (--snapshots)")?;
-    if let Some(shot) = &args.screenshot {
-        crate::cli::check_writable_folder(crate::cli::folder_of(shot))
-            .context("the screenshot's folder (--screenshot)")?;
-    }
+    check_output_folders(args)?;
 
     let event_loop = EventLoop::new().context("opening the display (is DISPLAY set?)")?;
     event_loop.set_control_flow(ControlFlow::Poll);
@@ -169,6 +164,30 @@ pub fn kiosk(args: &KioskArgs) -> Result<()> {
         Some(e) => Err(e),
         None => Ok(()),
     }
+}
+
+/// The snapshots folder (or, not made yet, the folder it would be made in) and the
+/// screenshot's folder each take a file (one is made and removed): said at the start, by the
+/// run and by `--check` alike, not at the first Save.
+fn check_output_folders(args: &KioskArgs) -> Result<()> {
+    let snapshots = args
+        .snapshots
+        .ancestors()
+        .map(|d| {
+            if d.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                d
+            }
+        })
+        .find(|d| d.exists())
+        .unwrap_or(Path::new("."));
+    crate::cli::check_writable_folder(snapshots).context("the snapshots folder (--snapshots)")?;
+    if let Some(shot) = &args.screenshot {
+        crate::cli::check_writable_folder(crate::cli::folder_of(shot))
+            .context("the screenshot's folder (--screenshot)")?;
+    }
+    Ok(())
 }
 
 /// `--hash-pin`: a PIN from stdin (one line) to the configuration's line, salted from the
@@ -213,24 +232,7 @@ fn check(config: &KioskConfig, args: &KioskArgs) -> Result<()> {
             missing.join(", ")
         );
     }
-    // Not made yet: the folder it would be made in must take it.
-    let snapshots = args
-        .snapshots
-        .ancestors()
-        .map(|d| {
-            if d.as_os_str().is_empty() {
-                Path::new(".")
-            } else {
-                d
-            }
-        })
-        .find(|d| d.exists())
-        .unwrap_or(Path::new("."));
-    crate::cli::check_writable_folder(snapshots).context("the snapshots folder (--snapshots)")?;
-    if let Some(shot) = &args.screenshot {
-        crate::cli::check_writable_folder(crate::cli::folder_of(shot))
-            .context("the screenshot's folder (--screenshot)")?;
-    }
+    check_output_folders(args)?;
     // The first frame, as the face thread will read it (a camera may come later; the build
     // without the face pipeline reads no video).
     #[cfg(feature = "face")]

@@ -278,36 +278,23 @@ fn pin_pad(ctx: &egui::Context, pad: &PadView) -> Vec<super::visit::PadInput> {
                         ui.add_space(8.0);
                     });
                     let key = egui::vec2(96.0, 72.0);
-                    let rows: [[(&str, PadInput); 3]; 4] = [
-                        [
-                            ("1", PadInput::Digit('1')),
-                            ("2", PadInput::Digit('2')),
-                            ("3", PadInput::Digit('3')),
-                        ],
-                        [
-                            ("4", PadInput::Digit('4')),
-                            ("5", PadInput::Digit('5')),
-                            ("6", PadInput::Digit('6')),
-                        ],
-                        [
-                            ("7", PadInput::Digit('7')),
-                            ("8", PadInput::Digit('8')),
-                            ("9", PadInput::Digit('9')),
-                        ],
-                        [
-                            ("Del", PadInput::Back),
-                            ("0", PadInput::Digit('0')),
-                            ("OK", PadInput::Enter),
-                        ],
-                    ];
+                    // 1-9 in three rows, then Del, 0, OK.
+                    let keys: Vec<(String, PadInput)> = ('1'..='9')
+                        .map(|d| (d.to_string(), PadInput::Digit(d)))
+                        .chain([
+                            ("Del".to_string(), PadInput::Back),
+                            ("0".to_string(), PadInput::Digit('0')),
+                            ("OK".to_string(), PadInput::Enter),
+                        ])
+                        .collect();
                     egui::Grid::new("pin keys")
                         .spacing(egui::vec2(10.0, 10.0))
                         .show(ui, |ui| {
-                            for row in rows {
+                            for row in keys.chunks(3) {
                                 for (label, input) in row {
                                     let b = egui::Button::new(text(label, 28.0)).min_size(key);
                                     if ui.add(b).clicked() {
-                                        pressed.push(input);
+                                        pressed.push(*input);
                                     }
                                 }
                                 ui.end_row();
