@@ -26,7 +26,7 @@
 
 use super::blur::{Normaliser, box_radius};
 pub use super::blur::{blur, blur_weighted};
-pub use super::poisson::Poisson;
+pub use super::poisson::{Poisson, SolveReport};
 
 /// Parameters of the gradient compression.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,16 +130,6 @@ impl Compression {
         }
         Ok(())
     }
-}
-
-/// How the Poisson solve went.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SolveReport {
-    pub iterations: usize,
-    /// Final residual norm over the right-hand side's norm.
-    pub relative_residual: f32,
-    /// Covered cells (unknowns).
-    pub unknowns: usize,
 }
 
 /// Relative residual at which the Poisson solve stops: the heights are then within about a

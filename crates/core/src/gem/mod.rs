@@ -35,6 +35,7 @@ pub mod silhouette;
 pub mod solid;
 pub mod template;
 mod tessellate;
+mod window;
 
 use crate::scene::Mesh;
 pub use basrelief::Compression;

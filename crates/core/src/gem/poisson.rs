@@ -2,8 +2,15 @@
 //! V-cycle, on a grid with h = 0 outside the covered cells. Heights and the cell size in the
 //! same unit.
 
-// The relief's shared helpers (this file is a part of `basrelief`, split out).
-use super::basrelief::*;
+/// How the Poisson solve went.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolveReport {
+    pub iterations: usize,
+    /// Final residual norm over the right-hand side's norm.
+    pub relative_residual: f32,
+    /// Covered cells (unknowns).
+    pub unknowns: usize,
+}
 
 /// One level of the multigrid hierarchy, stored with a border of one uncovered cell on every
 /// side so that neighbour reads need no bounds checks (uncovered cells always hold 0).

@@ -1,7 +1,7 @@
 //! What the relief bakes for the renderer: the cavity term (ambient occlusion from the relief
 //! around a node) and the key light's visibility (cast shadows), per grid node. Gem mm.
 
-use super::builder::Window;
+use super::window::Window;
 use super::{basrelief, template};
 
 /// Radii (gem mm) and weights of the cavity term: how far the relief around a node stands

@@ -7,7 +7,6 @@
 //! in; where the photo shows a full crown the cranium's top is hair (a carved skull never
 //! shows above the hair's outline). Pure computation.
 
-use super::template::{self, HairStyle, View};
 use super::{EYES_V, FACE_LENGTH_MM};
 use crate::person::{HairMask, MASK_COLS, MASK_ROWS, MASK_S, MASK_STEP, MASK_T};
 
@@ -93,14 +92,15 @@ impl Silhouette {
         Some(out)
     }
 
-    /// The silhouette of `mask` for `style` (the photo's other readings already in it: its
-    /// outline and fall fill where the photo does not show the head); `crown` is the share of
-    /// the crown that is hair ([`crate::person::Hair::crown`]).
-    pub fn from_mask(mask: &HairMask, style: &HairStyle, crown: f32) -> Silhouette {
-        let template_style = HairStyle {
-            silhouette: None,
-            ..*style
-        };
+    /// The silhouette of `mask`; `crown` is the share of the crown that is hair
+    /// ([`crate::person::Hair::crown`]); `template_hair(u, v)` says where the template's own
+    /// hair is (canonical mm), for the cells the photo does not show
+    /// (`Silhouette::from_mask` in [`super::template`] asks the template).
+    pub fn from_cells(
+        mask: &HairMask,
+        crown: f32,
+        template_hair: impl Fn(f32, f32) -> bool,
+    ) -> Silhouette {
         let top = hair_top(mask);
         let mut inside = [[false; MASK_COLS]; MASK_ROWS];
         for (r, row) in inside.iter_mut().enumerate() {
@@ -109,7 +109,7 @@ impl Silhouette {
                 let (u, v) = (s * FACE_LENGTH_MM, EYES_V - t * FACE_LENGTH_MM);
                 let share = mask.share[r][c];
                 *x = if share.is_nan() {
-                    template::sample(View::Frontal, &template_style, u, v).hair > 0.0
+                    template_hair(u, v)
                 } else {
                     share >= 0.5 || (crown >= 0.5 && on_cranium_top(top, u, v))
                 };
@@ -149,7 +149,7 @@ pub fn cranium_height(top: Option<f32>) -> f32 {
 }
 
 /// The frontal cranium's top, above the brows, where a full crown's hair always covers the
-/// skull (template::frontal's cranium: centre v = 40, 80 mm wide, [`cranium_height`] high).
+/// skull (the template's frontal cranium: centre v = 40, 80 mm wide, [`cranium_height`] high).
 /// The forehead (where the mean face's mesh reaches, |u| < 60, v < 115) is left as the photo
 /// shows it: hair there is a fringe, skin a bare forehead.
 fn on_cranium_top(top: Option<f32>, u: f32, v: f32) -> bool {
@@ -239,7 +239,7 @@ mod tests {
     /// within a third of a cell, and the distance grows inward at about 1 mm per mm.
     #[test]
     fn a_discs_signed_distance_follows_its_circle() {
-        let sil = Silhouette::from_mask(&disc_mask(0.5), &HairStyle::default(), 0.0);
+        let sil = Silhouette::from_cells(&disc_mask(0.5), 0.0, |_, _| false);
         let radius = 0.5 * FACE_LENGTH_MM;
         let centre_v = EYES_V + 0.5 * FACE_LENGTH_MM;
         for k in 0..16 {
@@ -253,16 +253,17 @@ mod tests {
         assert!(sil.at(0.0, 1e4) < -1e3 && sil.at(f32::NAN, 0.0) < 0.0);
     }
 
-    /// Unknown cells take the template's hair; a full crown covers the cranium's top.
+    /// A full crown covers the cranium's top; the cells the photo does not show ask the
+    /// template.
     #[test]
-    fn unknown_cells_take_the_templates_hair_and_a_crown_covers_the_skull() {
+    fn a_crown_covers_the_skull_and_unknown_cells_ask_the_template() {
         let mut mask = disc_mask(0.0);
-        assert!(Silhouette::from_mask(&mask, &HairStyle::default(), 1.0).at(0.0, 140.0) > 0.0);
-        assert!(Silhouette::from_mask(&mask, &HairStyle::default(), 0.0).at(0.0, 140.0) < 0.0);
+        assert!(Silhouette::from_cells(&mask, 1.0, |_, _| false).at(0.0, 140.0) > 0.0);
+        assert!(Silhouette::from_cells(&mask, 0.0, |_, _| false).at(0.0, 140.0) < 0.0);
         for row in mask.share.iter_mut() {
             row.fill(f32::NAN);
         }
-        let sil = Silhouette::from_mask(&mask, &HairStyle::default(), 0.0);
+        let sil = Silhouette::from_cells(&mask, 0.0, |_, v| v > 100.0);
         assert!(
             sil.at(0.0, 150.0) > 0.0,
             "the template's hair over the head"
@@ -272,8 +273,8 @@ mod tests {
 
     #[test]
     fn medians_and_differences() {
-        let [a, b, c] = [0.3, 0.4, 0.5]
-            .map(|r| Silhouette::from_mask(&disc_mask(r), &HairStyle::default(), 0.0));
+        let [a, b, c] =
+            [0.3, 0.4, 0.5].map(|r| Silhouette::from_cells(&disc_mask(r), 0.0, |_, _| false));
         let m = Silhouette::median([&a, &b, &c].into_iter()).expect("three");
         assert_eq!(m.differs(&b), 0.0);
         assert!(a.differs(&c) > 0.02);

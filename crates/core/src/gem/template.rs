@@ -20,6 +20,8 @@
 //! Why one long file: the shapes are one height field, each drawn over the last with the same
 //! frame and helpers; split, every part would need them all.
 
+use super::silhouette::{Silhouette, cranium_height};
+
 /// Which way the portrait looks out of the stone: one type for the cameo, the kiosk's TOML
 /// (`portrait = "profile"`) and the command line (`--portrait`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
@@ -103,7 +105,7 @@ pub struct HairStyle {
     /// ([`super::silhouette::Silhouette`]): where it is, the frontal hair is exactly there
     /// (its volume rounded in from the outline) and `outline`, `fall` and `ears_shown` only
     /// fill in where the photo did not show the head; `None`: the template's shapes.
-    pub silhouette: Option<super::silhouette::Silhouette>,
+    pub silhouette: Option<Silhouette>,
 }
 
 impl Default for HairStyle {
@@ -814,7 +816,7 @@ fn fall_at(fall: &[[f32; 2]; crate::person::FALL_ROWS], v: f32) -> Option<(f32, 
 
 fn frontal(style: &HairStyle, u: f32, v: f32) -> Sample {
     // The cranium, its top at v = 155, or under a photo's hair outline.
-    let b = super::silhouette::cranium_height(style.silhouette.as_ref().and_then(|s| s.top()));
+    let b = cranium_height(style.silhouette.as_ref().and_then(|s| s.top()));
     let cranium = dome(u, v - 40.0, 80.0, b, 85.0);
     let body = frontal_body(u, v);
     let mut height = smooth_max(cranium, body, 12.0);
@@ -929,7 +931,7 @@ const FRINGE_V: (f32, f32) = (50.0, 60.0);
 /// ears and hanging in rows below them.
 fn silhouette_hair(
     style: &HairStyle,
-    sil: &super::silhouette::Silhouette,
+    sil: &Silhouette,
     height: f32,
     u: f32,
     v: f32,
@@ -961,9 +963,39 @@ fn silhouette_hair(
     Some(body + ramp * texture)
 }
 
+impl Silhouette {
+    /// The silhouette of `mask` for `style` (the photo's other readings already in it: its
+    /// outline and fall fill where the photo does not show the head); `crown` is the share of
+    /// the crown that is hair ([`crate::person::Hair::crown`]).
+    pub fn from_mask(mask: &crate::person::HairMask, style: &HairStyle, crown: f32) -> Self {
+        let plain = HairStyle {
+            silhouette: None,
+            ..*style
+        };
+        Silhouette::from_cells(mask, crown, |u, v| {
+            sample(View::Frontal, &plain, u, v).hair > 0.0
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Where the photo shows nothing, the silhouette is the template's own hair.
+    #[test]
+    fn a_silhouette_takes_the_templates_hair_where_the_photo_shows_nothing() {
+        use crate::person::{HairMask, MASK_COLS, MASK_ROWS};
+        let mask = HairMask {
+            share: [[f32::NAN; MASK_COLS]; MASK_ROWS],
+        };
+        let sil = Silhouette::from_mask(&mask, &HairStyle::default(), 0.0);
+        assert!(
+            sil.at(0.0, 150.0) > 0.0,
+            "the template's hair over the head"
+        );
+        assert!(sil.at(0.0, -200.0) < 0.0, "none over the chest");
+    }
 
     #[test]
     fn pchip_interpolates_monotonically() {
@@ -1146,7 +1178,7 @@ mod tests {
             }
         }
         let style = HairStyle {
-            silhouette: Some(super::super::silhouette::Silhouette::from_mask(
+            silhouette: Some(Silhouette::from_mask(
                 &HairMask { share },
                 &HairStyle::default(),
                 0.0,

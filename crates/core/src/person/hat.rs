@@ -10,7 +10,7 @@
 //!
 //! Frame and units: the head frame of `super` (IOD); colours as `colour` makes them.
 
-use super::traits::Canvas;
+use super::canvas::Canvas;
 use super::*;
 
 /// How far apart in chroma the crown's hair-labelled colours and the temples' hair must be

@@ -19,6 +19,7 @@
 //! the image-right eye, `t` perpendicular to it down the face, both in inter-ocular distances
 //! (IOD, the eyes' centres apart, about 63 mm on an adult). Pure computation.
 
+mod canvas;
 mod colour;
 mod glasses;
 mod hat;
@@ -29,6 +30,7 @@ mod traits;
 
 use image::RgbImage;
 
+use canvas::Canvas;
 pub(crate) use colour::inside;
 use colour::*;
 pub use glasses::{DARK_LENSES, GLASSES_BRIDGE, GLASSES_DIP, Glasses};

@@ -76,8 +76,8 @@ pub(super) struct Decided {
 }
 
 /// The silhouette from the labelled canvas.
-pub(super) fn hair_mask(canvas: &super::traits::Canvas, decided: &Decided) -> HairMask {
-    let super::traits::Canvas {
+pub(super) fn hair_mask(canvas: &Canvas, decided: &Decided) -> HairMask {
+    let Canvas {
         labels,
         w,
         h,

@@ -33,22 +33,6 @@ const EAR_BARE: f32 = 0.3;
 /// Where hair without a curtain is taken to end (face lengths below the eyes: about the ears).
 pub(super) const SHORT_LENGTH: f32 = 0.6;
 
-/// The labelled head frame that the hair's readings measure: its `w` x `h` pixels' labels,
-/// each pixel's head-frame point (`pos`, IOD), which pixels are the face's (not scalp), the
-/// skull's normalised radius at a point (1 on its outline), the face's length (eyes to chin)
-/// and half-width, IOD.
-#[derive(Clone, Copy)]
-pub(super) struct Canvas<'a> {
-    pub labels: &'a [Label],
-    pub w: usize,
-    pub h: usize,
-    pub pos: &'a dyn Fn(usize) -> [f32; 2],
-    pub in_face: &'a [bool],
-    pub skull: &'a dyn Fn([f32; 2]) -> f32,
-    pub chin: f32,
-    pub half: f32,
-}
-
 /// The hair's traits from its labelled pixels (`col`: each pixel's colour).
 pub(super) fn traits(canvas: &Canvas, col: &[Colour]) -> Option<Hair> {
     let Canvas {
