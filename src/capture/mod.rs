@@ -18,7 +18,8 @@ use std::path::{Path, PathBuf};
 pub use latest::{Closed, LatestReceiver, LatestSender, latest};
 pub use live::{Backoff, Capture, CaptureEvent, CaptureOptions, CaptureSummary, Frame};
 pub use source::{
-    FolderSource, FrameSource, ImageFileSource, MemorySource, RawFrame, SourceError, StillSource,
+    FailedSource, FolderSource, FrameSource, ImageFileSource, MemorySource, RawFrame, SourceError,
+    StillSource,
 };
 
 /// Largest accepted side, pixels (a 16k photo is already beyond any camera we serve).

@@ -65,6 +65,22 @@ pub trait FrameSource {
     }
 }
 
+/// A source that could not be opened where it was to run (the capture thread reopens it):
+/// its one frame is the error, as fatal, so the thread's owner hears why.
+pub struct FailedSource(pub String);
+
+impl FrameSource for FailedSource {
+    fn name(&self) -> String {
+        "source".into()
+    }
+    fn next_frame(&mut self) -> Result<Option<RawFrame>, SourceError> {
+        Err(SourceError::Fatal {
+            source_name: "source".into(),
+            reason: self.0.clone(),
+        })
+    }
+}
+
 /// Image file extensions a folder source picks up (case-insensitive).
 pub const IMAGE_EXTENSIONS: [&str; 10] = [
     "jpg", "jpeg", "png", "ppm", "pgm", "pnm", "bmp", "tif", "tiff", "webp",

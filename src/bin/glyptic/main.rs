@@ -17,7 +17,9 @@ macro_rules! say {
 
 mod cli;
 mod kiosk;
+mod outputs;
 mod signals;
+mod values;
 
 use std::process::ExitCode;
 

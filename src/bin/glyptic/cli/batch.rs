@@ -39,7 +39,7 @@ pub struct BatchArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
     pub jobs: Option<u16>,
     /// Per-image status and times (default: OUTDIR/batch.csv).
-    #[arg(long, value_name = "FILE.csv", value_parser = super::args::file_named(&["csv"], "CSV"))]
+    #[arg(long, value_name = "FILE.csv", value_parser = crate::values::file_named(&["csv"], "CSV"))]
     pub csv: Option<PathBuf>,
     /// Also write each stone for a 3D printer as OUTDIR/NAME-gem.stl (as `photo --stl`:
     /// binary STL in mm, a closed solid on a flat slab).
@@ -47,7 +47,7 @@ pub struct BatchArgs {
     pub stl: bool,
     /// The slab's thickness below the ground, mm (with --stl).
     #[arg(long, default_value_t = 3.0, value_name = "MM",
-          value_parser = super::args::finite_in::<f32>(0.1, 100.0))]
+          value_parser = crate::values::finite_in::<f32>(0.1, 100.0))]
     pub base: f32,
     /// Also write each relief for a CNC router as OUTDIR/NAME-height.png (as `photo
     /// --heightmap`: 16-bit grey, its mm per level in the PNG's text).
@@ -241,7 +241,7 @@ fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
     let bytes = w
         .into_inner()
         .map_err(|e| anyhow::anyhow!("writing the CSV: {}", e.error()))?;
-    super::write_atomic(path, &bytes)
+    crate::outputs::write_atomic(path, &bytes)
 }
 
 /// Decode, detect, landmarks, fit, person and relief for one image, its stages into `row`.
@@ -322,7 +322,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| args.output.join("batch.csv"));
     // No gem, export or the CSV may replace a photo of the batch, nor each other.
-    super::check_outputs(
+    crate::outputs::check_outputs(
         files.iter().map(PathBuf::as_path),
         outputs
             .iter()
@@ -454,10 +454,10 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                             // "error" in the CSV has none of them.
                             let mut staged = glyptic::files::Staged::new();
                             for (path, bytes, _) in &made.files {
-                                super::stage(&mut staged, path, bytes)?;
+                                crate::outputs::stage(&mut staged, path, bytes)?;
                             }
-                            super::stage(&mut staged, &outputs[i].gem, &png)?;
-                            super::commit(staged)
+                            crate::outputs::stage(&mut staged, &outputs[i].gem, &png)?;
+                            crate::outputs::commit(staged)
                         },
                         |_| String::new(),
                     )

@@ -10,7 +10,9 @@ use glyptic::gem;
 
 #[cfg(feature = "face")]
 use super::ChoiceArgs;
-use super::{OnOff, Size, SssArgs, check_outputs, write_atomic};
+use super::{OnOff, SssArgs};
+use crate::outputs::{check_outputs, write_atomic};
+use crate::values::Size;
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
@@ -18,11 +20,11 @@ use super::{OnOff, Size, SssArgs, check_outputs, write_atomic};
   glyptic kernel 25 --profile burley --strength 0.8")]
 pub struct KernelArgs {
     /// Taps (odd, 3..=65).
-    #[arg(value_parser = super::args::odd_taps)]
+    #[arg(value_parser = crate::values::odd_taps)]
     pub taps: usize,
     /// How much light scatters, 0..=1.
     #[arg(long, default_value_t = glyptic::sss::DEFAULT_STRENGTH, value_name = "S",
-          allow_negative_numbers = true, value_parser = super::finite_in::<f32>(0.0, 1.0))]
+          allow_negative_numbers = true, value_parser = crate::values::finite_in::<f32>(0.0, 1.0))]
     pub strength: f32,
     /// Diffusion profile.
     #[arg(long, value_enum, default_value_t = glyptic::sss::Profile::Marble)]
@@ -50,7 +52,7 @@ pub struct LandmarksArgs {
     #[command(flatten)]
     pub choice: ChoiceArgs,
     /// Also write the subject's landmarks as iBUG .pts (1-based, as menpo reads them).
-    #[arg(long, value_name = "FILE.pts", value_parser = super::args::file_named(&["pts"], "iBUG points"))]
+    #[arg(long, value_name = "FILE.pts", value_parser = crate::values::file_named(&["pts"], "iBUG points"))]
     pub pts: Option<PathBuf>,
 }
 
@@ -79,13 +81,13 @@ pub struct FitArgs {
     /// Use a perspective (pinhole) camera with this horizontal field of view, degrees, centred
     /// on the image; for faces close to the camera (a webcam: about 60). Default: orthographic.
     #[arg(long, value_name = "DEG", allow_negative_numbers = true,
-          value_parser = super::finite_in::<f64>(1.0, 170.0))]
+          value_parser = crate::values::finite_in::<f64>(1.0, 170.0))]
     pub fov: Option<f64>,
     /// Fit this many times and report the median time (the model is loaded once).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub repeat: u32,
     /// Also write the fitted face mesh (model millimetres) as Wavefront OBJ.
-    #[arg(long, value_name = "FILE.obj", value_parser = super::args::file_named(&["obj"], "Wavefront OBJ"))]
+    #[arg(long, value_name = "FILE.obj", value_parser = crate::values::file_named(&["obj"], "Wavefront OBJ"))]
     pub obj: Option<PathBuf>,
 }
 

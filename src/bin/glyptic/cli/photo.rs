@@ -12,7 +12,8 @@ use glyptic::stage::{Stage, timed};
 
 #[cfg(feature = "face")]
 use super::{ChoiceArgs, GlassesArg};
-use super::{ViewArgs, check_outputs, commit, print_stages, stage};
+use super::{ViewArgs, print_stages};
+use crate::outputs::{check_outputs, commit, stage};
 use glyptic::files::Staged;
 
 #[derive(clap::Args, Debug)]
@@ -24,7 +25,7 @@ use glyptic::files::Staged;
   glyptic render -o clear.png --background transparent --material agate")]
 pub struct RenderArgs {
     /// Output image: .png or .jpg (the format follows the extension).
-    #[arg(short, long, value_parser = super::args::file_named(&["png", "jpg", "jpeg"], "PNG or JPEG"))]
+    #[arg(short, long, value_parser = crate::values::file_named(&["png", "jpg", "jpeg"], "PNG or JPEG"))]
     pub output: PathBuf,
     #[command(flatten)]
     pub view: ViewArgs,
@@ -37,7 +38,7 @@ pub struct RenderArgs {
     pub photo: Option<PathBuf>,
     /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
     #[arg(long, value_name = "FILE.obj",
-          value_parser = super::args::file_named(&["obj"], "Wavefront OBJ"))]
+          value_parser = crate::values::file_named(&["obj"], "Wavefront OBJ"))]
     pub gem_obj: Option<PathBuf>,
     #[command(flatten)]
     pub make: MakeArgs,
@@ -54,22 +55,22 @@ pub struct MakeArgs {
     /// Also write the stone as a closed solid for a 3D printer or CAM program: binary STL in
     /// millimetres, the relief on a flat-bottomed oval slab (the bezel left out).
     #[arg(long, value_name = "FILE.stl",
-          value_parser = super::args::file_named(&["stl"], "binary STL"))]
+          value_parser = crate::values::file_named(&["stl"], "binary STL"))]
     pub stl: Option<PathBuf>,
     /// The slab's thickness below the ground, mm (with --stl).
     #[arg(long, default_value_t = 3.0, value_name = "MM",
-          value_parser = super::args::finite_in::<f32>(0.1, 100.0))]
+          value_parser = crate::values::finite_in::<f32>(0.1, 100.0))]
     pub base: f32,
     /// Also write the relief as a 16-bit grey PNG for a CNC router: one pixel per 0.2 mm
     /// grid node, 0 the ground; the millimetres per level are printed and stored in the PNG's
     /// text (`glyptic:mm_per_level`).
     #[arg(long, value_name = "FILE.png",
-          value_parser = super::args::file_named(&["png"], "a 16-bit PNG"))]
+          value_parser = crate::values::file_named(&["png"], "a 16-bit PNG"))]
     pub heightmap: Option<PathBuf>,
     /// Also write the cameo as shown (stone and gold bezel, with their materials) as binary
     /// glTF 2.0 for a 3D viewer: metres, +Y up, facing +Z.
     #[arg(long, value_name = "FILE.glb",
-          value_parser = super::args::file_named(&["glb"], "binary glTF (.glb)"))]
+          value_parser = crate::values::file_named(&["glb"], "binary glTF (.glb)"))]
     pub gltf: Option<PathBuf>,
 }
 
@@ -116,7 +117,7 @@ pub struct PhotoArgs {
     /// Portrait photo (JPEG, PNG, PPM, BMP, TIFF, WebP).
     pub image: PathBuf,
     /// Output image: .png or .jpg (the format follows the extension).
-    #[arg(short, long, value_parser = super::args::file_named(&["png", "jpg", "jpeg"], "PNG or JPEG"))]
+    #[arg(short, long, value_parser = crate::values::file_named(&["png", "jpg", "jpeg"], "PNG or JPEG"))]
     pub output: PathBuf,
     #[command(flatten)]
     pub view: ViewArgs,
@@ -124,15 +125,15 @@ pub struct PhotoArgs {
     pub choice: ChoiceArgs,
     /// Also write the 68 landmarks as an iBUG .pts file (1-based, like menpo's).
     #[arg(long, value_name = "FILE.pts",
-          value_parser = super::args::file_named(&["pts"], "iBUG points"))]
+          value_parser = crate::values::file_named(&["pts"], "iBUG points"))]
     pub landmarks_out: Option<PathBuf>,
     /// Also write the fitted face mesh (model millimetres) as Wavefront OBJ.
     #[arg(long, value_name = "FILE.obj",
-          value_parser = super::args::file_named(&["obj"], "Wavefront OBJ"))]
+          value_parser = crate::values::file_named(&["obj"], "Wavefront OBJ"))]
     pub obj: Option<PathBuf>,
     /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
     #[arg(long, value_name = "FILE.obj",
-          value_parser = super::args::file_named(&["obj"], "Wavefront OBJ"))]
+          value_parser = crate::values::file_named(&["obj"], "Wavefront OBJ"))]
     pub gem_obj: Option<PathBuf>,
     #[command(flatten)]
     pub make: MakeArgs,

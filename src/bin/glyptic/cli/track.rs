@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 
-use glyptic::capture::{Capture, CaptureEvent, CaptureOptions, FrameSource};
+use glyptic::capture::{Capture, CaptureEvent, CaptureOptions, FailedSource, FrameSource};
 use glyptic::pipeline::FacePipeline;
 use glyptic::stream::{FaceStream, FaceUpdate, StreamEvent};
 use glyptic::track::{TrackOptions, Tracker};
@@ -37,7 +37,7 @@ pub struct TrackArgs {
     pub frames: Option<u64>,
     /// Write one JSON object per processed frame (pose, stages, latency) to this file.
     #[arg(long, value_name = "FILE.jsonl",
-          value_parser = super::args::file_named(&["jsonl", "json"], "JSON lines"))]
+          value_parser = crate::values::file_named(&["jsonl", "json"], "JSON lines"))]
     pub jsonl: Option<PathBuf>,
     /// Turn smoothing off (each frame's own fit).
     #[arg(long)]
@@ -155,7 +155,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
     } else {
         None
     };
-    super::check_outputs(args.source.as_deref(), args.jsonl.as_deref())?;
+    crate::outputs::check_outputs(args.source.as_deref(), args.jsonl.as_deref())?;
     let mut jsonl = match &args.jsonl {
         Some(p) => Some(std::io::BufWriter::new(
             std::fs::File::create(p).with_context(|| format!("{}: cannot create", p.display()))?,
@@ -230,7 +230,9 @@ pub fn track(args: &TrackArgs) -> Result<()> {
         // Check the source opens before starting threads, for a clear error.
         open_source(&make_args)?;
         let capture = Capture::spawn(
-            move || open_source(&make_args).unwrap_or_else(|e| Box::new(Failed(e.to_string()))),
+            move || {
+                open_source(&make_args).unwrap_or_else(|e| Box::new(FailedSource(e.to_string())))
+            },
             CaptureOptions::default(),
         );
         // The visitor's hair is read on a person thread, as in the kiosk (with --gem).
@@ -324,22 +326,5 @@ fn source_name(args: &TrackArgs) -> String {
         (Some(path), _) => path.display().to_string(),
         (None, Some(n)) => format!("camera {n} (/dev/video{n})"),
         (None, None) => "the source".into(),
-    }
-}
-
-/// A source that failed to open on the capture thread: reports the error as fatal.
-pub struct Failed(pub String);
-
-impl FrameSource for Failed {
-    fn name(&self) -> String {
-        "source".into()
-    }
-    fn next_frame(
-        &mut self,
-    ) -> Result<Option<glyptic::capture::RawFrame>, glyptic::capture::SourceError> {
-        Err(glyptic::capture::SourceError::Fatal {
-            source_name: "source".into(),
-            reason: self.0.clone(),
-        })
     }
 }

@@ -79,14 +79,14 @@ pub(super) fn open_source(config: &KioskConfig) -> Box<dyn FrameSource> {
             true,
         )),
         #[cfg(not(feature = "video"))]
-        Some(path) => Box::new(crate::cli::track::Failed(format!(
+        Some(path) => Box::new(glyptic::capture::FailedSource(format!(
             "{}: this build reads no video files (cargo feature `video`)",
             path.display()
         ))),
         #[cfg(feature = "webcam")]
         None => Box::new(glyptic::capture::camera::CameraSource::new(config.camera)),
         #[cfg(not(feature = "webcam"))]
-        None => Box::new(crate::cli::track::Failed(
+        None => Box::new(glyptic::capture::FailedSource(
             "this build has no webcam support (cargo feature `webcam`)".into(),
         )),
     }

@@ -71,16 +71,16 @@ pub struct KioskArgs {
     pub config: Option<PathBuf>,
     /// Window size WIDTHxHEIGHT when not full-screen [config: width, height].
     #[arg(long)]
-    pub size: Option<crate::cli::Size>,
+    pub size: Option<crate::values::Size>,
     /// Quit after presenting this many frames (scripted runs).
     #[arg(long, value_name = "N")]
     pub frames: Option<u64>,
     /// Quit after this many seconds (scripted runs).
     #[arg(long, value_name = "S", allow_negative_numbers = true,
-          value_parser = crate::cli::finite_in::<f64>(0.0, 1e7))]
+          value_parser = crate::values::finite_in::<f64>(0.0, 1e7))]
     pub seconds: Option<f64>,
     /// When quitting, save the last presented frame (controls included) as PNG.
-    #[arg(long, value_name = "FILE.png", value_parser = crate::cli::file_named(&["png"], "PNG"))]
+    #[arg(long, value_name = "FILE.png", value_parser = crate::values::file_named(&["png"], "PNG"))]
     pub screenshot: Option<PathBuf>,
     /// Where the "Save" button writes its PNGs.
     #[arg(long, value_name = "DIR", default_value = ".")]
@@ -142,7 +142,7 @@ pub fn kiosk(args: &KioskArgs) -> Result<()> {
         }
     }
     // A screenshot that cannot be written is said now, not after the run.
-    crate::cli::check_outputs(config.video.as_deref(), args.screenshot.as_deref())?;
+    crate::outputs::check_outputs(config.video.as_deref(), args.screenshot.as_deref())?;
     if args.check {
         return check(&config, args);
     }
@@ -182,9 +182,10 @@ fn check_output_folders(args: &KioskArgs) -> Result<()> {
         })
         .find(|d| d.exists())
         .unwrap_or(Path::new("."));
-    crate::cli::check_writable_folder(snapshots).context("the snapshots folder (--snapshots)")?;
+    crate::outputs::check_writable_folder(snapshots)
+        .context("the snapshots folder (--snapshots)")?;
     if let Some(shot) = &args.screenshot {
-        crate::cli::check_writable_folder(crate::cli::folder_of(shot))
+        crate::outputs::check_writable_folder(crate::outputs::folder_of(shot))
             .context("the screenshot's folder (--screenshot)")?;
     }
     Ok(())

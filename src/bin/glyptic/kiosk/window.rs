@@ -752,7 +752,7 @@ impl Running {
             return;
         }
         // The visitor hears that it worked or not; the path and the reason go to the log.
-        let message = match crate::cli::write_png(image.clone(), &path) {
+        let message = match crate::outputs::write_png(image.clone(), &path) {
             Ok(()) => {
                 tracing::info!("kiosk: saved {}", path.display());
                 self.config.texts.saved.clone()
@@ -772,7 +772,7 @@ impl Running {
                 .last_screen
                 .as_ref()
                 .ok_or_else(|| anyhow!("no frame was captured for the screenshot"))?;
-            crate::cli::write_png(image.clone(), path)?;
+            crate::outputs::write_png(image.clone(), path)?;
         }
         tracing::info!(
             "kiosk: {} frames, {} gems, {} face updates; first frame after {:.2} s, first gem \
