@@ -11,15 +11,16 @@ bin="${GLYPTIC_BIN:-./target/release/glyptic}"
 [ -x "$bin" ] || cargo build --release --locked
 out="$(mktemp -d)"
 for i in $(seq "$n"); do
-  "$bin" photo "$img" -o "$out/gem.png" "$@" | sed -E 's/^(.{16}) +([0-9.]+) ms.*/\1\t\2/' >> "$out/times.tsv"
+  "$bin" photo "$img" -o "$out/gem.png" --json "$@" >> "$out/reports.jsonl"
 done
 echo "median of $n runs, $img, $(nproc) cores, $(date -u +%F)"
-python3 - "$out/times.tsv" <<'PY'
-import statistics, sys
+python3 - "$out/reports.jsonl" <<'PY'
+import json, statistics, sys
 times = {}
 for line in open(sys.argv[1]):
-    stage, ms = line.rstrip("\n").split("\t")
-    times.setdefault(stage.strip(), []).append(float(ms))
+    report = json.loads(line)  # docs/report.schema.json
+    for stage in report["stages"] + [{"name": "total", "ms": report["total_ms"]}]:
+        times.setdefault(stage["name"], []).append(float(stage["ms"]))
 for stage, values in times.items():
     print(f"{stage:<16} {statistics.median(values):9.1f} ms")
 PY

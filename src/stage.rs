@@ -11,8 +11,8 @@
 use std::cell::RefCell;
 use std::time::Instant;
 
-/// One timed stage.
-#[derive(Clone, Debug)]
+/// One timed stage (serialised as `{name, ms, detail}` in the JSON reports).
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct Stage {
     pub name: &'static str,
     pub ms: f64,

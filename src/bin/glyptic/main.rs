@@ -18,6 +18,7 @@ macro_rules! say {
 mod cli;
 mod kiosk;
 mod outputs;
+mod report;
 mod signals;
 mod values;
 
@@ -41,12 +42,21 @@ fn main() -> ExitCode {
         args.command,
         cli::Command::Doctor(_) | cli::Command::Setup(_)
     );
+    let json = args.json_report();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            complain(format_args!("glyptic: error: {}", one_line(&err)));
-            if let Some(stop) = err.downcast_ref::<signals::Interrupted>() {
-                return ExitCode::from(u8::try_from(128 + stop.signal).unwrap_or(1));
+            let line = one_line(&err);
+            complain(format_args!("glyptic: error: {line}"));
+            let code = match err.downcast_ref::<signals::Interrupted>() {
+                Some(stop) => u8::try_from(128 + stop.signal).unwrap_or(1),
+                None => 1,
+            };
+            if let Some(command) = json {
+                report::print_error(command, &line, code);
+            }
+            if code != 1 {
+                return ExitCode::from(code);
             }
             let (root, _) = glyptic::assets::locate_root();
             if hint && !glyptic::assets::looks_like_root(&root) {

@@ -18,6 +18,7 @@ use glyptic::pipeline::{GemPipeline, GemPipelineError};
 use glyptic::render::Renderer;
 
 use super::ViewArgs;
+use crate::report::Outputs as Written;
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
@@ -274,7 +275,7 @@ fn export_job(
     }
     let (made, stages) = glyptic::stage::record(|| {
         glyptic::stage::timed(
-            "export",
+            "make files",
             || {
                 super::photo::make_files(
                     make,
@@ -350,7 +351,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     let mut renderer: Renderer = renderer_thread.join()?.0;
     let loaded_ms = start.elapsed().as_secs_f64() * 1e3;
 
-    let bar = if super::QUIET.load(Ordering::Relaxed) || args.json {
+    let bar = if crate::report::quiet() || args.json {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(files.len() as u64)
@@ -510,45 +511,69 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         .sum();
     let working_s = (secs - loaded_ms / 1e3).max(1e-9);
     if args.json {
-        let images: Vec<serde_json::Value> = rows
+        /// One image of the batch: what it became, or why not.
+        #[derive(serde::Serialize)]
+        struct Image<'a> {
+            input: String,
+            status: &'a str,
+            error: Option<&'a str>,
+            faces: usize,
+            outputs: Written,
+            person: &'a Option<serde_json::Value>,
+            stages: Vec<glyptic::stage::Stage>,
+        }
+        #[derive(serde::Serialize)]
+        struct BatchReport<'a> {
+            input: String,
+            outputs: Written,
+            images: usize,
+            ok: usize,
+            face_workers: usize,
+            startup_ms: f64,
+            images_per_s: f64,
+            renderer_busy: f64,
+            results: Vec<Image<'a>>,
+            total_ms: f64,
+        }
+        let results = rows
             .iter()
             .map(|r| {
-                let stages: serde_json::Map<String, serde_json::Value> = r
-                    .stages
-                    .iter()
-                    .map(|(name, ms)| (name.to_string(), serde_json::json!(ms)))
-                    .collect();
-                let exports: serde_json::Map<String, serde_json::Value> = r
-                    .exports
-                    .iter()
-                    .map(|(kind, p)| (kind.to_string(), serde_json::json!(p.display().to_string())))
-                    .collect();
-                serde_json::json!({
-                    "input": r.input.display().to_string(),
-                    "gem": r.output.as_ref().map(|p| p.display().to_string()),
-                    "exports": exports,
-                    "status": r.status,
-                    "faces": r.faces,
-                    "error": (!r.error.is_empty()).then_some(&r.error),
-                    "times_ms": stages,
-                    "person": r.person,
-                })
+                let mut pairs: Vec<(&'static str, Option<&Path>)> =
+                    vec![("image", r.output.as_deref())];
+                pairs.extend(r.exports.iter().map(|(kind, p)| (*kind, Some(p.as_path()))));
+                Image {
+                    input: r.input.display().to_string(),
+                    status: r.status,
+                    error: (!r.error.is_empty()).then_some(r.error.as_str()),
+                    faces: r.faces,
+                    outputs: Written::of(&pairs),
+                    person: &r.person,
+                    stages: r
+                        .stages
+                        .iter()
+                        .map(|&(name, ms)| glyptic::stage::Stage {
+                            name,
+                            ms,
+                            detail: String::new(),
+                        })
+                        .collect(),
+                }
             })
             .collect();
-        say!(
-            "{}",
-            serde_json::json!({
-                "command": "batch",
-                "images": rows.len(),
-                "ok": ok,
-                "seconds": secs,
-                "startup_s": loaded_ms / 1e3,
-                "images_per_s": rows.len() as f64 / working_s,
-                "face_workers": jobs,
-                "renderer_busy": render_s / working_s,
-                "csv": csv.display().to_string(),
-                "results": images,
-            })
+        crate::report::print(
+            "batch",
+            BatchReport {
+                input: args.dir.display().to_string(),
+                outputs: Written::of(&[("csv", Some(csv.as_path()))]),
+                images: rows.len(),
+                ok,
+                face_workers: jobs,
+                startup_ms: loaded_ms,
+                images_per_s: rows.len() as f64 / working_s,
+                renderer_busy: render_s / working_s,
+                results,
+                total_ms: secs * 1e3,
+            },
         );
     } else {
         say!(

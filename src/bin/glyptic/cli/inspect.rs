@@ -12,6 +12,7 @@ use glyptic::gem;
 use super::ChoiceArgs;
 use super::{OnOff, SssArgs};
 use crate::outputs::{check_outputs, write_atomic};
+use crate::report::{Outputs, Pose, ms_since};
 use crate::values::Size;
 
 #[derive(clap::Args, Debug)]
@@ -94,6 +95,7 @@ pub struct FitArgs {
 /// `glyptic landmarks`: detection and 68 landmarks per face, with per-stage times.
 #[cfg(feature = "face")]
 pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
+    let start = std::time::Instant::now();
     let path = &args.image;
     check_outputs([path.as_path()], args.pts.as_deref())?;
     let (found, stages) = glyptic::stage::record(|| -> Result<_> {
@@ -120,26 +122,42 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
         )?;
     }
     if args.json {
-        let times: serde_json::Map<String, serde_json::Value> = stages
-            .iter()
-            .map(|s| (s.name.to_string(), serde_json::json!(s.ms)))
-            .collect();
-        let faces: Vec<serde_json::Value> = faces
-            .iter()
-            .map(|f| {
-                serde_json::json!({
-                    "box": f.detection.bbox, "score": f.detection.score, "points": f.points,
-                })
-            })
-            .collect();
-        say!(
-            "{}",
-            serde_json::json!({ "image": path.display().to_string(), "width": img.width(),
-                "height": img.height(), "faces": faces, "times_ms": times })
+        #[derive(serde::Serialize)]
+        struct LandmarksReport {
+            input: String,
+            width: u32,
+            height: u32,
+            faces: Vec<crate::report::Face>,
+            outputs: Outputs,
+            stages: Vec<glyptic::stage::Stage>,
+            total_ms: f64,
+        }
+        crate::report::print(
+            "landmarks",
+            LandmarksReport {
+                input: path.display().to_string(),
+                width: img.width(),
+                height: img.height(),
+                faces: faces
+                    .iter()
+                    .map(|f| crate::report::Face {
+                        bbox: Some(f.detection.bbox),
+                        score: Some(f.detection.score),
+                        landmarks: f.points.clone(),
+                        ..Default::default()
+                    })
+                    .collect(),
+                outputs: Outputs::of(&[(
+                    "landmarks",
+                    args.pts.as_deref().filter(|_| !faces.is_empty()),
+                )]),
+                stages,
+                total_ms: ms_since(start),
+            },
         );
     } else {
         // (A faceless image is said once, as the error below.)
-        super::print_stages(&stages);
+        crate::report::print_stages(&stages);
         for (i, f) in faces.iter().enumerate() {
             let [x, y, w, h] = f.detection.bbox;
             say!(
@@ -164,6 +182,7 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
 }
 
 pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
+    let start = Instant::now();
     check_outputs([args.landmarks.as_path()], args.obj.as_deref())?;
     let path = &args.landmarks;
     let text = glyptic::files::read_text_limited(path, glyptic::files::MAX_TEXT_BYTES)
@@ -229,29 +248,77 @@ pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
         )?;
     }
     if args.json {
-        let out = serde_json::json!({
-            "yaw_deg": yaw, "pitch_deg": pitch, "roll_deg": roll,
-            "scale_px_per_mm": fit.pose.scale,
-            // Where the model origin projects, image pixels (x right, y down): with the rotation
-            // and scale this is the whole orthographic camera.
-            "translation_px": [fit.pose.translation.x, -fit.pose.translation.y],
-            "rotation": (0..3).map(|r| (0..3).map(|c| fit.pose.rotation[(r, c)]).collect::<Vec<f64>>()).collect::<Vec<_>>(),
-            "shape": fit.shape, "expression": fit.expression,
-            "expression_names": model.blendshapes.names,
-            "reprojection_px": fit.reprojection_px, "max_reprojection_px": fit.max_reprojection_px,
-            "mapped_landmarks": fit.mapped_landmarks, "noise_mm": fit.noise_mm,
-            "iterations": fit.iterations, "fit_ms": fit_ms, "load_ms": load_ms,
-            "contour": !args.no_contour,
-            "camera": if fit.perspective.is_some() { "perspective" } else { "orthographic" },
-            "depth_mm": fit.perspective.map(|p| p.depth_mm()),
-        });
-        say!("{out}");
-    } else {
-        say!(
-            "{:<16} {load_ms:>9.1} ms  {} vertices",
-            "load face model",
-            model.shape.num_vertices()
+        /// The fit: pose, the orthographic (or perspective) camera, the model's coefficients.
+        #[derive(serde::Serialize)]
+        struct FitReport {
+            input: String,
+            #[serde(flatten)]
+            pose: Pose,
+            scale_px_per_mm: f64,
+            /// Where the model origin projects, image pixels (x right, y down): with the
+            /// rotation and scale this is the whole orthographic camera.
+            translation_px: [f64; 2],
+            rotation: [[f64; 3]; 3],
+            shape: Vec<f32>,
+            expression: Vec<f32>,
+            expression_names: Vec<String>,
+            reprojection_px: f64,
+            max_reprojection_px: f64,
+            mapped_landmarks: usize,
+            noise_mm: f64,
+            iterations: usize,
+            fit_ms: f64,
+            load_ms: f64,
+            contour: bool,
+            camera: &'static str,
+            depth_mm: Option<f64>,
+            outputs: Outputs,
+            stages: Vec<glyptic::stage::Stage>,
+            total_ms: f64,
+        }
+        let stage = |name, ms| glyptic::stage::Stage {
+            name,
+            ms,
+            detail: String::new(),
+        };
+        crate::report::print(
+            "fit",
+            FitReport {
+                input: path.display().to_string(),
+                pose: Pose::of(&fit.pose),
+                scale_px_per_mm: fit.pose.scale,
+                translation_px: [fit.pose.translation.x, -fit.pose.translation.y],
+                rotation: std::array::from_fn(|r| {
+                    std::array::from_fn(|c| fit.pose.rotation[(r, c)])
+                }),
+                shape: fit.shape.clone(),
+                expression: fit.expression.clone(),
+                expression_names: model.blendshapes.names.clone(),
+                reprojection_px: fit.reprojection_px,
+                max_reprojection_px: fit.max_reprojection_px,
+                mapped_landmarks: fit.mapped_landmarks,
+                noise_mm: fit.noise_mm,
+                iterations: fit.iterations,
+                fit_ms,
+                load_ms,
+                contour: !args.no_contour,
+                camera: if fit.perspective.is_some() {
+                    "perspective"
+                } else {
+                    "orthographic"
+                },
+                depth_mm: fit.perspective.map(|p| p.depth_mm()),
+                outputs: Outputs::of(&[("obj", args.obj.as_deref())]),
+                stages: vec![stage("load face model", load_ms), stage("fit", fit_ms)],
+                total_ms: ms_since(start),
+            },
         );
+    } else {
+        crate::report::print_stages(&[glyptic::stage::Stage {
+            name: "load face model",
+            ms: load_ms,
+            detail: format!("{} vertices", model.shape.num_vertices()),
+        }]);
         say!(
             "{:<16} {fit_ms:>9.2} ms  yaw {yaw:.1} pitch {pitch:.1} roll {roll:.1} deg, reprojection {:.2} px mean, {:.2} px max over {} mapped landmarks, landmark noise {:.2} mm, {} iterations",
             "fit",

@@ -25,8 +25,6 @@ use std::path::Path;
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
-use glyptic::stage::Stage;
-
 #[derive(Parser, Debug)]
 #[command(
     name = "glyptic",
@@ -101,8 +99,29 @@ impl Cli {
     }
 }
 
+impl Cli {
+    /// The command's name when it reports in JSON on stdout (`--json`), so that an error is
+    /// reported there too.
+    pub fn json_report(&self) -> Option<&'static str> {
+        match &self.command {
+            #[cfg(feature = "face")]
+            Command::Photo(a) => a.json.then_some("photo"),
+            // `render --photo` is `photo`, and reports as it.
+            #[cfg(feature = "face")]
+            Command::Render(a) if a.photo.is_some() => a.json.then_some("photo"),
+            Command::Render(a) => a.json.then_some("render"),
+            Command::Fit(a) => a.json.then_some("fit"),
+            #[cfg(feature = "face")]
+            Command::Landmarks(a) => a.json.then_some("landmarks"),
+            #[cfg(feature = "face")]
+            Command::Batch(a) => a.json.then_some("batch"),
+            _ => None,
+        }
+    }
+}
+
 pub fn run(cli: Cli) -> Result<()> {
-    QUIET.store(cli.quiet, std::sync::atomic::Ordering::Relaxed);
+    crate::report::set_quiet(cli.quiet);
     match cli.command {
         #[cfg(feature = "face")]
         Command::Photo(args) => photo(&args),
@@ -118,49 +137,5 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Kiosk(args) => crate::kiosk::kiosk(&args),
         Command::Setup(args) => setup(&args),
         Command::Doctor(args) => doctor(&args),
-    }
-}
-
-/// Whether `-q` asked for errors only (set once, before any command runs).
-static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-/// With `--json` (photo, render) the stage table is collected here instead of printed, and
-/// the command prints one JSON object at its end.
-static JSON_STAGES: std::sync::Mutex<Option<Vec<Stage>>> = std::sync::Mutex::new(None);
-
-/// Turns the JSON report on: stages are collected from now on.
-fn collect_stages() {
-    if let Ok(mut s) = JSON_STAGES.lock() {
-        *s = Some(Vec::new());
-    }
-}
-
-/// The collected stages as JSON (`[{"name", "ms", "detail"}]`).
-fn stages_json() -> serde_json::Value {
-    let stages = JSON_STAGES
-        .lock()
-        .ok()
-        .and_then(|s| s.clone())
-        .unwrap_or_default();
-    stages
-        .iter()
-        .map(|s| serde_json::json!({ "name": s.name, "ms": s.ms, "detail": s.detail }))
-        .collect()
-}
-
-/// The stage table's lines: name, time, what the stage found (nothing with `-q`; collected
-/// for the report with `--json`).
-fn print_stages(stages: &[Stage]) {
-    if let Ok(mut collected) = JSON_STAGES.lock()
-        && let Some(all) = collected.as_mut()
-    {
-        all.extend(stages.iter().cloned());
-        return;
-    }
-    if QUIET.load(std::sync::atomic::Ordering::Relaxed) {
-        return;
-    }
-    for s in stages {
-        say!("{:<16} {:>9.1} ms  {}", s.name, s.ms, s.detail);
     }
 }

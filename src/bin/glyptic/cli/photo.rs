@@ -10,10 +10,11 @@ use glyptic::gem;
 use glyptic::render::{RenderParams, Renderer};
 use glyptic::stage::{Stage, timed};
 
+use super::ViewArgs;
 #[cfg(feature = "face")]
 use super::{ChoiceArgs, GlassesArg};
-use super::{ViewArgs, print_stages};
 use crate::outputs::{check_outputs, commit, stage};
+use crate::report::{Outputs, Pose, ms_since, print_stages};
 use glyptic::files::Staged;
 
 #[derive(clap::Args, Debug)]
@@ -141,17 +142,6 @@ pub struct PhotoArgs {
     /// its box, 68 landmarks, pose and fit error) instead of the stage table.
     #[arg(long)]
     pub json: bool,
-}
-
-/// The files a run wrote, by kind, for the JSON report.
-fn outputs_json(pairs: &[(&str, Option<&Path>)]) -> serde_json::Value {
-    pairs
-        .iter()
-        .filter_map(|(kind, path)| {
-            path.map(|p| (kind.to_string(), serde_json::json!(p.display().to_string())))
-        })
-        .collect::<serde_json::Map<_, _>>()
-        .into()
 }
 
 /// The cameo as binary glTF, its materials the renderer's for `params`' stone.
@@ -393,7 +383,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
     }
     let start = Instant::now();
     if args.json {
-        super::collect_stages();
+        crate::report::collect_stages();
     }
     let params = args.view.params()?;
     check_outputs(
@@ -456,21 +446,27 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
         detail: args.output.display().to_string(),
     }]);
     if args.json {
-        say!(
-            "{}",
-            serde_json::json!({
-                "command": "render",
-                "face": source,
-                "outputs": outputs_json(&[
+        #[derive(serde::Serialize)]
+        struct RenderReport {
+            input: String,
+            outputs: Outputs,
+            stages: Vec<glyptic::stage::Stage>,
+            total_ms: f64,
+        }
+        crate::report::print(
+            "render",
+            RenderReport {
+                input: source,
+                outputs: Outputs::of(&[
                     ("image", Some(args.output.as_path())),
                     ("gem_obj", args.gem_obj.as_deref()),
                     ("stl", args.make.stl.as_deref()),
                     ("heightmap", args.make.heightmap.as_deref()),
                     ("gltf", args.make.gltf.as_deref()),
                 ]),
-                "stages": super::stages_json(),
-                "total_ms": start.elapsed().as_secs_f64() * 1e3,
-            })
+                stages: crate::report::collected_stages(),
+                total_ms: ms_since(start),
+            },
         );
     }
     Ok(())
@@ -546,7 +542,7 @@ fn stage_gem_obj(
 pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     let start = Instant::now();
     if args.json {
-        super::collect_stages();
+        crate::report::collect_stages();
     }
     let params = args.view.params()?;
     check_outputs(
@@ -630,14 +626,22 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
         },
     ]);
     if args.json {
+        #[derive(serde::Serialize)]
+        struct PhotoReport {
+            input: String,
+            outputs: Outputs,
+            face: crate::report::Face,
+            faces_found: usize,
+            person: Option<serde_json::Value>,
+            stages: Vec<glyptic::stage::Stage>,
+            total_ms: f64,
+        }
         let face = &gem.face;
-        let [yaw, pitch, roll] = face.fit.pose.yaw_pitch_roll_deg();
-        say!(
-            "{}",
-            serde_json::json!({
-                "command": "photo",
-                "image": image_path.display().to_string(),
-                "outputs": outputs_json(&[
+        crate::report::print(
+            "photo",
+            PhotoReport {
+                input: image_path.display().to_string(),
+                outputs: Outputs::of(&[
                     ("image", Some(args.output.as_path())),
                     ("landmarks", args.landmarks_out.as_deref()),
                     ("obj", args.obj.as_deref()),
@@ -646,18 +650,18 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
                     ("heightmap", args.make.heightmap.as_deref()),
                     ("gltf", args.make.gltf.as_deref()),
                 ]),
-                "face": {
-                    "box": face.detection.bbox,
-                    "score": face.detection.score,
-                    "faces_found": face.faces_found,
-                    "landmarks": face.landmarks,
-                    "yaw_deg": yaw, "pitch_deg": pitch, "roll_deg": roll,
-                    "reprojection_px": face.fit.reprojection_px,
+                face: crate::report::Face {
+                    bbox: Some(face.detection.bbox),
+                    score: Some(face.detection.score),
+                    landmarks: face.landmarks.clone(),
+                    pose: Some(Pose::of(&face.fit.pose)),
+                    reprojection_px: Some(face.fit.reprojection_px),
                 },
-                "person": gem.person.as_ref().map(glyptic::pipeline::gem::person_json),
-                "stages": super::stages_json(),
-                "total_ms": start.elapsed().as_secs_f64() * 1e3,
-            })
+                faces_found: face.faces_found,
+                person: gem.person.as_ref().map(glyptic::pipeline::gem::person_json),
+                stages: crate::report::collected_stages(),
+                total_ms: ms_since(start),
+            },
         );
     }
     Ok(())

@@ -12,6 +12,8 @@ use glyptic::pipeline::FacePipeline;
 use glyptic::stream::{FaceStream, FaceUpdate, StreamEvent};
 use glyptic::track::{TrackOptions, Tracker};
 
+use crate::report::Pose;
+
 #[derive(clap::Args, Debug, Clone)]
 #[command(after_help = "Examples:
   glyptic track clip.mp4
@@ -98,10 +100,16 @@ impl StageTimes {
         }
     }
 
+    /// The per-stage table, on stderr with the other stage tables (nothing with `-q`).
     fn print(&self) {
+        if crate::report::quiet() {
+            return;
+        }
         for (name, v) in &self.by_name {
             let (med, p95, n) = quantiles(v);
-            say!("  {name:<18} median {med:>7.2} ms   p95 {p95:>7.2} ms   ({n} frames)");
+            crate::complain(format_args!(
+                "  {name:<18} median {med:>7.2} ms   p95 {p95:>7.2} ms   ({n} frames)"
+            ));
         }
     }
 }
@@ -116,33 +124,58 @@ fn quantiles(v: &[f64]) -> (f64, f64, usize) {
     (at(0.5), at(0.95), s.len())
 }
 
-fn json_line(update: &FaceUpdate) -> serde_json::Value {
-    let stages: serde_json::Map<String, serde_json::Value> = update
-        .stages
-        .iter()
-        .map(|s| (s.name.to_string(), serde_json::json!(s.ms)))
-        .collect();
-    let face = update.face.as_ref().map(|f| {
-        serde_json::json!({
-            "detected": f.detected,
-            "yaw_pitch_roll_deg": f.pose.yaw_pitch_roll_deg(),
-            "raw_yaw_pitch_roll_deg": f.raw.pose.yaw_pitch_roll_deg(),
-            "reprojection_px": f.raw.reprojection_px,
-            "identity_frames": f.identity_frames,
-            "expression": f.expression,
-            "landmarks": f.landmarks,
-        })
+/// One frame of `--jsonl`: a report line of its own (schema and command included), the face
+/// as in every report plus what tracking adds.
+fn json_line(update: &FaceUpdate) -> Result<String, serde_json::Error> {
+    /// The tracked face: the smoothed pose in `yaw_deg`..., the frame's own fit in `raw`.
+    #[derive(serde::Serialize)]
+    struct Tracked<'a> {
+        #[serde(flatten)]
+        face: crate::report::Face,
+        detected: bool,
+        raw: Pose,
+        identity_frames: usize,
+        expression: &'a [f32],
+    }
+    #[derive(serde::Serialize)]
+    struct Line<'a> {
+        frame: u64,
+        time_s: f64,
+        latency_ms: f64,
+        face: Option<Tracked<'a>>,
+        note: &'a Option<String>,
+        stages: &'a [glyptic::stage::Stage],
+    }
+    let face = update.face.as_ref().map(|f| Tracked {
+        face: crate::report::Face {
+            landmarks: f.landmarks.clone(),
+            pose: Some(Pose::of(&f.pose)),
+            reprojection_px: Some(f.raw.reprojection_px),
+            ..Default::default()
+        },
+        detected: f.detected,
+        raw: Pose::of(&f.raw.pose),
+        identity_frames: f.identity_frames,
+        expression: &f.expression,
     });
-    serde_json::json!({
-        "frame": update.frame_index, "time_s": update.time_s, "latency_ms": update.latency_ms,
-        "face": face, "note": update.note, "times_ms": stages,
+    serde_json::to_string(&crate::report::Report {
+        schema: crate::report::SCHEMA,
+        command: "track",
+        body: Line {
+            frame: update.frame_index,
+            time_s: update.time_s,
+            latency_ms: update.latency_ms,
+            face,
+            note: &update.note,
+            stages: &update.stages,
+        },
     })
 }
 
 pub fn track(args: &TrackArgs) -> Result<()> {
     let (pipeline, load) =
         glyptic::stage::record(|| FacePipeline::load(&glyptic::assets::ModelPaths::locate()));
-    super::print_stages(&load);
+    crate::report::print_stages(&load);
     let mut pipeline = pipeline?;
     args.choice.apply_face(&mut pipeline);
     let options = TrackOptions {
@@ -171,7 +204,8 @@ pub fn track(args: &TrackArgs) -> Result<()> {
         }
         times.add("latency", u.latency_ms);
         if let Some(w) = jsonl.as_mut() {
-            writeln!(w, "{}", json_line(u)).context("writing the JSON lines")?;
+            let line = json_line(u).context("a frame as JSON")?;
+            writeln!(w, "{line}").context("writing the JSON lines")?;
         }
         Ok(())
     };

@@ -1,0 +1,187 @@
+//! What the commands report: the stage table (stderr, for people) and the `--json` objects
+//! (stdout, for scripts), one vocabulary for all of them.
+//!
+//! Every JSON report is one object with `schema` ([`SCHEMA`]) and `command`; what a command
+//! read is `input`, the files it wrote `outputs` (kind -> path), its timed steps `stages`
+//! (a list of `{name, ms, detail}`, in order) and its wall time `total_ms`. A face is the same
+//! object wherever it appears (`photo`, `landmarks`, `track`). A failed command under
+//! `--json` prints `{schema, command, error: {message, exit_code}}` instead, unless it failed
+//! after its report (`batch` with failed images, `landmarks` with no face). The shape is
+//! documented, and checked by the tests, in `docs/report.schema.json` (`docs/reports.md`).
+//! Times are wall-clock milliseconds, pixels are the input image's, angles degrees.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use serde::Serialize;
+
+use glyptic::stage::Stage;
+
+/// The reports' shape version: raised when a field changes meaning or goes away (new fields
+/// may appear without it).
+pub const SCHEMA: u32 = 1;
+
+/// Whether `-q` asked for errors only (set once, before any command runs).
+static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// With `--json` the stage table is collected here instead of printed, for the report.
+static COLLECTED: Mutex<Option<Vec<Stage>>> = Mutex::new(None);
+
+/// Whether a JSON report went to stdout (a command that fails after it prints no second
+/// object for its error).
+static REPORTED: AtomicBool = AtomicBool::new(false);
+
+/// `-q`: no stage table.
+pub fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, Ordering::Relaxed);
+}
+
+/// Turns the JSON report on: stages are collected from now on, not printed.
+pub fn collect_stages() {
+    if let Ok(mut s) = COLLECTED.lock() {
+        *s = Some(Vec::new());
+    }
+}
+
+/// The stages collected since [`collect_stages`].
+pub fn collected_stages() -> Vec<Stage> {
+    COLLECTED
+        .lock()
+        .ok()
+        .and_then(|s| s.clone())
+        .unwrap_or_default()
+}
+
+/// The stage table's lines on stderr (stdout is kept for data: the JSON report, an image
+/// written to `-`): name, time, what the stage found. Nothing with `-q`; collected instead
+/// with `--json`.
+pub fn print_stages(stages: &[Stage]) {
+    if let Ok(mut collected) = COLLECTED.lock()
+        && let Some(all) = collected.as_mut()
+    {
+        // The total is the report's own `total_ms`.
+        all.extend(stages.iter().filter(|s| s.name != "total").cloned());
+        return;
+    }
+    if QUIET.load(Ordering::Relaxed) {
+        return;
+    }
+    for s in stages {
+        crate::complain(format_args!(
+            "{:<16} {:>9.1} ms  {}",
+            s.name, s.ms, s.detail
+        ));
+    }
+}
+
+/// A report object: the schema, the command, then the command's own fields.
+#[derive(Serialize)]
+pub struct Report<T: Serialize> {
+    pub schema: u32,
+    pub command: &'static str,
+    #[serde(flatten)]
+    pub body: T,
+}
+
+/// Prints `body` as the command's one JSON report on stdout.
+pub fn print<T: Serialize>(command: &'static str, body: T) {
+    let report = Report {
+        schema: SCHEMA,
+        command,
+        body,
+    };
+    match serde_json::to_string(&report) {
+        Ok(line) => {
+            REPORTED.store(true, Ordering::Relaxed);
+            say!("{line}");
+        }
+        Err(e) => tracing::error!("the report could not be written as JSON: {e}"),
+    }
+}
+
+/// A command's error as its JSON report, when it had none yet.
+pub fn print_error(command: &'static str, message: &str, exit_code: u8) {
+    if REPORTED.load(Ordering::Relaxed) {
+        return;
+    }
+    #[derive(Serialize)]
+    struct Failure<'a> {
+        message: &'a str,
+        exit_code: u8,
+    }
+    #[derive(Serialize)]
+    struct Body<'a> {
+        error: Failure<'a>,
+    }
+    print(
+        command,
+        Body {
+            error: Failure { message, exit_code },
+        },
+    );
+}
+
+/// The files a command wrote, by kind (`image`, `landmarks`, `obj`, `gem_obj`, `stl`,
+/// `heightmap`, `gltf`, `csv`).
+#[derive(Serialize, Default)]
+pub struct Outputs(BTreeMap<&'static str, String>);
+
+impl Outputs {
+    /// The outputs among `pairs` that were asked for.
+    pub fn of(pairs: &[(&'static str, Option<&Path>)]) -> Self {
+        Outputs(
+            pairs
+                .iter()
+                .filter_map(|(kind, path)| path.map(|p| (*kind, p.display().to_string())))
+                .collect(),
+        )
+    }
+}
+
+/// A face found in an image: its detector box `[x, y, w, h]` and score, its 68 iBUG
+/// landmarks `[x, y]` (image pixels, 0-based), and where it was fitted, the pose and the
+/// fit's mean reprojection error.
+#[derive(Serialize, Default)]
+pub struct Face {
+    #[serde(rename = "box", skip_serializing_if = "Option::is_none")]
+    pub bbox: Option<[f32; 4]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub score: Option<f32>,
+    pub landmarks: Vec<[f32; 2]>,
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub pose: Option<Pose>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reprojection_px: Option<f64>,
+}
+
+/// A head's orientation, degrees, for `R = Rz(roll) Ry(yaw) Rx(pitch)` in the face model's
+/// frame; positive yaw turns the face towards its own left.
+#[derive(Serialize, Clone, Copy)]
+pub struct Pose {
+    pub yaw_deg: f64,
+    pub pitch_deg: f64,
+    pub roll_deg: f64,
+}
+
+impl Pose {
+    pub fn of(pose: &glyptic::fit::Pose) -> Self {
+        let [yaw_deg, pitch_deg, roll_deg] = pose.yaw_pitch_roll_deg();
+        Pose {
+            yaw_deg,
+            pitch_deg,
+            roll_deg,
+        }
+    }
+}
+
+/// Milliseconds since `start`.
+pub fn ms_since(start: std::time::Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}
+
+/// Whether `-q` asked for errors only.
+pub fn quiet() -> bool {
+    QUIET.load(Ordering::Relaxed)
+}
