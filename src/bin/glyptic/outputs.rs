@@ -14,9 +14,13 @@ pub fn check_outputs<'a>(
     inputs: impl IntoIterator<Item = &'a Path>,
     outputs: impl IntoIterator<Item = &'a Path>,
 ) -> Result<()> {
-    let inputs: Vec<&Path> = inputs.into_iter().collect();
+    // `-` is standard input or output: no file to check.
+    let inputs: Vec<&Path> = inputs
+        .into_iter()
+        .filter(|p| !crate::values::is_stdio(p))
+        .collect();
     let mut seen: Vec<(&Path, PathBuf)> = Vec::new();
-    for out in outputs {
+    for out in outputs.into_iter().filter(|p| !crate::values::is_stdio(p)) {
         let dir = out.parent().filter(|d| !d.as_os_str().is_empty());
         if let Some(dir) = dir
             && !dir.is_dir()

@@ -99,3 +99,23 @@ where
         }
     }
 }
+
+/// `-`: standard input for a photo, standard output for `photo`'s image.
+pub fn is_stdio(path: &std::path::Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// [`file_named`], or `-` for standard output (the image as PNG).
+pub fn file_named_or_stdout(
+    extensions: &'static [&'static str],
+    what: &'static str,
+) -> impl Fn(&str) -> Result<std::path::PathBuf, String> + Clone + Send + Sync + 'static {
+    let named = file_named(extensions, what);
+    move |s: &str| {
+        if s == "-" {
+            Ok(std::path::PathBuf::from(s))
+        } else {
+            named(s)
+        }
+    }
+}

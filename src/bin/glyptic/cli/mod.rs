@@ -94,6 +94,13 @@ impl Cli {
         params.check().map_err(|e| refuse(e.to_string()))?;
         if let Some(output) = output {
             photo::output_kind(output, &params).map_err(|e| refuse(e.to_string()))?;
+            if crate::values::is_stdio(output) && self.json_report().is_some() {
+                return Err(refuse(
+                    "-o - writes the image to standard output, where --json writes the report: \
+                     name a file for one of them"
+                        .into(),
+                ));
+            }
         }
         Ok(())
     }

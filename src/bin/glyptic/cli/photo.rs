@@ -89,8 +89,41 @@ impl MakeArgs {
 /// (a print shop, a CNC shop, a viewer online) and must not carry the user's folders
 /// (issue #41: the STL header held the photo's absolute path).
 pub(super) fn source_label(path: &Path) -> String {
+    if crate::values::is_stdio(path) {
+        return "standard input".into();
+    }
     path.file_name()
         .map_or_else(|| "a photo".into(), |n| n.to_string_lossy().into_owned())
+}
+
+/// The photo on standard input (`glyptic photo - ...`), read up to the photo size limit and
+/// decoded as a file would be (stage `decode`).
+#[cfg(feature = "face")]
+fn decode_stdin() -> Result<image::RgbImage> {
+    use std::io::Read as _;
+    let name = Path::new("standard input");
+    glyptic::stage::timed(
+        "decode",
+        || -> Result<_> {
+            let mut bytes = Vec::new();
+            std::io::stdin()
+                .lock()
+                .take(glyptic::files::MAX_PHOTO_BYTES + 1)
+                .read_to_end(&mut bytes)
+                .context("standard input: cannot read the photo")?;
+            if bytes.len() as u64 > glyptic::files::MAX_PHOTO_BYTES {
+                bail!(
+                    "standard input: more than {} MB, larger than any photo glyptic reads",
+                    glyptic::files::MAX_PHOTO_BYTES >> 20
+                );
+            }
+            if bytes.is_empty() {
+                bail!("standard input: empty (pipe a photo in, or name a file)");
+            }
+            Ok(glyptic::capture::decode_photo(&bytes, name)?)
+        },
+        |i| format!("{}x{} from standard input", i.width(), i.height()),
+    )
 }
 
 /// Files made in memory, written only once everything else has succeeded.
@@ -116,9 +149,11 @@ Exit codes: 0 the gem was written; 1 an error (named on stderr, nothing written)
 option.")]
 pub struct PhotoArgs {
     /// Portrait photo (JPEG, PNG, PPM, BMP, TIFF, WebP).
+    /// `-` reads the photo from standard input.
     pub image: PathBuf,
-    /// Output image: .png or .jpg (the format follows the extension).
-    #[arg(short, long, value_parser = crate::values::file_named(&["png", "jpg", "jpeg"], "PNG or JPEG"))]
+    /// Output image: .png or .jpg (the format follows the extension); `-` writes the PNG to
+    /// standard output.
+    #[arg(short, long, value_parser = crate::values::file_named_or_stdout(&["png", "jpg", "jpeg"], "PNG or JPEG"))]
     pub output: PathBuf,
     #[command(flatten)]
     pub view: ViewArgs,
@@ -494,6 +529,9 @@ pub(super) fn output_kind(
     params: &RenderParams,
 ) -> Result<glyptic::pipeline::gem::ImageKind> {
     use glyptic::pipeline::gem::ImageKind;
+    if crate::values::is_stdio(output) {
+        return Ok(ImageKind::Png);
+    }
     let kind = ImageKind::from_path(output).ok_or_else(|| {
         anyhow!(
             "{}: name the image .png or .jpg (the format follows the extension)",
@@ -564,7 +602,11 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     let renderer_thread = spawn_renderer();
     let (made, stages) = glyptic::stage::record(|| -> Result<_> {
         // The photo first: a file that is no photo is said before a second of model loading.
-        let img = glyptic::pipeline::gem::decode(image_path)?;
+        let img = if crate::values::is_stdio(image_path) {
+            decode_stdin()?
+        } else {
+            glyptic::pipeline::gem::decode(image_path)?
+        };
         let mut pipeline = args.choice.gem_pipeline(&args.view)?;
         let gem = pipeline
             .image(&img)
@@ -611,8 +653,18 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     if let Some(obj) = &args.gem_obj {
         stage_gem_obj(&mut staged, obj, &gem.mesh, &source_label(image_path))?;
     }
-    stage(&mut staged, &args.output, &png)?;
+    let to_stdout = crate::values::is_stdio(&args.output);
+    if !to_stdout {
+        stage(&mut staged, &args.output, &png)?;
+    }
     commit(staged)?;
+    if to_stdout {
+        use std::io::Write as _;
+        let mut out = std::io::stdout().lock();
+        out.write_all(&png)
+            .and_then(|()| out.flush())
+            .context("standard output: cannot write the image")?;
+    }
     print_stages(&[
         Stage {
             name: "write",
