@@ -1718,6 +1718,46 @@ fn photo_reads_stdin_and_writes_stdout() {
     assert!(!d.join("none.png").exists());
 }
 
+/// `glyptic completions SHELL` and `glyptic man` (issue #41): a bash script bash accepts,
+/// naming the commands; a roff page per command.
+#[test]
+fn completions_and_manual_pages_are_generated() {
+    let run = succeeds(glyptic().args(["completions", "bash"]));
+    let script = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        script.contains("_glyptic") && script.contains("photo") && script.contains("--portrait")
+    );
+    let d = scratch("completions");
+    std::fs::write(d.join("glyptic.bash"), run.stdout.as_slice()).unwrap();
+    let syntax = Command::new("bash")
+        .arg("-n")
+        .arg(d.join("glyptic.bash"))
+        .output()
+        .unwrap();
+    assert!(
+        syntax.status.success(),
+        "{}",
+        String::from_utf8_lossy(&syntax.stderr)
+    );
+    let run = succeeds(glyptic().arg("man"));
+    let page = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        page.contains(".TH glyptic 1") && page.contains("Examples:"),
+        "{page}"
+    );
+    let pages = scratch("man");
+    succeeds(glyptic().args(["man", "--dir"]).arg(&pages));
+    for name in [
+        "glyptic.1",
+        "glyptic-photo.1",
+        "glyptic-kiosk.1",
+        "glyptic-batch.1",
+    ] {
+        let text = std::fs::read_to_string(pages.join(name)).unwrap();
+        assert!(text.starts_with(".ie") || text.contains(".TH"), "{name}");
+    }
+}
+
 /// `track` over a folder of photos processes every photo without `--all-frames` (issue #21:
 /// the live mode's newest-frame-wins dropped most of them).
 #[test]

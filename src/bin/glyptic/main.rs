@@ -40,7 +40,10 @@ fn main() -> ExitCode {
     // doctor and setup say themselves where the models are and what is missing.
     let hint = !matches!(
         args.command,
-        cli::Command::Doctor(_) | cli::Command::Setup(_)
+        cli::Command::Doctor(_)
+            | cli::Command::Setup(_)
+            | cli::Command::Completions(_)
+            | cli::Command::Man(_)
     );
     let json = args.json_report();
     match cli::run(args) {

@@ -22,14 +22,27 @@ use setup::{DoctorArgs, SetupArgs, doctor, setup};
 
 use std::path::Path;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
 #[command(
     name = "glyptic",
     version,
-    about = "Turns a face into an engraved gem: a cameo portrait in marble or agate."
+    about = "Turns a face into an engraved gem: a cameo portrait in marble or agate.",
+    after_help = "Examples:
+  glyptic photo portrait.jpg -o gem.png              a gem from a photo (frontal, marble)
+  glyptic photo portrait.jpg -o gem.png --portrait profile --material agate
+  glyptic photo - -o - < portrait.jpg > gem.png      standard input to standard output
+  glyptic photo portrait.jpg -o gem.png --stl gem.stl --json | jq .face
+  glyptic batch photos/ -o gems/                     every photo of a folder, with a CSV
+  glyptic kiosk                                      the museum window (live webcam)
+  glyptic render -o mean.png                         the cameo of the model's mean face
+  glyptic doctor                                     where the models are, what is missing
+  glyptic completions bash > ~/.local/share/bash-completion/completions/glyptic
+  glyptic man --dir ~/.local/share/man/man1          the manual pages
+
+Reports: the stage table on stderr; --json writes one object on stdout (docs/reports.md)."
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -70,6 +83,59 @@ pub enum Command {
     Setup(SetupArgs),
     /// Says where glyptic looks for its models, what it found and what is missing.
     Doctor(DoctorArgs),
+    /// Prints the shell's completion script (bash, zsh, fish, elvish, powershell) on stdout.
+    Completions(CompletionsArgs),
+    /// Prints glyptic's manual page (roff) on stdout, or writes one page a command to --dir.
+    Man(ManArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct CompletionsArgs {
+    /// The shell to complete in.
+    pub shell: clap_complete::Shell,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ManArgs {
+    /// Writes glyptic.1 and glyptic-COMMAND.1 for each command into this folder instead.
+    #[arg(long, value_name = "FOLDER")]
+    pub dir: Option<std::path::PathBuf>,
+}
+
+/// The completion script for `shell`, on stdout.
+fn completions(args: &CompletionsArgs) -> Result<()> {
+    let mut cmd = <Cli as clap::CommandFactory>::command();
+    let mut script = Vec::new();
+    clap_complete::generate(args.shell, &mut cmd, "glyptic", &mut script);
+    write_stdout(&script)
+}
+
+/// The manual page(s), from the same definitions as `--help`.
+fn man(args: &ManArgs) -> Result<()> {
+    let cmd = <Cli as clap::CommandFactory>::command();
+    match &args.dir {
+        Some(dir) => {
+            crate::outputs::check_writable_folder(dir)?;
+            clap_mangen::generate_to(cmd, dir)
+                .with_context(|| format!("{}: cannot write the manual pages", dir.display()))
+        }
+        None => {
+            let mut page = Vec::new();
+            clap_mangen::Man::new(cmd)
+                .render(&mut page)
+                .context("rendering the manual page")?;
+            write_stdout(&page)
+        }
+    }
+}
+
+/// Writes generated text to stdout; a closed pipe is an error the user sees.
+fn write_stdout(bytes: &[u8]) -> Result<()> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    out.write_all(bytes)
+        .and_then(|()| out.flush())
+        .context("standard output")
 }
 
 impl Cli {
@@ -144,5 +210,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Kiosk(args) => crate::kiosk::kiosk(&args),
         Command::Setup(args) => setup(&args),
         Command::Doctor(args) => doctor(&args),
+        Command::Completions(args) => completions(&args),
+        Command::Man(args) => man(&args),
     }
 }
