@@ -549,9 +549,11 @@ fn einstein_photo_makes_a_gem_with_landmarks_and_mesh() {
         .arg(&obj)
         .output()
         .unwrap();
-    let stdout = String::from_utf8_lossy(&run.stdout);
-    println!("{stdout}{}", String::from_utf8_lossy(&run.stderr));
+    // The stage table is on stderr (issue #41), stdout left to data.
+    let stdout = String::from_utf8_lossy(&run.stderr);
+    println!("{}{stdout}", String::from_utf8_lossy(&run.stdout));
     assert!(run.status.success());
+    assert!(run.stdout.is_empty());
     for stage in [
         "decode",
         "detect",
@@ -1029,11 +1031,16 @@ fn verbosity_flags_steer_the_log_not_the_result() {
             String::from_utf8_lossy(&run.stderr).into_owned(),
         )
     };
-    let (stdout, _) = render(&[], None);
-    assert!(stdout.lines().any(|l| l.starts_with("gem ")), "{stdout}");
+    // The stage table on stderr (issue #41); nothing on stdout, which is kept for data.
+    let (stdout, stderr) = render(&[], None);
+    assert!(stderr.lines().any(|l| l.starts_with("gem ")), "{stderr}");
+    assert!(stdout.trim().is_empty(), "printed on stdout: {stdout}");
     let (stdout, stderr) = render(&["-q"], None);
     assert!(stdout.trim().is_empty(), "-q printed: {stdout}");
-    assert!(!stderr.contains("stage{"), "-q logged the stages: {stderr}");
+    assert!(
+        !stderr.contains("stage{") && !stderr.lines().any(|l| l.starts_with("gem ")),
+        "-q printed the stages: {stderr}"
+    );
     let (_, stderr) = render(&["-v"], None);
     assert!(
         stderr
@@ -1095,7 +1102,7 @@ fn the_stone_exports_for_printing_and_milling() {
             .arg("--heightmap")
             .arg(&map),
     );
-    let report = String::from_utf8_lossy(&run.stdout);
+    let report = String::from_utf8_lossy(&run.stderr);
     assert!(report.contains("mm a level"), "{report}");
 
     // STL: every directed edge once and its reverse once.
@@ -1274,8 +1281,8 @@ fn the_cameo_exports_as_gltf_that_passes_the_validator() {
                 .arg("--gltf")
                 .arg(&glb),
         );
-        let stdout = String::from_utf8_lossy(&run.stdout);
-        assert!(stdout.contains(".glb:"), "{stdout}");
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(stderr.contains(".glb:"), "{stderr}");
         let report = validate_gltf(&glb);
         let info = &report["info"];
         assert_eq!(info["materialCount"].as_u64(), Some(materials), "{info}");

@@ -188,6 +188,10 @@ pub fn remove_pending() -> usize {
         .filter(|p| std::fs::remove_file(p).is_ok())
         .count();
     // The guard is leaked: the process is about to end, and nothing may stage after this.
+    #[allow(
+        clippy::mem_forget,
+        reason = "the list stays locked until the process ends"
+    )]
     std::mem::forget(list);
     removed
 }

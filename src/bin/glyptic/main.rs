@@ -47,7 +47,10 @@ fn main() -> ExitCode {
     );
     let json = args.json_report();
     match cli::run(args) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => {
+            report::print_table();
+            ExitCode::SUCCESS
+        }
         Err(err) => {
             let line = one_line(&err);
             complain(format_args!("glyptic: error: {line}"));

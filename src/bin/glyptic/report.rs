@@ -26,8 +26,13 @@ pub const SCHEMA: u32 = 1;
 /// Whether `-q` asked for errors only (set once, before any command runs).
 static QUIET: AtomicBool = AtomicBool::new(false);
 
-/// With `--json` the stage table is collected here instead of printed, for the report.
-static COLLECTED: Mutex<Option<Vec<Stage>>> = Mutex::new(None);
+/// The stages of the command, collected as they end: the table printed once the command
+/// has succeeded (a failed command's stderr is its one error line; `-v` logs each stage as it
+/// ends), or the report's `stages`.
+static COLLECTED: Mutex<Vec<Stage>> = Mutex::new(Vec::new());
+
+/// Whether the command reports in JSON (no table then).
+static JSON: AtomicBool = AtomicBool::new(false);
 
 /// Whether a JSON report went to stdout (a command that fails after it prints no second
 /// object for its error).
@@ -38,37 +43,37 @@ pub fn set_quiet(quiet: bool) {
     QUIET.store(quiet, Ordering::Relaxed);
 }
 
-/// Turns the JSON report on: stages are collected from now on, not printed.
+/// The command reports in JSON: its stages go into the report, not a table.
 pub fn collect_stages() {
-    if let Ok(mut s) = COLLECTED.lock() {
-        *s = Some(Vec::new());
-    }
+    JSON.store(true, Ordering::Relaxed);
 }
 
-/// The stages collected since [`collect_stages`].
+/// The stages collected so far, for a report (the total is the report's own `total_ms`).
 pub fn collected_stages() -> Vec<Stage> {
     COLLECTED
         .lock()
-        .ok()
-        .and_then(|s| s.clone())
+        .map(|s| s.iter().filter(|s| s.name != "total").cloned().collect())
         .unwrap_or_default()
 }
 
-/// The stage table's lines on stderr (stdout is kept for data: the JSON report, an image
-/// written to `-`): name, time, what the stage found. Nothing with `-q`; collected instead
-/// with `--json`.
+/// Notes stages that ended, for the table or the report.
 pub fn print_stages(stages: &[Stage]) {
-    if let Ok(mut collected) = COLLECTED.lock()
-        && let Some(all) = collected.as_mut()
-    {
-        // The total is the report's own `total_ms`.
-        all.extend(stages.iter().filter(|s| s.name != "total").cloned());
+    if let Ok(mut all) = COLLECTED.lock() {
+        all.extend(stages.iter().cloned());
+    }
+}
+
+/// The stage table on stderr, once the command has succeeded (stdout is kept for data: the
+/// JSON report, an image written to `-`): name, time, what the stage found. Nothing with `-q`
+/// or `--json`.
+pub fn print_table() {
+    if quiet() || JSON.load(Ordering::Relaxed) {
         return;
     }
-    if QUIET.load(Ordering::Relaxed) {
+    let Ok(stages) = COLLECTED.lock() else {
         return;
-    }
-    for s in stages {
+    };
+    for s in stages.iter() {
         crate::complain(format_args!(
             "{:<16} {:>9.1} ms  {}",
             s.name, s.ms, s.detail
