@@ -616,18 +616,7 @@ pub fn build_gem(
     triangles: &[[u32; 3]],
     cameo: &CameoParams,
 ) -> Result<Mesh, GemError> {
-    timed(
-        "gem",
-        || gem::build_cameo(face, triangles, cameo),
-        |m| {
-            format!(
-                "{} vertices, {} triangles, {}",
-                m.vertices.len(),
-                m.indices.len() / 3,
-                cameo.mount()
-            )
-        },
-    )
+    build_gem_detailed(face, triangles, cameo, None)
 }
 
 /// [`build_gem`] with the photo's own detail carved into the face.

@@ -128,6 +128,28 @@ pub fn print_error(command: &'static str, message: &str, exit_code: u8) {
     );
 }
 
+/// What every command's report says of its run: what it read, the files it wrote, its
+/// stages and its wall time.
+#[derive(Serialize)]
+pub struct Run {
+    pub input: String,
+    pub outputs: Outputs,
+    pub stages: Vec<Stage>,
+    pub total_ms: f64,
+}
+
+impl Run {
+    /// The run so far: the stages collected since the command began at `start`.
+    pub fn so_far(input: impl Into<String>, outputs: Outputs, start: std::time::Instant) -> Self {
+        Run {
+            input: input.into(),
+            outputs,
+            stages: collected_stages(),
+            total_ms: ms_since(start),
+        }
+    }
+}
+
 /// The files a command wrote, by kind (`image`, `landmarks`, `obj`, `gem_obj`, `stl`,
 /// `heightmap`, `gltf`, `csv`).
 #[derive(Serialize, Default)]
@@ -148,6 +170,7 @@ impl Outputs {
 /// A face found in an image: its detector box `[x, y, w, h]` and score, its 68 iBUG
 /// landmarks `[x, y]` (image pixels, 0-based), and where it was fitted, the pose and the
 /// fit's mean reprojection error.
+#[cfg(feature = "face")]
 #[derive(Serialize, Default)]
 pub struct Face {
     #[serde(rename = "box", skip_serializing_if = "Option::is_none")]

@@ -106,6 +106,7 @@ pub fn is_stdio(path: &std::path::Path) -> bool {
 }
 
 /// [`file_named`], or `-` for standard output (the image as PNG).
+#[cfg(feature = "face")]
 pub fn file_named_or_stdout(
     extensions: &'static [&'static str],
     what: &'static str,

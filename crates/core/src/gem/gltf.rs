@@ -18,6 +18,8 @@
 //! engraved border (a parallax map).
 //!
 //! Pure: bytes in memory, no files.
+//!
+//! Length: 449 lines of code, then its unit tests (253 lines), kept beside what they test.
 
 use serde_json::{Value, json};
 

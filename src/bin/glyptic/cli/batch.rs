@@ -18,7 +18,7 @@ use glyptic::pipeline::{GemPipeline, GemPipelineError};
 use glyptic::render::Renderer;
 
 use super::ViewArgs;
-use crate::report::Outputs as Written;
+use crate::report::{Outputs as Written, Run};
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = "Examples:
@@ -100,7 +100,7 @@ const CSV_STAGES: [&str; 10] = [
 #[derive(Clone, Debug)]
 struct Outputs {
     gem: PathBuf,
-    make: super::photo::MakeArgs,
+    make: super::make::MakeArgs,
 }
 
 impl Outputs {
@@ -126,7 +126,7 @@ fn outputs_for(files: &[PathBuf], out_dir: &Path, args: &BatchArgs) -> Vec<Outpu
             let file = |suffix: &str| out_dir.join(format!("{name}{suffix}"));
             Outputs {
                 gem: file("-gem.png"),
-                make: super::photo::MakeArgs {
+                make: super::make::MakeArgs {
                     stl: args.stl.then(|| file("-gem.stl")),
                     base: args.base,
                     heightmap: args.heightmap.then(|| file("-height.png")),
@@ -262,13 +262,13 @@ fn face_job(
 fn export_job(
     pipeline: &GemPipeline,
     gem: &glyptic::pipeline::gem::PhotoGem,
-    make: &super::photo::MakeArgs,
+    make: &super::make::MakeArgs,
     view: &glyptic::render::RenderParams,
     input: &Path,
     row: &mut Row,
-) -> Result<super::photo::Made> {
+) -> Result<super::make::Made> {
     if make.outputs().next().is_none() {
-        return Ok(super::photo::Made {
+        return Ok(super::make::Made {
             files: Vec::new(),
             ms: 0.0,
         });
@@ -277,13 +277,13 @@ fn export_job(
         glyptic::stage::timed(
             "make files",
             || {
-                super::photo::make_files(
+                super::make::make_files(
                     make,
                     &gem.face.portrait,
                     &pipeline.face.model.shape.triangles,
                     &gem.cameo,
                     (&gem.mesh, view),
-                    &super::photo::source_label(input),
+                    &super::make::source_label(input),
                 )
             },
             |m| {
@@ -370,7 +370,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     type Job = (
         usize,
         Row,
-        Option<(glyptic::render::Mesh, super::photo::Made)>,
+        Option<(glyptic::render::Mesh, super::make::Made)>,
     );
     let (tx, rx) = crossbeam_channel::bounded::<Job>(jobs);
     let mut rows: Vec<Row> = files
@@ -524,8 +524,8 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         }
         #[derive(serde::Serialize)]
         struct BatchReport<'a> {
-            input: String,
-            outputs: Written,
+            #[serde(flatten)]
+            run: Run,
             images: usize,
             ok: usize,
             face_workers: usize,
@@ -533,7 +533,6 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
             images_per_s: f64,
             renderer_busy: f64,
             results: Vec<Image<'a>>,
-            total_ms: f64,
         }
         let results = rows
             .iter()
@@ -563,8 +562,11 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         crate::report::print(
             "batch",
             BatchReport {
-                input: args.dir.display().to_string(),
-                outputs: Written::of(&[("csv", Some(csv.as_path()))]),
+                run: Run::so_far(
+                    args.dir.display().to_string(),
+                    Written::of(&[("csv", Some(csv.as_path()))]),
+                    start,
+                ),
                 images: rows.len(),
                 ok,
                 face_workers: jobs,
@@ -572,7 +574,6 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
                 images_per_s: rows.len() as f64 / working_s,
                 renderer_busy: render_s / working_s,
                 results,
-                total_ms: secs * 1e3,
             },
         );
     } else {

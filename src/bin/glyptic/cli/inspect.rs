@@ -12,7 +12,7 @@ use glyptic::gem;
 use super::ChoiceArgs;
 use super::{OnOff, SssArgs};
 use crate::outputs::{check_outputs, write_atomic};
-use crate::report::{Outputs, Pose, ms_since};
+use crate::report::{Outputs, Pose, Run};
 use crate::values::Size;
 
 #[derive(clap::Args, Debug)]
@@ -121,21 +121,25 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
             glyptic::landmarks::pts::write_pts(&face.points).as_bytes(),
         )?;
     }
+    crate::report::print_stages(&stages);
     if args.json {
         #[derive(serde::Serialize)]
         struct LandmarksReport {
-            input: String,
+            #[serde(flatten)]
+            run: Run,
             width: u32,
             height: u32,
             faces: Vec<crate::report::Face>,
-            outputs: Outputs,
-            stages: Vec<glyptic::stage::Stage>,
-            total_ms: f64,
         }
+        let written = args.pts.as_deref().filter(|_| !faces.is_empty());
         crate::report::print(
             "landmarks",
             LandmarksReport {
-                input: path.display().to_string(),
+                run: Run::so_far(
+                    path.display().to_string(),
+                    Outputs::of(&[("landmarks", written)]),
+                    start,
+                ),
                 width: img.width(),
                 height: img.height(),
                 faces: faces
@@ -147,17 +151,10 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
                         ..Default::default()
                     })
                     .collect(),
-                outputs: Outputs::of(&[(
-                    "landmarks",
-                    args.pts.as_deref().filter(|_| !faces.is_empty()),
-                )]),
-                stages,
-                total_ms: ms_since(start),
             },
         );
     } else {
         // (A faceless image is said once, as the error below.)
-        crate::report::print_stages(&stages);
         for (i, f) in faces.iter().enumerate() {
             let [x, y, w, h] = f.detection.bbox;
             say!(
@@ -251,7 +248,8 @@ pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
         /// The fit: pose, the orthographic (or perspective) camera, the model's coefficients.
         #[derive(serde::Serialize)]
         struct FitReport {
-            input: String,
+            #[serde(flatten)]
+            run: Run,
             #[serde(flatten)]
             pose: Pose,
             scale_px_per_mm: f64,
@@ -272,19 +270,18 @@ pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
             contour: bool,
             camera: &'static str,
             depth_mm: Option<f64>,
-            outputs: Outputs,
-            stages: Vec<glyptic::stage::Stage>,
-            total_ms: f64,
         }
         let stage = |name, ms| glyptic::stage::Stage {
             name,
             ms,
             detail: String::new(),
         };
+        crate::report::print_stages(&[stage("load face model", load_ms), stage("fit", fit_ms)]);
+        let outputs = Outputs::of(&[("obj", args.obj.as_deref())]);
         crate::report::print(
             "fit",
             FitReport {
-                input: path.display().to_string(),
+                run: Run::so_far(path.display().to_string(), outputs, start),
                 pose: Pose::of(&fit.pose),
                 scale_px_per_mm: fit.pose.scale,
                 translation_px: [fit.pose.translation.x, -fit.pose.translation.y],
@@ -308,9 +305,6 @@ pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
                     "orthographic"
                 },
                 depth_mm: fit.perspective.map(|p| p.depth_mm()),
-                outputs: Outputs::of(&[("obj", args.obj.as_deref())]),
-                stages: vec![stage("load face model", load_ms), stage("fit", fit_ms)],
-                total_ms: ms_since(start),
             },
         );
     } else {

@@ -6,6 +6,7 @@ mod args;
 #[cfg(feature = "face")]
 mod batch;
 mod inspect;
+mod make;
 mod photo;
 mod setup;
 #[cfg(feature = "face")]

@@ -6,15 +6,19 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow, bail};
 
+#[cfg(feature = "face")]
 use glyptic::gem;
 use glyptic::render::{RenderParams, Renderer};
 use glyptic::stage::{Stage, timed};
 
 use super::ViewArgs;
+use super::make::{MakeArgs, make_files, source_label, stage_gem_obj, stage_made};
 #[cfg(feature = "face")]
 use super::{ChoiceArgs, GlassesArg};
 use crate::outputs::{check_outputs, commit, stage};
-use crate::report::{Outputs, Pose, ms_since, print_stages};
+#[cfg(feature = "face")]
+use crate::report::Pose;
+use crate::report::{Outputs, Run, print_stages};
 use glyptic::files::Staged;
 
 #[derive(clap::Args, Debug)]
@@ -49,53 +53,6 @@ pub struct RenderArgs {
     pub json: bool,
 }
 
-/// The gem for other programs (`render`, `photo`): the stone for a 3D printer or a CNC
-/// router, the cameo for a 3D viewer.
-#[derive(clap::Args, Debug, Clone, Default)]
-pub struct MakeArgs {
-    /// Also write the stone as a closed solid for a 3D printer or CAM program: binary STL in
-    /// millimetres, the relief on a flat-bottomed oval slab (the bezel left out).
-    #[arg(long, value_name = "FILE.stl",
-          value_parser = crate::values::file_named(&["stl"], "binary STL"))]
-    pub stl: Option<PathBuf>,
-    /// The slab's thickness below the ground, mm (with --stl).
-    #[arg(long, default_value_t = 3.0, value_name = "MM",
-          value_parser = crate::values::finite_in::<f32>(0.1, 100.0))]
-    pub base: f32,
-    /// Also write the relief as a 16-bit grey PNG for a CNC router: one pixel per 0.2 mm
-    /// grid node, 0 the ground; the millimetres per level are printed and stored in the PNG's
-    /// text (`glyptic:mm_per_level`).
-    #[arg(long, value_name = "FILE.png",
-          value_parser = crate::values::file_named(&["png"], "a 16-bit PNG"))]
-    pub heightmap: Option<PathBuf>,
-    /// Also write the cameo as shown (stone and gold bezel, with their materials) as binary
-    /// glTF 2.0 for a 3D viewer: metres, +Y up, facing +Z.
-    #[arg(long, value_name = "FILE.glb",
-          value_parser = crate::values::file_named(&["glb"], "binary glTF (.glb)"))]
-    pub gltf: Option<PathBuf>,
-}
-
-impl MakeArgs {
-    pub(super) fn outputs(&self) -> impl Iterator<Item = &Path> {
-        self.stl
-            .iter()
-            .chain(&self.heightmap)
-            .chain(&self.gltf)
-            .map(PathBuf::as_path)
-    }
-}
-
-/// How a made file names what it was made from: the input's file name only. The files travel
-/// (a print shop, a CNC shop, a viewer online) and must not carry the user's folders
-/// (issue #41: the STL header held the photo's absolute path).
-pub(super) fn source_label(path: &Path) -> String {
-    if crate::values::is_stdio(path) {
-        return "standard input".into();
-    }
-    path.file_name()
-        .map_or_else(|| "a photo".into(), |n| n.to_string_lossy().into_owned())
-}
-
 /// The photo on standard input (`glyptic photo - ...`), read up to the photo size limit and
 /// decoded as a file would be (stage `decode`).
 #[cfg(feature = "face")]
@@ -124,14 +81,6 @@ fn decode_stdin() -> Result<image::RgbImage> {
         },
         |i| format!("{}x{} from standard input", i.width(), i.height()),
     )
-}
-
-/// Files made in memory, written only once everything else has succeeded.
-pub(super) struct Made {
-    /// Each file's path, bytes and what it holds (for the stage line).
-    pub files: Vec<(PathBuf, Vec<u8>, String)>,
-    /// How long making them took.
-    pub ms: f64,
 }
 
 #[cfg(feature = "face")]
@@ -177,154 +126,6 @@ pub struct PhotoArgs {
     /// its box, 68 landmarks, pose and fit error) instead of the stage table.
     #[arg(long)]
     pub json: bool,
-}
-
-/// The cameo as binary glTF, its materials the renderer's for `params`' stone.
-pub(super) fn glb(
-    mesh: &glyptic::render::Mesh,
-    params: &RenderParams,
-    source: &str,
-) -> Result<Vec<u8>, gem::gltf::GltfError> {
-    let stone = match params.material.layers() {
-        None => gem::gltf::Stone::Marble,
-        Some(layers) => gem::gltf::Stone::Layered {
-            layers,
-            hair_layer: params.hair_layer,
-        },
-    };
-    gem::gltf::to_glb(
-        mesh,
-        &gem::gltf::GltfOptions {
-            stone,
-            generator: concat!("glyptic ", env!("CARGO_PKG_VERSION")),
-            source,
-        },
-    )
-}
-
-/// The files `make` asks for: the STL and height map of the relief cut from `face` (model
-/// mm) for `cameo` (the relief again, ~30 ms, since the gem's mesh is made for rendering),
-/// and the GLB of the gem's `mesh` as `params` shows it.
-pub(super) fn make_files(
-    make: &MakeArgs,
-    face: &[f32],
-    triangles: &[[u32; 3]],
-    cameo: &gem::CameoParams,
-    (mesh, params): (&glyptic::render::Mesh, &RenderParams),
-    source: &str,
-) -> Result<Made> {
-    let start = Instant::now();
-    let mut files = Vec::new();
-    if let Some(path) = &make.gltf {
-        let t = Instant::now();
-        let bytes = glb(mesh, params, source)
-            .with_context(|| format!("{}: cannot make the glTF", path.display()))?;
-        let detail = format!(
-            "{}: {} triangles, {:.2} MB, {:.1} ms",
-            path.display(),
-            mesh.indices.len() / 3,
-            bytes.len() as f64 / 1e6,
-            t.elapsed().as_secs_f64() * 1e3
-        );
-        files.push((path.clone(), bytes, detail));
-    }
-    if make.stl.is_none() && make.heightmap.is_none() {
-        return Ok(Made {
-            files,
-            ms: start.elapsed().as_secs_f64() * 1e3,
-        });
-    }
-    let relief = gem::CameoBuilder::new(cameo)?.relief(face, triangles)?;
-    let field = relief.height_field();
-    let half = [cameo.half_width, cameo.half_height];
-    if let Some(path) = &make.stl {
-        let solid = gem::solid::solid(&field, half, make.base)
-            .with_context(|| format!("{}: cannot make the solid", path.display()))?;
-        let volume = gem::solid::volume(&solid);
-        let header = format!("glyptic cameo from {source}, mm");
-        files.push((
-            path.clone(),
-            gem::solid::stl(&solid, &header),
-            format!(
-                "{}: {} triangles, closed, {:.0} mm^3",
-                path.display(),
-                solid.triangles.len(),
-                volume
-            ),
-        ));
-    }
-    if let Some(path) = &make.heightmap {
-        let map = gem::solid::height_map(&field, half)
-            .with_context(|| format!("{}: cannot make the height map", path.display()))?;
-        let png = height_map_png(&map, source)
-            .with_context(|| format!("{}: cannot encode the height map", path.display()))?;
-        files.push((
-            path.clone(),
-            png,
-            format!(
-                "{}: {}x{} px, {} mm a pixel, {:.6} mm a level (highest point {:.3} mm)",
-                path.display(),
-                map.width,
-                map.height,
-                map.mm_per_pixel,
-                map.mm_per_level,
-                65535.0 * map.mm_per_level
-            ),
-        ));
-    }
-    Ok(Made {
-        files,
-        ms: start.elapsed().as_secs_f64() * 1e3,
-    })
-}
-
-/// A 16-bit grey PNG with its scale in its text chunks, where CAM programs and people look.
-fn height_map_png(map: &gem::solid::HeightMap, source: &str) -> Result<Vec<u8>> {
-    let mut bytes = Vec::new();
-    {
-        let mut encoder = png::Encoder::new(&mut bytes, map.width, map.height);
-        encoder.set_color(png::ColorType::Grayscale);
-        encoder.set_depth(png::BitDepth::Sixteen);
-        // The pixel's size where CAM programs look for it (pHYs, pixels per metre).
-        let per_metre = (1000.0 / f64::from(map.mm_per_pixel)).round() as u32;
-        encoder.set_pixel_dims(Some(png::PixelDimensions {
-            xppu: per_metre,
-            yppu: per_metre,
-            unit: png::Unit::Meter,
-        }));
-        encoder.add_text_chunk(
-            "Description".into(),
-            format!(
-                "glyptic relief height map from {source}: level x {} mm = height above the ground; {} mm a pixel; 0 = the ground and outside the stone",
-                map.mm_per_level, map.mm_per_pixel
-            ),
-        )?;
-        encoder.add_text_chunk("glyptic:mm_per_level".into(), map.mm_per_level.to_string())?;
-        encoder.add_text_chunk("glyptic:mm_per_pixel".into(), map.mm_per_pixel.to_string())?;
-        let mut writer = encoder.write_header()?;
-        let data: Vec<u8> = map.levels.iter().flat_map(|l| l.to_be_bytes()).collect();
-        writer.write_image_data(&data)?;
-        writer.finish()?;
-    }
-    Ok(bytes)
-}
-
-/// Stages the files of [`make_files`] and prints their stage line (making and writing).
-fn stage_made(staged: &mut Staged, made: Made) -> Result<()> {
-    let t = Instant::now();
-    let mut details = Vec::new();
-    for (path, bytes, detail) in made.files {
-        stage(staged, &path, &bytes)?;
-        details.push(detail);
-    }
-    if !details.is_empty() {
-        print_stages(&[Stage {
-            name: "make files",
-            ms: made.ms + t.elapsed().as_secs_f64() * 1e3,
-            detail: details.join("; "),
-        }]);
-    }
-    Ok(())
 }
 
 /// The renderer coming up on its own thread ([`spawn_renderer`]). Dropped before it is joined
@@ -481,28 +282,14 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
         detail: args.output.display().to_string(),
     }]);
     if args.json {
-        #[derive(serde::Serialize)]
-        struct RenderReport {
-            input: String,
-            outputs: Outputs,
-            stages: Vec<glyptic::stage::Stage>,
-            total_ms: f64,
-        }
-        crate::report::print(
-            "render",
-            RenderReport {
-                input: source,
-                outputs: Outputs::of(&[
-                    ("image", Some(args.output.as_path())),
-                    ("gem_obj", args.gem_obj.as_deref()),
-                    ("stl", args.make.stl.as_deref()),
-                    ("heightmap", args.make.heightmap.as_deref()),
-                    ("gltf", args.make.gltf.as_deref()),
-                ]),
-                stages: crate::report::collected_stages(),
-                total_ms: ms_since(start),
-            },
-        );
+        let outputs = Outputs::of(&[
+            ("image", Some(args.output.as_path())),
+            ("gem_obj", args.gem_obj.as_deref()),
+            ("stl", args.make.stl.as_deref()),
+            ("heightmap", args.make.heightmap.as_deref()),
+            ("gltf", args.make.gltf.as_deref()),
+        ]);
+        crate::report::print("render", Run::so_far(source, outputs, start));
     }
     Ok(())
 }
@@ -561,19 +348,6 @@ fn read_face_obj(path: &Path) -> Result<(Vec<f32>, Vec<[u32; 3]>)> {
     glyptic::gem::check_face_mesh(&mesh.0, &mesh.1)
         .with_context(|| format!("{}: cannot carve this face mesh", path.display()))?;
     Ok(mesh)
-}
-
-/// Stages the cameo mesh as OBJ (gem millimetres, normals).
-fn stage_gem_obj(
-    staged: &mut Staged,
-    path: &Path,
-    mesh: &glyptic::render::Mesh,
-    source: &str,
-) -> Result<()> {
-    let comment = format!(
-        "glyptic cameo from {source}\ngem millimetres: the cameo in the XY plane facing +Z, ground at z = 0"
-    );
-    stage(staged, path, gem::mesh_to_obj(mesh, &comment).as_bytes())
 }
 
 #[cfg(feature = "face")]
@@ -680,28 +454,26 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     if args.json {
         #[derive(serde::Serialize)]
         struct PhotoReport {
-            input: String,
-            outputs: Outputs,
+            #[serde(flatten)]
+            run: Run,
             face: crate::report::Face,
             faces_found: usize,
             person: Option<serde_json::Value>,
-            stages: Vec<glyptic::stage::Stage>,
-            total_ms: f64,
         }
         let face = &gem.face;
+        let outputs = Outputs::of(&[
+            ("image", Some(args.output.as_path())),
+            ("landmarks", args.landmarks_out.as_deref()),
+            ("obj", args.obj.as_deref()),
+            ("gem_obj", args.gem_obj.as_deref()),
+            ("stl", args.make.stl.as_deref()),
+            ("heightmap", args.make.heightmap.as_deref()),
+            ("gltf", args.make.gltf.as_deref()),
+        ]);
         crate::report::print(
             "photo",
             PhotoReport {
-                input: image_path.display().to_string(),
-                outputs: Outputs::of(&[
-                    ("image", Some(args.output.as_path())),
-                    ("landmarks", args.landmarks_out.as_deref()),
-                    ("obj", args.obj.as_deref()),
-                    ("gem_obj", args.gem_obj.as_deref()),
-                    ("stl", args.make.stl.as_deref()),
-                    ("heightmap", args.make.heightmap.as_deref()),
-                    ("gltf", args.make.gltf.as_deref()),
-                ]),
+                run: Run::so_far(image_path.display().to_string(), outputs, start),
                 face: crate::report::Face {
                     bbox: Some(face.detection.bbox),
                     score: Some(face.detection.score),
@@ -711,8 +483,6 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
                 },
                 faces_found: face.faces_found,
                 person: gem.person.as_ref().map(glyptic::pipeline::gem::person_json),
-                stages: crate::report::collected_stages(),
-                total_ms: ms_since(start),
             },
         );
     }
