@@ -4,7 +4,8 @@
 //! module (or from a user's file) is input, so everything it could get wrong is caught here and
 //! returned as a [`RenderError`].
 
-use super::{Mesh, Region, RenderError, Vertex};
+use crate::params::RenderError;
+use glyptic_core::scene::{Mesh, Region, Vertex};
 
 /// Axis-aligned box and bounding sphere of the vertices that triangles use (mm).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -10,7 +10,7 @@
 //! The relief's steep walls are exactly where planar coordinates degenerate (a wall's vertices
 //! share their XY), so the guard is not a corner case here.
 
-use super::Vertex;
+use glyptic_core::scene::Vertex;
 
 /// The planar texture frame of a mesh: the centre and half extents of its XY bounding box, mm.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -32,9 +32,9 @@
 use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
-use super::Vertex;
-use super::shaders;
+use crate::shaders;
 use crate::styles::Style;
+use glyptic_core::scene::Vertex;
 
 mod maps;
 mod pipelines;
