@@ -36,7 +36,7 @@ pub(super) struct Live {
     config: KioskConfig,
     stream: Option<FaceStream>,
     starting: Option<crossbeam_channel::Receiver<Result<FaceStream, String>>>,
-    pub(super) restarts: super::news::Restarts,
+    pub(super) restarts: super::restarts::Restarts,
 }
 
 /// A frame source that panics at its Nth frame ([`super::Fault::CapturePanic`], for tests):

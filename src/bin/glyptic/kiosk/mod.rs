@@ -19,6 +19,9 @@
 mod face_thread;
 mod gem_thread;
 mod news;
+mod restarts;
+mod staff;
+mod timeline;
 mod trace;
 mod ui;
 mod visit;

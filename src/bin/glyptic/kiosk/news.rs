@@ -10,43 +10,10 @@ use glyptic::kiosk::{blend_faces, idle_weight};
 use super::gem_thread::{GemJob, GemNote, GemThread};
 use super::window::Running;
 
-/// A worker thread may die this many times within [`RESTART_WINDOW`] and be restarted; once
-/// more and the kiosk exits 1 (a supervisor such as systemd starts it afresh).
-pub(super) const MAX_RESTARTS: usize = 3;
-pub(super) const RESTART_WINDOW: std::time::Duration = std::time::Duration::from_secs(60);
-
 /// What [`Running::take_gem_notes`] found: any note, and whether one was the thread's end.
 struct GemNotes {
     noted: bool,
     ended: bool,
-}
-
-/// A worker's deaths and restarts (the gem thread's, the face side's).
-#[derive(Default)]
-pub(super) struct Restarts {
-    deaths: Vec<Instant>,
-    /// Restarts so far (the trace's `gem_restarts`, `face_restarts`).
-    pub(super) count: u64,
-}
-
-impl Restarts {
-    /// Notes a death. `Ok`: restart it (counted); `Err`: the deaths within [`RESTART_WINDOW`],
-    /// more than [`MAX_RESTARTS`]: give up.
-    pub(super) fn died(&mut self) -> Result<(), String> {
-        let now = Instant::now();
-        self.deaths
-            .retain(|t| now.duration_since(*t) < RESTART_WINDOW);
-        self.deaths.push(now);
-        if self.deaths.len() > MAX_RESTARTS {
-            return Err(format!(
-                "{} times within {} s",
-                self.deaths.len(),
-                RESTART_WINDOW.as_secs()
-            ));
-        }
-        self.count += 1;
-        Ok(())
-    }
 }
 
 impl Running {
@@ -199,7 +166,7 @@ impl Running {
     }
 
     /// The gem thread died: start another that carries on with the last face, keeping the
-    /// gem on screen meanwhile; more than [`MAX_RESTARTS`] deaths a minute and the kiosk
+    /// gem on screen meanwhile; more than [`super::restarts::MAX_RESTARTS`] deaths a minute and the kiosk
     /// cannot go on.
     fn restart_gems(&mut self, why: &str) {
         if let Err(times) = self.gem_restarts.died() {

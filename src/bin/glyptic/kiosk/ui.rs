@@ -93,7 +93,7 @@ pub(super) struct UiFrame<'a> {
     pub(super) staff: Option<StaffView>,
     /// The PIN pad, while it asks; what was pressed on it this frame.
     pub(super) pad: Option<PadView>,
-    pub(super) pad_inputs: Vec<super::visit::PadInput>,
+    pub(super) pad_inputs: Vec<super::staff::PadInput>,
     pub(super) toast: Option<String>,
     /// Where the gem is shown (points).
     pub(super) gem_rect: Option<egui::Rect>,
@@ -258,8 +258,8 @@ impl UiFrame<'_> {
 
 /// The staff's PIN pad: big keys a finger hits (1-9, back, 0, OK; Cancel), the digits as
 /// dots. What was pressed this frame.
-fn pin_pad(ctx: &egui::Context, pad: &PadView) -> Vec<super::visit::PadInput> {
-    use super::visit::PadInput;
+fn pin_pad(ctx: &egui::Context, pad: &PadView) -> Vec<super::staff::PadInput> {
+    use super::staff::PadInput;
     let mut pressed = Vec::new();
     let text = |s: &str, size: f32| egui::RichText::new(s).size(size).color(LIGHT);
     egui::Area::new(egui::Id::unique("pin pad"))

@@ -3,95 +3,16 @@
 //! problems (to stderr, hence the journal under systemd, and to the staff panel; never to the
 //! visitor). The rules themselves are the library's [`glyptic::kiosk::visitor`], tested alone.
 
-use std::collections::VecDeque;
 use std::time::Instant;
 
 use glyptic::kiosk::{
-    ATTRACT, Change, Controls, HoldGesture, Mode, Orbit, PinGate, PinOutcome, Prompt, STAFF_HOLD_S,
-    Situation, StaffAction, prompt, staff_action,
+    ATTRACT, Change, Controls, Mode, Orbit, PinOutcome, Prompt, Situation, StaffAction, prompt,
+    staff_action,
 };
-use glyptic::pin::StaffPin;
 
+use super::staff::{LOG_LINES, PAD_IDLE_S, PadInput, PinPad};
 use super::ui::StaffView;
 use super::window::Running;
-
-/// The staff panel's state and the problems it lists.
-pub(super) struct Staff {
-    pub(super) open: bool,
-    /// The newest problems, each with its time since start and how often it came in a row.
-    log: VecDeque<(f64, String, u32)>,
-    /// Problems noted since start (the trace's `problems`).
-    pub(super) problems: u64,
-    pub(super) gesture: HoldGesture,
-    /// The staff asked to quit (a key or the panel's button).
-    pub(super) quit: bool,
-    /// The staff's PIN (`None`: the keys open the panel, the corner nothing).
-    pin: Option<StaffPin>,
-    gate: PinGate,
-    /// The PIN pad, while it asks.
-    pub(super) pad: Option<PinPad>,
-    /// The corner was held without a PIN configured (said once on the log).
-    gesture_noted: bool,
-}
-
-/// The PIN pad's state: the digits typed (shown as dots), what it said last, when it was
-/// last touched (it closes itself after [`PAD_IDLE_S`]).
-pub(super) struct PinPad {
-    pub(super) digits: String,
-    pub(super) said: String,
-    touched_s: f64,
-}
-
-/// A key or a button of the PIN pad.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum PadInput {
-    Digit(char),
-    Back,
-    Enter,
-    Cancel,
-}
-
-/// Seconds an untouched PIN pad stays (a visitor who opened it and walked away).
-const PAD_IDLE_S: f64 = 30.0;
-
-/// Problems the staff panel keeps.
-const LOG_LINES: usize = 12;
-
-impl Staff {
-    pub(super) fn new(open: bool, pin: Option<StaffPin>) -> Self {
-        Staff {
-            open,
-            log: VecDeque::new(),
-            problems: 0,
-            gesture: HoldGesture::new(STAFF_HOLD_S),
-            quit: false,
-            pin,
-            gate: PinGate::default(),
-            pad: None,
-            gesture_noted: false,
-        }
-    }
-
-    fn lines(&self) -> Vec<String> {
-        self.log
-            .iter()
-            .map(|(t, what, n)| {
-                let s = *t as u64;
-                let times = if *n > 1 {
-                    format!(" (x{n})")
-                } else {
-                    String::new()
-                };
-                format!(
-                    "{:02}:{:02}:{:02} {what}{times}",
-                    s / 3600,
-                    s / 60 % 60,
-                    s % 60
-                )
-            })
-            .collect()
-    }
-}
 
 impl Running {
     /// Seconds since the kiosk started: the presence's clock.

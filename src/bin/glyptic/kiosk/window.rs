@@ -18,10 +18,10 @@ use glyptic::kiosk::{Controls, KioskConfig, MOVING, Orbit, Presence};
 use glyptic::render::{Mesh, RenderParams, Renderer};
 
 use super::gem_thread::{GemFault, GemJob, GemThread};
-use super::news::Restarts;
-use super::trace::{Rate, Timeline};
+use super::restarts::Restarts;
+use super::staff::Staff;
+use super::timeline::{Rate, Timeline};
 use super::ui::{UiFrame, style};
-use super::visit::Staff;
 use super::{Continue, KioskArgs};
 
 /// The first gem's resolution, of the window's (per side).
