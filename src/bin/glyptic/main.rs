@@ -11,7 +11,7 @@
 /// Write errors are dropped; the first one is noted on the log.
 macro_rules! say {
     ($($arg:tt)*) => {
-        $crate::report(format_args!($($arg)*))
+        $crate::report::say(format_args!($($arg)*))
     };
 }
 
@@ -53,7 +53,7 @@ fn main() -> ExitCode {
         }
         Err(err) => {
             let line = one_line(&err);
-            complain(format_args!("glyptic: error: {line}"));
+            report::complain(format_args!("glyptic: error: {line}"));
             let code = match err.downcast_ref::<signals::Interrupted>() {
                 Some(stop) => u8::try_from(128 + stop.signal).unwrap_or(1),
                 None => 1,
@@ -66,7 +66,7 @@ fn main() -> ExitCode {
             }
             let (root, _) = glyptic::assets::locate_root();
             if hint && !glyptic::assets::looks_like_root(&root) {
-                complain(format_args!(
+                report::complain(format_args!(
                     "glyptic: {} holds no models: `glyptic doctor` says where glyptic looks \
                      and how to get them",
                     root.display()
@@ -142,27 +142,6 @@ fn quiet_ffmpeg(verbose: u8) {
 fn no_telemetry() {
     // SAFETY: called first thing in `main`, before any thread exists.
     unsafe { std::env::set_var("ORT_DISABLE_TELEMETRY", "1") };
-}
-
-/// Writes one line of the report to stdout; see `say!`.
-fn report(line: std::fmt::Arguments<'_>) {
-    use std::io::Write as _;
-    static NOTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-    let mut out = std::io::stdout().lock();
-    if let Err(e) = out.write_fmt(line).and_then(|()| out.write_all(b"\n"))
-        && !NOTED.swap(true, std::sync::atomic::Ordering::Relaxed)
-    {
-        tracing::debug!("stdout closed ({e}): the report stops, the work goes on");
-    }
-}
-
-/// `eprintln!` that survives a closed or full stderr (`glyptic ... 2>&1 | head -0`, `2>/dev/full`):
-/// `eprintln!` panics there, and an error to report would end as exit 101 instead of 1. The
-/// line is dropped; the exit code still says what happened.
-pub(crate) fn complain(line: std::fmt::Arguments<'_>) {
-    use std::io::Write as _;
-    let mut err = std::io::stderr().lock();
-    let _ = err.write_fmt(line).and_then(|()| err.write_all(b"\n"));
 }
 
 /// The log's filter for `-v` / `-q`: glyptic's own notes and everyone's warnings by default.

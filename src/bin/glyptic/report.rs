@@ -74,7 +74,7 @@ pub fn print_table() {
         return;
     };
     for s in stages.iter() {
-        crate::complain(format_args!(
+        complain(format_args!(
             "{:<16} {:>9.1} ms  {}",
             s.name, s.ms, s.detail
         ));
@@ -212,4 +212,25 @@ pub fn ms_since(start: std::time::Instant) -> f64 {
 /// Whether `-q` asked for errors only.
 pub fn quiet() -> bool {
     QUIET.load(Ordering::Relaxed)
+}
+
+/// Writes one line of the report to stdout; see `say!`.
+pub fn say(line: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    static NOTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(line).and_then(|()| out.write_all(b"\n"))
+        && !NOTED.swap(true, std::sync::atomic::Ordering::Relaxed)
+    {
+        tracing::debug!("stdout closed ({e}): the report stops, the work goes on");
+    }
+}
+
+/// `eprintln!` that survives a closed or full stderr (`glyptic ... 2>&1 | head -0`, `2>/dev/full`):
+/// `eprintln!` panics there, and an error to report would end as exit 101 instead of 1. The
+/// line is dropped; the exit code still says what happened.
+pub fn complain(line: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_fmt(line).and_then(|()| err.write_all(b"\n"));
 }

@@ -479,7 +479,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
             if row.status != "ok" && row.status != "interrupted" {
                 let line = format!("skipped {name}: {}", row.error);
                 if bar.is_hidden() {
-                    crate::complain(format_args!("{line}"));
+                    crate::report::complain(format_args!("{line}"));
                 } else {
                     bar.println(line);
                 }

@@ -107,7 +107,7 @@ impl StageTimes {
         }
         for (name, v) in &self.by_name {
             let (med, p95, n) = quantiles(v);
-            crate::complain(format_args!(
+            crate::report::complain(format_args!(
                 "  {name:<18} median {med:>7.2} ms   p95 {p95:>7.2} ms   ({n} frames)"
             ));
         }
