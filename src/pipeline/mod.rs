@@ -8,6 +8,8 @@
 #[cfg(feature = "face")]
 mod face;
 pub mod gem;
+#[cfg(feature = "face")]
+mod person;
 
 #[cfg(feature = "face")]
 pub use face::*;

@@ -2,8 +2,10 @@
 //! frame: the controls every time, the gem into its own texture only when something it shows
 //! changed (a new gem, a control, the orbit, the size).
 //!
-//! About 700 lines: the frame's steps (controls, layer, gem, controls pass, bookkeeping) share
-//! the surface and egui's state, which live here.
+//! About 940 lines: the window's state (`Running`, its parts in `staff`, `timeline`, `restarts`)
+//! and the frame's steps (controls, layer, gem, controls pass, bookkeeping) share the surface
+//! and egui's state, which live here; the next step is the state as owned parts behind init,
+//! resize, update and render (issue #41).
 
 use std::path::Path;
 use std::sync::Arc;
