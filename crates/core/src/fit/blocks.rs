@@ -2,7 +2,10 @@
 //! least squares) or expressions alone (non-negative least squares), the other held fixed.
 
 // The fit's shared types, constants and helpers (this file is a part of `fit`, split out).
-use super::*;
+use super::{
+    At, Camera, Correspondence, FitError, MAX_SHAPE_SD, Params, Problem, Weights, absolute_rhs,
+    mirror_upper, nnls, normal, normal_equations, solve_spd,
+};
 
 /// The first iteration's block solves: normal equations for identity alone or expressions
 /// alone at the current solution, as `(H, H x + g)`, i.e. for the block's coefficients `x`

@@ -2,7 +2,10 @@
 //! noise estimate that weighs it. Residuals in model millimetres.
 
 // The fit's shared types, constants and helpers (this file is a part of `fit`, split out).
-use super::*;
+use super::{
+    At, CONVERGED_GAIN, Camera, Coefficients, Correspondence, MAX_SHAPE_SD, Params, Problem,
+    Solution, SurreyModel, Weights, linalg, normal, normal_equations,
+};
 
 /// The objective the joint step minimises: weighted squared reprojection residuals (model mm,
 /// along the normal for sliding outline points), the identity prior, the expression ridge and

@@ -3,7 +3,10 @@
 //! turned away (eos's contour and occluding-edge fitting). Image pixels and model mm.
 
 // The fit's shared types, constants and helpers (this file is a part of `fit`, split out).
-use super::*;
+use super::{
+    Camera, Coefficients, Correspondence, FitOptions, SurreyModel, Vector2, Vector3,
+    visible_occluding_vertices,
+};
 
 /// The visible occluding boundary, recomputed only when it may have moved: on the first
 /// iteration and whenever the rotation has turned by more than

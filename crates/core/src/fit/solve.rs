@@ -2,7 +2,7 @@
 //! pseudo-inverse fallback, and non-negative least squares for the expressions.
 
 // The fit's shared types, constants and helpers (this file is a part of `fit`, split out).
-use super::*;
+use super::{DMatrix, DVector, FitError, linalg};
 
 /// Solves a symmetric positive (semi)definite system (row-major `a`); falls back to a
 /// pseudo-inverse solve.

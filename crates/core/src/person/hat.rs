@@ -11,7 +11,7 @@
 //! Frame and units: the head frame of `super` (IOD); colours as `colour` makes them.
 
 use super::canvas::Canvas;
-use super::*;
+use super::{Colour, Gmm, Label, median};
 
 /// How far apart in chroma the crown's hair-labelled colours and the temples' hair must be
 /// (the two medians' distance on the opponent axes, percent of full scale) to be a hat. Not

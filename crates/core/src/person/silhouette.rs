@@ -8,8 +8,7 @@
 //! the person pass decided wins over the raw labels (no hair below where it was found to end;
 //! none beside the face below a bare ear).
 
-// The pass's shared types and constants (this file is a part of `person`, split out).
-use super::*;
+use super::{Canvas, Label};
 
 /// The grid's cell, face lengths (about 7 mm on an adult).
 pub const MASK_STEP: f32 = 0.06;

@@ -2,8 +2,7 @@
 //! the labelled head frame. Its texture and curl are read at the photo's resolution
 //! (`super::kind`).
 
-// The pass's shared types and constants (this file is a part of `person`, split out).
-use super::*;
+use super::{Canvas, Colour, Hair, Label, RES, T_RANGE};
 
 /// The middle value (the upper of the two for an even count); `None` when empty.
 pub(crate) fn median(mut v: Vec<f32>) -> Option<f32> {

@@ -3,7 +3,10 @@
 //! names the file and the field.
 
 // The model's types (this file is a part of `shapemodel`, split out).
-use super::*;
+use super::{
+    BTreeMap, Blendshapes, CerealError, DMatrix, DVector, EdgeTopology, LandmarkMapping,
+    ModelContour, ModelError, ShapeModel, cereal,
+};
 
 /// Maps a byte-level error to one naming the file and the field being read.
 fn binary_error<'a>(file: &'a str, field: &'static str) -> impl Fn(CerealError) -> ModelError + 'a {

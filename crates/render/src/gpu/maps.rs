@@ -1,8 +1,10 @@
 //! The scene pass's group 1: the engraving's maps, the lamp's shadow cube and the baked noise,
 //! placeholders until a frame needs them.
 
-// The GPU objects' shared formats, uniforms and imports (this file is a part of `gpu`).
-use super::*;
+use wgpu::util::DeviceExt;
+
+use super::pipelines::Pipelines;
+use super::{NOISE_FORMAT, NoiseVolumeUniform};
 
 /// Side of each face of the lamp's shadow cube, texels.
 pub(crate) const SHADOW_SIZE: u32 = 1024;

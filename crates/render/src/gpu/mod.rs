@@ -30,11 +30,6 @@
 //! to 256 bytes.
 
 use bytemuck::{Pod, Zeroable};
-use wgpu::util::DeviceExt;
-
-use crate::shaders;
-use crate::styles::Style;
-use glyptic_core::scene::Vertex;
 
 mod maps;
 mod pipelines;

@@ -1,8 +1,17 @@
 //! Pipelines, layouts and uniform buffers: built once with the device (the scene variants and
 //! styles on first use).
 
-// The GPU objects' shared formats, uniforms and imports (this file is a part of `gpu`).
-use super::*;
+use bytemuck::Zeroable;
+use wgpu::util::DeviceExt;
+
+use super::{
+    CompositeUniform, DEPTH_FORMAT, DEPTH_MASK_FORMAT, DIFFUSE_FORMAT, FrameUniform, NOISE_FORMAT,
+    OUTPUT_FORMAT, SHADOW_FORMAT, SPECULAR_FORMAT, SSS_FORMAT, SSS_UNIFORM_FLOATS,
+    ShadowFaceUniform,
+};
+use crate::shaders;
+use crate::styles::Style;
+use glyptic_core::scene::Vertex;
 
 /// Pipelines, layouts and uniform buffers: created once with the device.
 pub(crate) struct Pipelines {

@@ -1,8 +1,13 @@
 //! Frame targets (rebuilt only when the image size changes), the style chain's images, and
 //! the mesh buffers (grown only when a mesh does not fit).
 
-// The GPU objects' shared formats, uniforms and imports (this file is a part of `gpu`).
-use super::*;
+use super::pipelines::Pipelines;
+use super::{
+    DEPTH_FORMAT, DEPTH_MASK_FORMAT, DIFFUSE_FORMAT, OUTPUT_BYTES_PER_PIXEL, OUTPUT_FORMAT,
+    SPECULAR_FORMAT, SSS_FORMAT, STYLE_FORMAT,
+};
+use crate::styles::Style;
+use glyptic_core::scene::Vertex;
 
 /// A scene-pass colour target: the single-sample texture later passes read, and, with MSAA, the
 /// multisampled texture drawn into and resolved from.
