@@ -330,51 +330,44 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// `x * 2^e` in `f32`, like C's `ldexpf`, for any `e` (scales in steps that stay exact
-/// until the result itself over- or underflows).
-pub fn ldexp_f32(mut x: f32, mut e: i32) -> f32 {
-    // 2^k for k in [-126, 127] built from the exponent bits.
-    fn pow2(k: i32) -> f32 {
-        f32::from_bits(((k + 127) as u32) << 23)
-    }
-    while e > 127 {
-        x *= pow2(127);
-        e -= 127;
-        if !x.is_finite() || x == 0.0 {
-            return x;
+/// `x * 2^e` for one float type, like C's `ldexp`, for any `e`: scales in steps of the
+/// largest (smallest) normal power of two, which stay exact until the result itself over- or
+/// underflows. `$bias`, `$mantissa`: the type's exponent bias and mantissa bits.
+macro_rules! ldexp {
+    ($(#[$doc:meta])* $name:ident, $t:ty, $bits:ty, $bias:literal, $mantissa:literal) => {
+        $(#[$doc])*
+        pub fn $name(mut x: $t, mut e: i32) -> $t {
+            // 2^k for k in [1 - bias, bias], built from the exponent bits.
+            fn pow2(k: i32) -> $t {
+                <$t>::from_bits(((k + $bias) as $bits) << $mantissa)
+            }
+            while e > $bias {
+                x *= pow2($bias);
+                e -= $bias;
+                if !x.is_finite() || x == 0.0 {
+                    return x;
+                }
+            }
+            while e < 1 - $bias {
+                x *= pow2(1 - $bias);
+                e += $bias - 1;
+                if x == 0.0 {
+                    return x;
+                }
+            }
+            x * pow2(e)
         }
-    }
-    while e < -126 {
-        x *= pow2(-126);
-        e += 126;
-        if x == 0.0 {
-            return x;
-        }
-    }
-    x * pow2(e)
+    };
 }
 
-/// `x * 2^e` in `f64`, like C's `ldexp`.
-pub fn ldexp_f64(mut x: f64, mut e: i32) -> f64 {
-    fn pow2(k: i32) -> f64 {
-        f64::from_bits(((k + 1023) as u64) << 52)
-    }
-    while e > 1023 {
-        x *= pow2(1023);
-        e -= 1023;
-        if !x.is_finite() || x == 0.0 {
-            return x;
-        }
-    }
-    while e < -1022 {
-        x *= pow2(-1022);
-        e += 1022;
-        if x == 0.0 {
-            return x;
-        }
-    }
-    x * pow2(e)
-}
+ldexp!(
+    /// `x * 2^e` in `f32`, like C's `ldexpf`.
+    ldexp_f32, f32, u32, 127, 23
+);
+ldexp!(
+    /// `x * 2^e` in `f64`, like C's `ldexp`.
+    ldexp_f64, f64, u64, 1023, 52
+);
 
 /// Encoders, the inverse of [`Reader`], for building test data and small model files.
 pub mod write {
@@ -448,5 +441,27 @@ pub mod write {
         };
         signed(out, mantissa);
         signed(out, i64::from(exponent));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{ldexp_f32, ldexp_f64};
+
+    /// Both widths scale exactly through the normal range, into subnormals, and saturate.
+    #[test]
+    fn ldexp_scales_exactly_and_saturates() {
+        assert_eq!(ldexp_f32(1.0, 10), 1024.0);
+        assert_eq!(ldexp_f32(3.0, -2), 0.75);
+        // 1.5 * 2^-130 = 786432 * 2^-149, a subnormal.
+        assert_eq!(ldexp_f32(1.5, -130), f32::from_bits(786_432));
+        assert_eq!(ldexp_f32(1.0, 200), f32::INFINITY);
+        assert_eq!(ldexp_f32(1.0e30, -400), 0.0);
+        assert_eq!(ldexp_f32(2.0f32.powi(-100), 227), 2.0f32.powi(127));
+        assert_eq!(ldexp_f64(1.0, 1000), 2.0f64.powi(1000));
+        // 3 * 2^-1070 = 48 * 2^-1074, a subnormal.
+        assert_eq!(ldexp_f64(3.0, -1070), f64::from_bits(48));
+        assert_eq!(ldexp_f64(-1.0, 5000), f64::NEG_INFINITY);
+        assert_eq!(ldexp_f64(1.0, -5000), 0.0);
     }
 }
