@@ -1,5 +1,6 @@
-//! The layered stones a cameo is cut from, described once: the renderer takes its uniforms
-//! from here and the glTF export its colours, so the two cannot drift apart.
+//! The stones a cameo is cut from, and its gold, described once: the renderer takes its
+//! uniforms (the layered stones) and its shader constants (marble, gold) from here and the
+//! glTF export its materials, so the two cannot drift apart.
 //!
 //! A layered stone is a ground layer under a white layer (and, in agate and shell, a darker
 //! top layer the cutter uses for the hair): the carving cuts down through the white, so
@@ -10,6 +11,16 @@
 //!
 //! The values come from photographs of catalogued pieces, described in `docs/stones.md`
 //! (colours read there as sRGB, not copied from any picture).
+
+/// Statuary marble: a warm white, `MARBLE_GREY * MARBLE_TINT` (display values), veined by the
+/// shader; its highlight's Blinn-Phong (n.h) exponent.
+pub const MARBLE_GREY: f32 = 0.92;
+pub const MARBLE_TINT: [f32; 3] = [1.0, 0.985, 0.955];
+pub const MARBLE_BLINN: f32 = 90.0;
+/// The setting's gold: reflectance at normal incidence (linear) and the highlight's
+/// Blinn-Phong exponent.
+pub const GOLD_F0: [f32; 3] = [1.0, 0.71, 0.29];
+pub const GOLD_BLINN: f32 = 120.0;
 
 /// One layered stone.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,4 +1,4 @@
-// requires: baked_noise.wgsl
+// requires: stones.wgsl, baked_noise.wgsl
 //
 // Scene pass: draws the gem and writes, per pixel (all premultiplied by coverage, cleared to 0):
 //   location 0  diffuse    rgb = diffuse radiance (linear), a = 1 (coverage after MSAA resolve)
@@ -191,10 +191,10 @@ fn marble_albedo(p: vec3<f32>) -> vec3<f32> {
         cloud_noise = marble_cloud(uv);
     }
     let cloud = (1.0 - lightness) * cloud_noise;
-    let grey = 0.92 * (1.0 - vein) * (1.0 + cloud);
+    let grey = MARBLE_GREY * (1.0 - vein) * (1.0 + cloud);
     // The veins are a cool grey in the warm body.
     let cool = vec3<f32>(1.0 - 0.25 * vein, 1.0, 1.0 + 0.3 * vein);
-    return srgb_to_linear(grey * vec3<f32>(1.0, 0.985, 0.955) * cool);
+    return srgb_to_linear(grey * MARBLE_TINT * cool);
 }
 
 // A layered stone (agate, shell, jasperware; their values come from glyptic-core's `stone`
@@ -301,9 +301,6 @@ fn lamp_visibility(p: vec3<f32>, ndl: f32) -> f32 {
 
 // The fill light's strength (from the camera's side).
 const FILL_LIGHT: f32 = 0.2;
-
-// Gold's reflectance at normal incidence (linear).
-const GOLD_F0: vec3<f32> = vec3<f32>(1.0, 0.71, 0.29);
 
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
@@ -416,8 +413,8 @@ fn fs_main(in: VsOut) -> FsOut {
         let fresnel = GOLD_F0 + (1.0 - GOLD_F0) * pow(1.0 - ndv, 5.0);
         let h = normalize(l + v);
         let h_lamp = normalize(lamp_l + v);
-        let highlight = (pow(max(dot(n, h), 0.0), 120.0) * light
-            + pow(max(dot(n, h_lamp), 0.0), 120.0) * lamp) * 3.0;
+        let highlight = (pow(max(dot(n, h), 0.0), GOLD_BLINN) * light
+            + pow(max(dot(n, h_lamp), 0.0), GOLD_BLINN) * lamp) * 3.0;
         specular = fresnel * (0.8 * environment(r) * in_occlusion + highlight);
         sss = 0.0;
     } else if frame.material.x == 0u {
@@ -427,7 +424,7 @@ fn fs_main(in: VsOut) -> FsOut {
         let h = normalize(l + v);
         let ndv = max(dot(n, v), 0.0);
         let fresnel = 0.04 + 0.96 * pow(1.0 - ndv, 5.0);
-        specular = vec3<f32>(0.12 * pow(max(dot(n, h), 0.0), 90.0) * light)
+        specular = vec3<f32>(0.12 * pow(max(dot(n, h), 0.0), MARBLE_BLINN) * light)
             + 0.35 * fresnel * environment(reflect(-v, n));
     } else {
         diffuse = layered_albedo(p, relief, hair) * (lit + glow);

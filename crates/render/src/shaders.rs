@@ -15,14 +15,37 @@ pub const BAKED_NOISE: &str = concat!(
     include_str!("../shaders/baked_noise.wgsl")
 );
 
-/// The scene pass (`vs_main`, `fs_main`), with the noise and the baked noise prepended.
-pub const SCENE: &str = concat!(
+/// The scene pass's files: the noise, the baked noise, the scene shader.
+const SCENE_FILES: &str = concat!(
     include_str!("../shaders/noise.wgsl"),
     "\n",
     include_str!("../shaders/baked_noise.wgsl"),
     "\n",
     include_str!("../shaders/scene.wgsl")
 );
+
+/// The scene pass (`vs_main`, `fs_main`): the stones' constants ([`stones`]), then the noise
+/// and the baked noise, then `scene.wgsl`.
+pub static SCENE: std::sync::LazyLock<String> =
+    std::sync::LazyLock::new(|| format!("{}\n{SCENE_FILES}", stones()));
+
+/// Marble's and gold's constants for the scene shader (`stones.wgsl` in a `// requires:`
+/// line), from [`glyptic_core::stone`], the table the GLB export reads too. (The layered
+/// stones reach the shader as uniforms from the same table.)
+pub fn stones() -> String {
+    use glyptic_core::stone::{GOLD_BLINN, GOLD_F0, MARBLE_BLINN, MARBLE_GREY, MARBLE_TINT};
+    let v3 = |c: [f32; 3]| format!("vec3<f32>({:?}, {:?}, {:?})", c[0], c[1], c[2]);
+    format!(
+        "// Marble and gold, from glyptic_core::stone.\n\
+         const MARBLE_GREY: f32 = {MARBLE_GREY:?};\n\
+         const MARBLE_TINT: vec3<f32> = {};\n\
+         const MARBLE_BLINN: f32 = {MARBLE_BLINN:?};\n\
+         const GOLD_F0: vec3<f32> = {};\n\
+         const GOLD_BLINN: f32 = {GOLD_BLINN:?};",
+        v3(MARBLE_TINT),
+        v3(GOLD_F0)
+    )
+}
 
 /// Bakes the slowly varying noise into a volume over the mesh (`cs_main`, a compute shader).
 pub const NOISE_VOLUME: &str = concat!(
@@ -90,7 +113,7 @@ pub fn modules() -> [(&'static str, &'static str); 14] {
         ("baked_noise", BAKED_NOISE),
         ("noise_volume", NOISE_VOLUME),
         ("fullscreen", FULLSCREEN),
-        ("scene", SCENE),
+        ("scene", SCENE.as_str()),
         ("composite", COMPOSITE),
         ("sss", SSS),
         ("edge_aa", EDGE_AA),
@@ -139,6 +162,9 @@ mod tests {
     }
 
     fn assemble(dir: &Path, file: &str) -> String {
+        if file == "stones.wgsl" {
+            return super::stones();
+        }
         let source = fs::read_to_string(dir.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
         let mut assembled = String::new();
         for required in requirements(&source) {
@@ -180,28 +206,29 @@ mod tests {
         assert!(failures.is_empty(), "{}", failures.join("\n\n"));
     }
 
-    /// The GLB export (`glyptic_core::gem::gltf`) mirrors the scene shader's marble and gold
-    /// as glTF materials: a change here must go there too. (The layered stones come to both
-    /// from `glyptic_core::stone`; no constant of theirs may linger in the shader.)
+    /// The scene shader takes marble's and gold's numbers from `glyptic_core::stone` (the
+    /// table the GLB export reads), never its own: scene.wgsl declares none of them and uses
+    /// each; no layered stone's constant lingers in it either.
     #[test]
-    fn the_gltf_materials_say_what_the_scene_shader_says() {
-        use glyptic_core::gem::gltf::shader::*;
-        let v3 = |c: [f32; 3]| format!("vec3<f32>({:?}, {:?}, {:?})", c[0], c[1], c[2]);
-        let expected = [
-            format!("const GOLD_F0: vec3<f32> = {};", v3(GOLD_F0)),
-            format!("let grey = {MARBLE_GREY:?} *"),
-            format!("grey * {}", v3(MARBLE_TINT)),
-            format!("pow(max(dot(n, h), 0.0), {MARBLE_BLINN:?})"),
-            format!("pow(max(dot(n, h), 0.0), {GOLD_BLINN:?})"),
-        ];
-        let missing: Vec<&String> = expected
-            .iter()
-            .filter(|e| !super::SCENE.contains(e.as_str()))
-            .collect();
-        assert!(
-            missing.is_empty(),
-            "scene.wgsl no longer says {missing:?}: update crates/core/src/gem/gltf.rs"
-        );
+    fn the_scene_shader_takes_its_stones_from_the_one_table() {
+        let file = include_str!("../shaders/scene.wgsl");
+        for name in [
+            "MARBLE_GREY",
+            "MARBLE_TINT",
+            "MARBLE_BLINN",
+            "GOLD_F0",
+            "GOLD_BLINN",
+        ] {
+            assert!(
+                !file.contains(&format!("const {name}")),
+                "scene.wgsl declares {name} itself: it belongs in glyptic_core::stone"
+            );
+            assert!(
+                file.matches(name).count() >= 1 && super::SCENE.contains(&format!("const {name}")),
+                "{name} is not used or not declared"
+            );
+        }
+        assert!(!file.contains("0.985") && !file.contains("0.71, 0.29"));
         assert!(
             !super::SCENE.contains("AGATE_"),
             "scene.wgsl describes agate itself again: its values belong in glyptic_core::stone"

@@ -26,22 +26,6 @@ use serde_json::{Value, json};
 use crate::scene::{Mesh, Region};
 use crate::stone::{Layers, linear, srgb_to_linear};
 
-/// The renderer's marble and gold (`crates/render/shaders/scene.wgsl`), mirrored here because
-/// the core cannot read the render crate; glyptic-render's tests check that the shader still
-/// says these numbers. Colours are display (sRGB) values as the shader writes them. The
-/// layered stones need no mirror: the renderer takes them from [`crate::stone`] too.
-pub mod shader {
-    /// Marble: a warm white, `MARBLE_GREY * MARBLE_TINT`.
-    pub const MARBLE_GREY: f32 = 0.92;
-    pub const MARBLE_TINT: [f32; 3] = [1.0, 0.985, 0.955];
-    /// Gold's reflectance at normal incidence (linear).
-    pub const GOLD_F0: [f32; 3] = [1.0, 0.71, 0.29];
-    /// The highlights' exponents: Blinn-Phong (n.h) for marble and gold (the layered
-    /// stones' are in [`crate::stone`], which the renderer reads directly).
-    pub const MARBLE_BLINN: f32 = 90.0;
-    pub const GOLD_BLINN: f32 = 120.0;
-}
-
 /// Metres per gem millimetre.
 const METRES_PER_MM: f32 = 0.001;
 
@@ -103,7 +87,7 @@ pub fn roughness_for_blinn(exponent: f32) -> f32 {
 /// stone; a layered stone's ground is its ground layer and its portrait takes its colours per
 /// vertex (so its base colour is white).
 pub fn materials(stone: Stone) -> [Pbr; 3] {
-    use shader::*;
+    use crate::stone::{GOLD_BLINN, GOLD_F0, MARBLE_BLINN, MARBLE_GREY, MARBLE_TINT};
     let gold = Pbr {
         name: "gold".into(),
         base_colour: [GOLD_F0[0], GOLD_F0[1], GOLD_F0[2], 1.0],

@@ -255,7 +255,7 @@ impl Pipelines {
     pub fn new(device: &wgpu::Device, samples: u32, compute: bool) -> Self {
         let scene_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("glyptic scene"),
-            source: wgpu::ShaderSource::Wgsl(shaders::SCENE.into()),
+            source: wgpu::ShaderSource::Wgsl(shaders::SCENE.as_str().into()),
         });
         let composite_module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("glyptic composite"),
