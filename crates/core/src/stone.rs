@@ -12,6 +12,53 @@
 //! The values come from photographs of catalogued pieces, described in `docs/stones.md`
 //! (colours read there as sRGB, not copied from any picture).
 
+/// The stone the gem is cut from: one type for the renderer, the GLB export, the kiosk's TOML (`"marble"`,
+/// `"agate"`, `"shell"`, `"jasperware"`) and the command line (`--material`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum Material {
+    /// White statuary marble with a few quiet grey veins, polished (a faint, sharp highlight).
+    #[default]
+    Marble,
+    /// Multilayer agate: red ground, white relief, brown hair (Phong, exponent 500).
+    Agate,
+    /// Shell: a cream figure on a salmon-orange ground that glows through the thin parts.
+    Shell,
+    /// Wedgwood's jasperware: a white relief on a pale blue ground, matte.
+    Jasperware,
+}
+
+impl Material {
+    /// Every stone, in the order the kiosk offers them.
+    pub const ALL: [Material; 4] = [
+        Material::Marble,
+        Material::Agate,
+        Material::Shell,
+        Material::Jasperware,
+    ];
+
+    /// The stone's name as the command line and the TOML spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Material::Marble => "marble",
+            Material::Agate => "agate",
+            Material::Shell => "shell",
+            Material::Jasperware => "jasperware",
+        }
+    }
+
+    /// A layered stone's description (None: marble, one stone throughout).
+    pub fn layers(self) -> Option<&'static Layers> {
+        match self {
+            Material::Marble => None,
+            Material::Agate => Some(&AGATE),
+            Material::Shell => Some(&SHELL),
+            Material::Jasperware => Some(&JASPERWARE),
+        }
+    }
+}
+
 /// Statuary marble: a warm white, `MARBLE_GREY * MARBLE_TINT` (display values), veined by the
 /// shader; its highlight's Blinn-Phong (n.h) exponent.
 pub const MARBLE_GREY: f32 = 0.92;

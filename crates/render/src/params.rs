@@ -5,52 +5,7 @@
 
 use crate::surface;
 
-/// The stone the gem is cut from: one type for the renderer, the kiosk's TOML (`"marble"`,
-/// `"agate"`, `"shell"`, `"jasperware"`) and the command line (`--material`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
-pub enum Material {
-    /// White statuary marble with a few quiet grey veins, polished (a faint, sharp highlight).
-    #[default]
-    Marble,
-    /// Multilayer agate: red ground, white relief, brown hair (Phong, exponent 500).
-    Agate,
-    /// Shell: a cream figure on a salmon-orange ground that glows through the thin parts.
-    Shell,
-    /// Wedgwood's jasperware: a white relief on a pale blue ground, matte.
-    Jasperware,
-}
-
-impl Material {
-    /// Every stone, in the order the kiosk offers them.
-    pub const ALL: [Material; 4] = [
-        Material::Marble,
-        Material::Agate,
-        Material::Shell,
-        Material::Jasperware,
-    ];
-
-    /// The stone's name as the command line and the TOML spell it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Material::Marble => "marble",
-            Material::Agate => "agate",
-            Material::Shell => "shell",
-            Material::Jasperware => "jasperware",
-        }
-    }
-
-    /// A layered stone's description (None: marble, one stone throughout).
-    pub fn layers(self) -> Option<&'static glyptic_core::stone::Layers> {
-        match self {
-            Material::Marble => None,
-            Material::Agate => Some(&glyptic_core::stone::AGATE),
-            Material::Shell => Some(&glyptic_core::stone::SHELL),
-            Material::Jasperware => Some(&glyptic_core::stone::JASPERWARE),
-        }
-    }
-}
+pub use glyptic_core::stone::Material;
 
 /// Controls of the marble veins: quiet, directional grey lines whose contrast stays below the
 /// relief's own shading (the carving, not the stone, should be what the eye reads).

@@ -24,22 +24,18 @@
 use serde_json::{Value, json};
 
 use crate::scene::{Mesh, Region};
-use crate::stone::{Layers, linear, srgb_to_linear};
+use crate::stone::{Material, linear, srgb_to_linear};
 
 /// Metres per gem millimetre.
 const METRES_PER_MM: f32 = 0.001;
 
-/// The stone, as the renderer draws it (glyptic-render's `Material` and `hair_layer`; the core
-/// cannot name the render crate's type).
+/// The stone as the renderer draws it: the [`Material`] (the one table of stones,
+/// [`crate::stone`]) and, for a layered stone, whether the hair is cut from its top layer
+/// (`false`: white like the face).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Stone {
-    Marble,
-    /// A layered stone ([`crate::stone::AGATE`], `SHELL`, `JASPERWARE`); `hair_layer`: the
-    /// hair cut from its top layer (`false`: white like the face).
-    Layered {
-        layers: &'static Layers,
-        hair_layer: bool,
-    },
+pub struct Stone {
+    pub material: Material,
+    pub hair_layer: bool,
 }
 
 /// What goes into the file besides the mesh.
@@ -94,8 +90,8 @@ pub fn materials(stone: Stone) -> [Pbr; 3] {
         metallic: 1.0,
         roughness: roughness_for_blinn(GOLD_BLINN),
     };
-    match stone {
-        Stone::Marble => {
+    match stone.material.layers() {
+        None => {
             let c = MARBLE_TINT.map(|t| srgb_to_linear(MARBLE_GREY * t));
             let marble = Pbr {
                 name: "marble".into(),
@@ -105,7 +101,7 @@ pub fn materials(stone: Stone) -> [Pbr; 3] {
             };
             [marble.clone(), marble, gold]
         }
-        Stone::Layered { layers, .. } => {
+        Some(layers) => {
             let roughness = roughness_for_blinn(4.0 * layers.phong);
             let ground = linear(layers.ground);
             [
@@ -314,8 +310,8 @@ pub fn to_glb(mesh: &Mesh, options: &GltfOptions) -> Result<Vec<u8>, GltfError> 
     let normals = unit_normals(mesh);
     let pbr = materials(options.stone);
     // Marble's ground and portrait share one material.
-    let material_of = |part: usize| match (options.stone, part) {
-        (Stone::Marble, 1) => 0,
+    let material_of = |part: usize| match (options.stone.material, part) {
+        (Material::Marble, 1) => 0,
         _ => part,
     };
     let mut bin = Bin::default();
@@ -339,7 +335,8 @@ pub fn to_glb(mesh: &Mesh, options: &GltfOptions) -> Result<Vec<u8>, GltfError> 
         let mut attributes = serde_json::Map::new();
         attributes.insert("POSITION".into(), json!(bin.vec3(&positions, true)));
         attributes.insert("NORMAL".into(), json!(bin.vec3(&part_normals, false)));
-        if let (Stone::Layered { layers, hair_layer }, 1) = (options.stone, k) {
+        if let (Some(layers), 1) = (options.stone.material.layers(), k) {
+            let hair_layer = options.stone.hair_layer;
             let colours: Vec<[f32; 3]> = part
                 .vertices
                 .iter()
@@ -545,8 +542,12 @@ mod tests {
         values
     }
 
-    const AGATE_HAIR: Stone = Stone::Layered {
-        layers: &crate::stone::AGATE,
+    const MARBLE: Stone = Stone {
+        material: Material::Marble,
+        hair_layer: true,
+    };
+    const AGATE_HAIR: Stone = Stone {
+        material: Material::Agate,
         hair_layer: true,
     };
 
@@ -561,7 +562,7 @@ mod tests {
     #[test]
     fn a_glb_holds_the_cameo_in_metres_by_material() {
         let mesh = toy(0);
-        for stone in [Stone::Marble, AGATE_HAIR] {
+        for stone in [MARBLE, AGATE_HAIR] {
             let glb = to_glb(&mesh, &options(stone)).unwrap();
             let (doc, bin) = open(&glb);
             assert_eq!(doc["asset"]["version"], "2.0");
@@ -579,7 +580,7 @@ mod tests {
                 .collect();
             assert_eq!(names, ["ground", "portrait", "gold"]);
             let materials = doc["materials"].as_array().unwrap();
-            assert_eq!(materials.len(), if stone == Stone::Marble { 2 } else { 3 });
+            assert_eq!(materials.len(), if stone == MARBLE { 2 } else { 3 });
             let mut triangles = 0;
             for (k, (p, expect)) in prims.iter().zip([(4, 2), (6, 3), (4, 2)]).enumerate() {
                 let pos = p["attributes"]["POSITION"].as_u64().unwrap() as usize;
@@ -610,7 +611,7 @@ mod tests {
                 triangles += indices.len() / 3;
                 // Agate's portrait takes its layers per vertex.
                 let has_colour = p["attributes"].get("COLOR_0").is_some();
-                assert_eq!(has_colour, stone != Stone::Marble && k == 1);
+                assert_eq!(has_colour, stone != MARBLE && k == 1);
                 let m = &materials[p["material"].as_u64().unwrap() as usize];
                 let metallic = m["pbrMetallicRoughness"]["metallicFactor"]
                     .as_f64()
@@ -640,7 +641,7 @@ mod tests {
     #[test]
     fn highlights_become_roughness() {
         // A sharper highlight is a smoother surface; agate's is the sharpest.
-        let [marble, _, gold] = materials(Stone::Marble);
+        let [marble, _, gold] = materials(MARBLE);
         let [_, agate, _] = materials(AGATE_HAIR);
         assert!(agate.roughness < gold.roughness && gold.roughness < marble.roughness);
         assert!((0.1..0.5).contains(&marble.roughness), "{marble:?}");
@@ -651,7 +652,7 @@ mod tests {
     #[test]
     fn large_parts_take_32_bit_indices() {
         let mesh = toy(70_000);
-        let glb = to_glb(&mesh, &options(Stone::Marble)).unwrap();
+        let glb = to_glb(&mesh, &options(MARBLE)).unwrap();
         let (doc, bin) = open(&glb);
         let ground = &doc["meshes"][0]["primitives"][0];
         let idx = ground["indices"].as_u64().unwrap() as usize;
@@ -666,7 +667,7 @@ mod tests {
 
     #[test]
     fn broken_meshes_are_refused() {
-        let o = options(Stone::Marble);
+        let o = options(MARBLE);
         assert_eq!(to_glb(&Mesh::default(), &o), Err(GltfError::Empty));
         let mut mesh = toy(0);
         mesh.indices.push(0);

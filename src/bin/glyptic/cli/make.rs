@@ -77,12 +77,9 @@ pub(super) fn glb(
     params: &RenderParams,
     source: &str,
 ) -> Result<Vec<u8>, gem::gltf::GltfError> {
-    let stone = match params.material.layers() {
-        None => gem::gltf::Stone::Marble,
-        Some(layers) => gem::gltf::Stone::Layered {
-            layers,
-            hair_layer: params.hair_layer,
-        },
+    let stone = gem::gltf::Stone {
+        material: params.material,
+        hair_layer: params.hair_layer,
     };
     gem::gltf::to_glb(
         mesh,
