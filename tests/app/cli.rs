@@ -645,6 +645,11 @@ fn landmarks_json_gives_each_face_its_68_points() {
                 .arg(&pts),
         );
         let json = report(&run.stdout);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(
+            !stderr.lines().any(|l| l.starts_with("detect ")),
+            "--json prints no stage table: {stderr}"
+        );
         let faces = json["faces"].as_array().expect("faces");
         assert!(!faces.is_empty(), "{name}: no face");
         let area =

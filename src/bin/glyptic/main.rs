@@ -46,6 +46,9 @@ fn main() -> ExitCode {
             | cli::Command::Man(_)
     );
     let json = args.json_report();
+    if json.is_some() {
+        report::collect_stages();
+    }
     match cli::run(args) {
         Ok(()) => {
             report::print_table();

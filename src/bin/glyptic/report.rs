@@ -43,7 +43,8 @@ pub fn set_quiet(quiet: bool) {
     QUIET.store(quiet, Ordering::Relaxed);
 }
 
-/// The command reports in JSON: its stages go into the report, not a table.
+/// The command reports in JSON (`main` says so before it runs): its stages go into the
+/// report, not a table.
 pub fn collect_stages() {
     JSON.store(true, Ordering::Relaxed);
 }

@@ -218,9 +218,6 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
         });
     }
     let start = Instant::now();
-    if args.json {
-        crate::report::collect_stages();
-    }
     let params = args.view.params()?;
     check_outputs(
         args.face.as_deref(),
@@ -353,9 +350,6 @@ fn read_face_obj(path: &Path) -> Result<(Vec<f32>, Vec<[u32; 3]>)> {
 #[cfg(feature = "face")]
 pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     let start = Instant::now();
-    if args.json {
-        crate::report::collect_stages();
-    }
     let params = args.view.params()?;
     check_outputs(
         [args.image.as_path()],
