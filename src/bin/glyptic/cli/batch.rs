@@ -127,6 +127,7 @@ fn outputs_for(files: &[PathBuf], out_dir: &Path, args: &BatchArgs) -> Vec<Outpu
             Outputs {
                 gem: file("-gem.png"),
                 make: super::make::MakeArgs {
+                    gem_obj: None,
                     stl: args.stl.then(|| file("-gem.stl")),
                     base: args.base,
                     heightmap: args.heightmap.then(|| file("-height.png")),

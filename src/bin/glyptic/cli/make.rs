@@ -16,10 +16,14 @@ use glyptic::stage::Stage;
 use crate::outputs::stage;
 use crate::report::print_stages;
 
-/// The gem for other programs (`render`, `photo`): the stone for a 3D printer or a CNC
-/// router, the cameo for a 3D viewer.
+/// The gem for other programs (`render`, `photo`): the cameo mesh as OBJ, the stone for a 3D
+/// printer or a CNC router, the cameo for a 3D viewer.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct MakeArgs {
+    /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
+    #[arg(long, value_name = "FILE.obj",
+          value_parser = crate::values::file_named(&["obj"], "Wavefront OBJ"))]
+    pub gem_obj: Option<PathBuf>,
     /// Also write the stone as a closed solid for a 3D printer or CAM program: binary STL in
     /// millimetres, the relief on a flat-bottomed oval slab (the bezel left out).
     #[arg(long, value_name = "FILE.stl",
@@ -43,12 +47,19 @@ pub struct MakeArgs {
 }
 
 impl MakeArgs {
+    /// The files asked for.
     pub(super) fn outputs(&self) -> impl Iterator<Item = &Path> {
-        self.stl
-            .iter()
-            .chain(&self.heightmap)
-            .chain(&self.gltf)
-            .map(PathBuf::as_path)
+        self.named().into_iter().filter_map(|(_, path)| path)
+    }
+
+    /// Each file by its kind in the reports (`None`: not asked for).
+    pub(super) fn named(&self) -> [(&'static str, Option<&Path>); 4] {
+        [
+            ("gem_obj", self.gem_obj.as_deref()),
+            ("stl", self.stl.as_deref()),
+            ("heightmap", self.heightmap.as_deref()),
+            ("gltf", self.gltf.as_deref()),
+        ]
     }
 }
 

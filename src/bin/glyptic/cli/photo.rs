@@ -41,10 +41,6 @@ pub struct RenderArgs {
     /// Fit the face in this photo instead (as `glyptic photo`).
     #[arg(long, value_name = "IMAGE")]
     pub photo: Option<PathBuf>,
-    /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
-    #[arg(long, value_name = "FILE.obj",
-          value_parser = crate::values::file_named(&["obj"], "Wavefront OBJ"))]
-    pub gem_obj: Option<PathBuf>,
     #[command(flatten)]
     pub make: MakeArgs,
     /// Report as one JSON object on stdout (stages and times, the files written) instead of
@@ -116,10 +112,6 @@ pub struct PhotoArgs {
     #[arg(long, value_name = "FILE.obj",
           value_parser = crate::values::file_named(&["obj"], "Wavefront OBJ"))]
     pub obj: Option<PathBuf>,
-    /// Also write the whole cameo mesh (gem millimetres, with normals) as Wavefront OBJ.
-    #[arg(long, value_name = "FILE.obj",
-          value_parser = crate::values::file_named(&["obj"], "Wavefront OBJ"))]
-    pub gem_obj: Option<PathBuf>,
     #[command(flatten)]
     pub make: MakeArgs,
     /// Report as one JSON object on stdout (stages and times, the files written, the face:
@@ -212,7 +204,6 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
             },
             landmarks_out: None,
             obj: None,
-            gem_obj: args.gem_obj.clone(),
             make: args.make.clone(),
             json: args.json,
         });
@@ -221,10 +212,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
     let params = args.view.params()?;
     check_outputs(
         args.face.as_deref(),
-        [args.output.as_path()]
-            .into_iter()
-            .chain(args.gem_obj.as_deref())
-            .chain(args.make.outputs()),
+        std::iter::once(args.output.as_path()).chain(args.make.outputs()),
     )?;
     output_kind(&args.output, &params)?;
     let renderer_thread = spawn_renderer();
@@ -267,7 +255,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
     let png = render_png(&mut renderer, &mesh, &params, &args.output)?;
     // All or nothing: every file staged, then all put in place together.
     let mut staged = Staged::new();
-    if let Some(obj) = &args.gem_obj {
+    if let Some(obj) = &args.make.gem_obj {
         stage_gem_obj(&mut staged, obj, &mesh, &source)?;
     }
     stage_made(&mut staged, made)?;
@@ -279,13 +267,9 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
         detail: args.output.display().to_string(),
     }]);
     if args.json {
-        let outputs = Outputs::of(&[
-            ("image", Some(args.output.as_path())),
-            ("gem_obj", args.gem_obj.as_deref()),
-            ("stl", args.make.stl.as_deref()),
-            ("heightmap", args.make.heightmap.as_deref()),
-            ("gltf", args.make.gltf.as_deref()),
-        ]);
+        let mut outputs = vec![("image", Some(args.output.as_path()))];
+        outputs.extend(args.make.named());
+        let outputs = Outputs::of(&outputs);
         crate::report::print("render", Run::so_far(source, outputs, start));
     }
     Ok(())
@@ -357,7 +341,6 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
             Some(args.output.as_path()),
             args.landmarks_out.as_deref(),
             args.obj.as_deref(),
-            args.gem_obj.as_deref(),
         ]
         .into_iter()
         .flatten()
@@ -418,7 +401,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
             gem::to_obj(&gem.face.mesh, triangles, &comment).as_bytes(),
         )?;
     }
-    if let Some(obj) = &args.gem_obj {
+    if let Some(obj) = &args.make.gem_obj {
         stage_gem_obj(&mut staged, obj, &gem.mesh, &source_label(image_path))?;
     }
     let to_stdout = crate::values::is_stdio(&args.output);
@@ -455,15 +438,13 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
             person: Option<serde_json::Value>,
         }
         let face = &gem.face;
-        let outputs = Outputs::of(&[
+        let mut outputs = vec![
             ("image", Some(args.output.as_path())),
             ("landmarks", args.landmarks_out.as_deref()),
             ("obj", args.obj.as_deref()),
-            ("gem_obj", args.gem_obj.as_deref()),
-            ("stl", args.make.stl.as_deref()),
-            ("heightmap", args.make.heightmap.as_deref()),
-            ("gltf", args.make.gltf.as_deref()),
-        ]);
+        ];
+        outputs.extend(args.make.named());
+        let outputs = Outputs::of(&outputs);
         crate::report::print(
             "photo",
             PhotoReport {
