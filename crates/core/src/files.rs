@@ -25,23 +25,34 @@ pub fn read_limited(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
             "not a regular file (a folder, a device or a pipe)",
         ));
     }
-    let too_large = |bytes: u64| {
-        std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            format!("{bytes} bytes, more than the {max} this input may have"),
-        )
-    };
     if meta.len() > max {
-        return Err(too_large(meta.len()));
+        return Err(too_large(meta.len(), max));
     }
-    let mut bytes = Vec::with_capacity(usize::try_from(meta.len()).unwrap_or(0));
-    std::fs::File::open(path)?
-        .take(max + 1)
-        .read_to_end(&mut bytes)?;
+    let capacity = usize::try_from(meta.len()).unwrap_or(0);
+    read_all_limited(std::fs::File::open(path)?, max, capacity)
+}
+
+/// Everything `reader` holds, refused past `max` bytes without reading more than one byte
+/// beyond it (a file that grows while read, a pipe: `glyptic photo -`). `capacity`: the
+/// expected size, when known.
+pub fn read_all_limited(
+    reader: impl std::io::Read,
+    max: u64,
+    capacity: usize,
+) -> std::io::Result<Vec<u8>> {
+    let mut bytes = Vec::with_capacity(capacity);
+    reader.take(max + 1).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > max {
-        return Err(too_large(bytes.len() as u64));
+        return Err(too_large(bytes.len() as u64, max));
     }
     Ok(bytes)
+}
+
+fn too_large(bytes: u64, max: u64) -> std::io::Error {
+    std::io::Error::new(
+        std::io::ErrorKind::InvalidInput,
+        format!("{bytes} bytes, more than the {max} this input may have"),
+    )
 }
 
 /// [`read_limited`] as UTF-8 text.

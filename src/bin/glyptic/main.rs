@@ -4,9 +4,9 @@
 //! non-zero exit code (under `--json`, also as the report on stdout); no output file is left
 //! behind by a failed run. A command that succeeded prints its stage table on stderr
 //! (`report`); stdout carries the command's answer (a JSON report, an image written to `-`,
-//! the kernel, doctor's findings, a summary), never the table. The rest of stderr is the log: glyptic's warnings by
-//! default, `-v` adds each stage as it ends and the libraries' own notes (wgpu, naga, ONNX
-//! Runtime), `-q` leaves errors only, `RUST_LOG` overrides both.
+//! the kernel, doctor's findings, a summary), never the table. The rest of stderr is the
+//! log: glyptic's warnings by default, `-v` adds each stage as it ends and the libraries'
+//! own notes (wgpu, naga, ONNX Runtime), `-q` leaves errors only, `RUST_LOG` overrides both.
 
 /// `println!` that survives a closed stdout (`glyptic photo ... | head -1`): what goes to
 /// stdout is a report, and the work and its files must not depend on someone reading it.
@@ -49,7 +49,7 @@ fn main() -> ExitCode {
     );
     let json = args.json_report();
     if json.is_some() {
-        report::collect_stages();
+        report::report_in_json();
     }
     match cli::run(args) {
         Ok(()) => {

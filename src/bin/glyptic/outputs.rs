@@ -155,3 +155,13 @@ pub fn commit(staged: glyptic::files::Staged) -> Result<()> {
         )
     })
 }
+
+/// Writes `bytes` (`what` they are, for the error) to standard output whole; a closed pipe
+/// is an error the user sees, since the bytes are the command's output.
+pub fn write_stdout(bytes: &[u8], what: &str) -> Result<()> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    out.write_all(bytes)
+        .and_then(|()| out.flush())
+        .with_context(|| format!("standard output: cannot write {what}"))
+}

@@ -43,9 +43,14 @@ pub fn set_quiet(quiet: bool) {
     QUIET.store(quiet, Ordering::Relaxed);
 }
 
+/// Whether `-q` asked for errors only.
+pub fn quiet() -> bool {
+    QUIET.load(Ordering::Relaxed)
+}
+
 /// The command reports in JSON (`main` says so before it runs): its stages go into the
 /// report, not a table.
-pub fn collect_stages() {
+pub fn report_in_json() {
     JSON.store(true, Ordering::Relaxed);
 }
 
@@ -58,7 +63,7 @@ pub fn collected_stages() -> Vec<Stage> {
 }
 
 /// Notes stages that ended, for the table or the report.
-pub fn print_stages(stages: &[Stage]) {
+pub fn note_stages(stages: &[Stage]) {
     if let Ok(mut all) = COLLECTED.lock() {
         all.extend(stages.iter().cloned());
     }
@@ -208,11 +213,6 @@ impl Pose {
 /// Milliseconds since `start`.
 pub fn ms_since(start: std::time::Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
-}
-
-/// Whether `-q` asked for errors only.
-pub fn quiet() -> bool {
-    QUIET.load(Ordering::Relaxed)
 }
 
 /// Writes one line of the report to stdout; see `say!`.

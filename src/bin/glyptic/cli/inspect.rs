@@ -121,7 +121,7 @@ pub(super) fn find_landmarks(args: &LandmarksArgs) -> Result<()> {
             glyptic::landmarks::pts::write_pts(&face.points).as_bytes(),
         )?;
     }
-    crate::report::print_stages(&stages);
+    crate::report::note_stages(&stages);
     if args.json {
         #[derive(serde::Serialize)]
         struct LandmarksReport {
@@ -276,7 +276,7 @@ pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
             ms,
             detail: String::new(),
         };
-        crate::report::print_stages(&[stage("load face model", load_ms), stage("fit", fit_ms)]);
+        crate::report::note_stages(&[stage("load face model", load_ms), stage("fit", fit_ms)]);
         let outputs = Outputs::of(&[("obj", args.obj.as_deref())]);
         crate::report::print(
             "fit",
@@ -308,7 +308,7 @@ pub(super) fn fit_landmarks(args: &FitArgs) -> Result<()> {
             },
         );
     } else {
-        crate::report::print_stages(&[glyptic::stage::Stage {
+        crate::report::note_stages(&[glyptic::stage::Stage {
             name: "load face model",
             ms: load_ms,
             detail: format!("{} vertices", model.shape.num_vertices()),

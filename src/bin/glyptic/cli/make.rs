@@ -14,7 +14,7 @@ use glyptic::render::RenderParams;
 use glyptic::stage::Stage;
 
 use crate::outputs::stage;
-use crate::report::print_stages;
+use crate::report::note_stages;
 
 /// The gem for other programs (`render`, `photo`): the cameo mesh as OBJ, the stone for a 3D
 /// printer or a CNC router, the cameo for a 3D viewer.
@@ -218,7 +218,7 @@ pub(super) fn stage_made(staged: &mut Staged, made: Made) -> Result<()> {
         details.push(detail);
     }
     if !details.is_empty() {
-        print_stages(&[Stage {
+        note_stages(&[Stage {
             name: "make files",
             ms: made.ms + t.elapsed().as_secs_f64() * 1e3,
             detail: details.join("; "),

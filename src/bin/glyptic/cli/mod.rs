@@ -108,7 +108,7 @@ fn completions(args: &CompletionsArgs) -> Result<()> {
     let mut cmd = <Cli as clap::CommandFactory>::command();
     let mut script = Vec::new();
     clap_complete::generate(args.shell, &mut cmd, "glyptic", &mut script);
-    write_stdout(&script)
+    crate::outputs::write_stdout(&script, "the completion script")
 }
 
 /// The manual page(s), from the same definitions as `--help`.
@@ -125,18 +125,9 @@ fn man(args: &ManArgs) -> Result<()> {
             clap_mangen::Man::new(cmd)
                 .render(&mut page)
                 .context("rendering the manual page")?;
-            write_stdout(&page)
+            crate::outputs::write_stdout(&page, "the manual page")
         }
     }
-}
-
-/// Writes generated text to stdout; a closed pipe is an error the user sees.
-fn write_stdout(bytes: &[u8]) -> Result<()> {
-    use std::io::Write as _;
-    let mut out = std::io::stdout().lock();
-    out.write_all(bytes)
-        .and_then(|()| out.flush())
-        .context("standard output")
 }
 
 impl Cli {
@@ -171,9 +162,7 @@ impl Cli {
         }
         Ok(())
     }
-}
 
-impl Cli {
     /// The command's name when it reports in JSON on stdout (`--json`), so that an error is
     /// reported there too.
     pub fn json_report(&self) -> Option<&'static str> {

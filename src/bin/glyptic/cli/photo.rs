@@ -18,7 +18,7 @@ use super::{ChoiceArgs, GlassesArg};
 use crate::outputs::{check_outputs, commit, stage};
 #[cfg(feature = "face")]
 use crate::report::Pose;
-use crate::report::{Outputs, Run, print_stages};
+use crate::report::{Outputs, Run, note_stages};
 use glyptic::files::Staged;
 
 #[derive(clap::Args, Debug)]
@@ -53,23 +53,16 @@ pub struct RenderArgs {
 /// decoded as a file would be (stage `decode`).
 #[cfg(feature = "face")]
 fn decode_stdin() -> Result<image::RgbImage> {
-    use std::io::Read as _;
     let name = Path::new("standard input");
     glyptic::stage::timed(
         "decode",
         || -> Result<_> {
-            let mut bytes = Vec::new();
-            std::io::stdin()
-                .lock()
-                .take(glyptic::files::MAX_PHOTO_BYTES + 1)
-                .read_to_end(&mut bytes)
-                .context("standard input: cannot read the photo")?;
-            if bytes.len() as u64 > glyptic::files::MAX_PHOTO_BYTES {
-                bail!(
-                    "standard input: more than {} MB, larger than any photo glyptic reads",
-                    glyptic::files::MAX_PHOTO_BYTES >> 20
-                );
-            }
+            let bytes = glyptic::files::read_all_limited(
+                std::io::stdin().lock(),
+                glyptic::files::MAX_PHOTO_BYTES,
+                0,
+            )
+            .context("standard input: cannot read the photo")?;
             if bytes.is_empty() {
                 bail!("standard input: empty (pipe a photo in, or name a file)");
             }
@@ -166,7 +159,7 @@ pub(super) fn spawn_renderer() -> RendererStart {
 /// Waits for [`spawn_renderer`] and prints its stage line.
 pub(super) fn join_renderer(start: RendererStart) -> Result<Renderer> {
     let (renderer, init_ms) = start.join()?;
-    print_stages(&[Stage {
+    note_stages(&[Stage {
         name: "gpu init",
         ms: init_ms,
         detail: format!(
@@ -237,7 +230,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
         let mesh = glyptic::pipeline::gem::build_gem(&face, &triangles, &cameo)?;
         Ok((mesh, face, triangles, cameo))
     });
-    print_stages(&stages);
+    note_stages(&stages);
     let (mesh, face, triangles, cameo) = mesh?;
     let source = match &args.face {
         Some(path) => source_label(path),
@@ -261,7 +254,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
     stage_made(&mut staged, made)?;
     stage(&mut staged, &args.output, &png)?;
     commit(staged)?;
-    print_stages(&[Stage {
+    note_stages(&[Stage {
         name: "total",
         ms: start.elapsed().as_secs_f64() * 1e3,
         detail: args.output.display().to_string(),
@@ -286,7 +279,7 @@ pub(super) fn render_png(
     let (png, stages) = glyptic::stage::record(|| {
         glyptic::pipeline::gem::render_encoded(renderer, mesh, params, kind)
     });
-    print_stages(&stages);
+    note_stages(&stages);
     png.with_context(|| output.display().to_string())
 }
 
@@ -364,7 +357,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
             .with_context(|| image_path.display().to_string())?;
         Ok((pipeline, gem))
     });
-    print_stages(&stages);
+    note_stages(&stages);
     let (pipeline, gem) = made?;
     let triangles = &pipeline.face.model.shape.triangles;
 
@@ -410,13 +403,9 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     }
     commit(staged)?;
     if to_stdout {
-        use std::io::Write as _;
-        let mut out = std::io::stdout().lock();
-        out.write_all(&png)
-            .and_then(|()| out.flush())
-            .context("standard output: cannot write the image")?;
+        crate::outputs::write_stdout(&png, "the image")?;
     }
-    print_stages(&[
+    note_stages(&[
         Stage {
             name: "write",
             ms: t.elapsed().as_secs_f64() * 1e3,

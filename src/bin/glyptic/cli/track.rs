@@ -175,7 +175,7 @@ fn json_line(update: &FaceUpdate) -> Result<String, serde_json::Error> {
 pub fn track(args: &TrackArgs) -> Result<()> {
     let (pipeline, load) =
         glyptic::stage::record(|| FacePipeline::load(&glyptic::assets::ModelPaths::locate()));
-    crate::report::print_stages(&load);
+    crate::report::note_stages(&load);
     let mut pipeline = pipeline?;
     args.choice.apply_face(&mut pipeline);
     let options = TrackOptions {
