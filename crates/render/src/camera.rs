@@ -6,12 +6,12 @@
 //! margin, so nothing leaves the frame whatever the angles. Clip space is wgpu's: depth in
 //! [0, 1].
 //!
-//! The key light is fixed to the stone (see [`super::key_light_dir`]): raking from the upper
+//! The key light is fixed to the stone (see [`glyptic_core::scene::key_light_dir`]): raking from the upper
 //! left, so the relief's slopes and cast shadows read whatever the view.
 
 use glam::{Mat4, Vec3, Vec4};
 
-use super::mesh::Bounds;
+use crate::mesh::Bounds;
 
 /// Vertical field of view (degrees), as in the 2021 system and the SSS reference demo.
 pub const FOV_Y_DEG: f32 = 20.0;
@@ -82,7 +82,7 @@ pub(crate) fn orbit(
     // Right-handed, depth 0..1 over near..far: wgpu's clip space.
     let projection = Mat4::perspective_rh(2.0 * half_fov_y, aspect, near, far);
 
-    let light = Vec3::from(super::key_light_dir());
+    let light = Vec3::from(glyptic_core::scene::key_light_dir());
     Camera {
         view_proj: projection * view,
         eye,

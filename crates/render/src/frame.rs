@@ -1,70 +1,148 @@
-//! One frame, built in steps: the targets and buffers sized for it ([`Renderer::prepare`]),
-//! the surface detail it asks for and the mesh upload ([`Renderer::upload_mesh`]), its
-//! uniforms ([`Renderer::write_uniforms`]), then one function per pass, in the order the
-//! crate's docs list them: [`shadow_pass`], [`scene_pass`], [`sss_passes`], [`composite_pass`],
-//! [`style_passes`]. Units: millimetres on the stone, pixels on the targets.
+//! One frame, built in steps: the targets and buffers sized for it ([`Frames::prepare`]), the
+//! surface detail it asks for and the mesh upload ([`Frames::upload_mesh`]), each pass's
+//! uniforms, then each pass's encode step, in the order the crate's docs
+//! list them ([`crate::pass`]). What frames reuse lives here, between them: the passes'
+//! pipelines, the targets (made again only when the size or crop changes), the mesh buffers
+//! (grown only when a mesh does not fit), the surface maps. Units: millimetres on the stone,
+//! pixels on the targets.
 
-use super::camera::{self, Camera, Crop, FOV_Y_DEG};
-use super::gpu::{self, CompositeUniform, FrameUniform, MeshBuffers, Pipelines, Targets};
-use super::{
-    AMBIENT, COMPOSITE_PARAMS, EngravedMesh, LAMP_NEAR_MM, LIGHT_INTENSITY, Lamp, Mesh, Output,
-    PassTimer, RenderError, RenderParams, Renderer, SHADOW_BIAS_MM, SHADOW_PCF_MM, TEXTURE_SCALE,
-    TRANSLUCENCY, TimedPass, gpu_style_count, mesh, srgb_to_linear, surface,
-};
+use crate::camera::{self, Crop};
+use crate::mesh::{self, MeshBuffers};
+use crate::params::{RenderError, RenderParams};
+use crate::pass::Passes;
+use crate::pass::chain::{Chain, ChainTargets, gpu_style_count};
+use crate::pass::common::{Draw, LampAt};
+use crate::pass::composite::CompositeTargets;
+use crate::pass::maps::SurfaceMaps;
+use crate::pass::output::{OUTPUT_FORMAT, OutputImage};
+use crate::pass::scene::{Detail, SceneTargets, SceneVariant};
+use crate::pass::sss::SssTargets;
+use crate::surface;
+use crate::timing::{PassTimer, Stamps, TimedPass};
+use glyptic_core::scene::Mesh;
 
-/// What the frame's steps decided about the surface and the draw.
-struct Detail {
-    planar: surface::PlanarFrame,
-    /// The lamp, its position (mm) and the shadow cube's far plane (mm).
-    lamp: Option<(Lamp, glam::Vec3, f32)>,
-    /// The band the engraving's parallax search covers (mm inside the outline).
-    band_mm: Option<[f32; 2]>,
-    /// The scene pipelines without and with the engraving.
-    plain: gpu::SceneVariant,
-    engraved: gpu::SceneVariant,
-    draw: Draw,
-}
-
-/// Byte and index ranges of the uploaded mesh.
+/// Where a frame's composite goes.
 #[derive(Clone, Copy)]
-struct Draw {
-    vertex_bytes: u64,
-    index_bytes: u64,
-    tangent_bytes: u64,
-    count: u32,
-    /// The engraved band's triangles are drawn last, from this index.
-    band_start: u32,
+pub(crate) enum Output<'a> {
+    /// The renderer's own image, read back.
+    Image,
+    /// A caller's texture view (a window's surface), in a format without sRGB encoding.
+    View(&'a wgpu::TextureView, wgpu::TextureFormat),
 }
 
-/// The timestamp queries of one frame (none for a window's frame).
-struct Stamps<'a> {
-    timer: Option<&'a PassTimer>,
-    passes: Vec<TimedPass>,
+/// The device and what a frame may use of it.
+pub(crate) struct Gpu<'a> {
+    pub device: &'a wgpu::Device,
+    pub queue: &'a wgpu::Queue,
+    pub max_buffer_size: u64,
+    /// Timestamps for an image's frame (read back after it).
+    pub timer: Option<&'a PassTimer>,
+    /// Whether the passes with a compute form run as compute passes.
+    pub compute_passes: bool,
+    /// Whether the slowly varying noise may be baked once a mesh is drawn a second time.
+    pub noise_baking: bool,
 }
 
-impl<'a> Stamps<'a> {
-    fn writes(&mut self, pass: TimedPass) -> Option<wgpu::RenderPassTimestampWrites<'a>> {
-        self.timer.map(|t| t.writes(&mut self.passes, pass))
+/// The engraving's per-mesh data (triangles reordered band last, tangent frames), kept while
+/// the mesh, its planar frame and the band stay the same: the kiosk redraws one gem for every
+/// step of an orbit.
+struct EngravedMesh {
+    key: (u64, surface::PlanarFrame, [f32; 2]),
+    indices: Vec<u32>,
+    band_start: usize,
+    tangents: Vec<[f32; 4]>,
+}
+
+/// Everything sized by the frame: the output and its readback at the frame's size, the scene
+/// and SSS images at the crop's ([`crate::camera::Crop`]: the part of the frame the gem covers),
+/// which the composite places in the frame.
+pub(crate) struct Targets {
+    pub width: u32,
+    pub height: u32,
+    scene: SceneTargets,
+    sss: SssTargets,
+    composite: CompositeTargets,
+    pub output: OutputImage,
+}
+
+impl Targets {
+    /// Sizes must have been checked against the device limits by the caller.
+    fn new(
+        device: &wgpu::Device,
+        passes: &Passes,
+        (width, height): (u32, u32),
+        scene: [u32; 2],
+        samples: u32,
+    ) -> Self {
+        let scene = SceneTargets::new(device, scene, samples);
+        let sss = SssTargets::new(device, &passes.sss, &scene);
+        let output = OutputImage::new(device, width, height, passes.composite.has_compute());
+        let composite =
+            CompositeTargets::new(device, &passes.composite, &scene, &sss, &output.view);
+        Self {
+            width,
+            height,
+            scene,
+            sss,
+            composite,
+            output,
+        }
     }
-    fn compute_writes(&mut self, pass: TimedPass) -> Option<wgpu::ComputePassTimestampWrites<'a>> {
-        self.timer.map(|t| t.compute_writes(&mut self.passes, pass))
+}
+
+/// What one frame after another reuses.
+pub(crate) struct Frames {
+    pub passes: Passes,
+    targets: Option<Targets>,
+    /// Images and bind groups of a chain after the composite, made on the first frame that
+    /// has one.
+    chain: Option<ChainTargets>,
+    mesh_buffers: Option<MeshBuffers>,
+    /// The engraving's maps, the shadow cube, the baked noise (placeholders until a frame
+    /// needs them).
+    surface: SurfaceMaps,
+    engraved_mesh: Option<EngravedMesh>,
+    /// The passes the last frame timed, in query-slot order.
+    pub timed: Vec<TimedPass>,
+}
+
+impl Frames {
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, passes: Passes) -> Self {
+        let surface = SurfaceMaps::new(device, queue, &passes.scene);
+        Self {
+            passes,
+            targets: None,
+            chain: None,
+            mesh_buffers: None,
+            surface,
+            engraved_mesh: None,
+            timed: Vec::new(),
+        }
     }
-}
 
-/// What the passes read, borrowed from the renderer for one frame.
-struct Frame<'a> {
-    pipelines: &'a Pipelines,
-    targets: &'a Targets,
-    buffers: &'a MeshBuffers,
-    surface: &'a gpu::SurfaceMaps,
-    draw: Draw,
-}
+    /// Drops what a GPU error may have spoiled (e.g. a failed allocation): everything is made
+    /// afresh by the next frame.
+    pub fn reset(&mut self, device: &wgpu::Device, queue: &wgpu::Queue) {
+        self.targets = None;
+        self.chain = None;
+        self.mesh_buffers = None;
+        self.surface = SurfaceMaps::new(device, queue, &self.passes.scene);
+    }
 
-impl Renderer {
+    /// Drops the targets (a readback buffer left in a mapping state, say).
+    pub fn drop_targets(&mut self) {
+        self.targets = None;
+    }
+
+    /// The last frame's output image.
+    pub fn output(&self) -> Option<&OutputImage> {
+        self.targets.as_ref().map(|t| &t.output)
+    }
+
     /// MSAA samples of this frame's scene pass: the device's with antialiasing, else 1.
-    fn frame_samples(&self, params: &RenderParams) -> u32 {
+    fn samples(&self, params: &RenderParams) -> u32 {
         if params.antialias {
-            self.pipelines.samples
+            self.passes.scene.samples
         } else {
             1
         }
@@ -72,8 +150,9 @@ impl Renderer {
 
     /// Uploads the mesh and the frame's uniforms and encodes the passes, the composite (or
     /// the last style) into `output`. Timestamps only for an image (read back after).
-    pub(super) fn encode_frame(
+    pub fn encode(
         &mut self,
+        gpu: &Gpu<'_>,
         encoder: &mut wgpu::CommandEncoder,
         mesh: &Mesh,
         bounds: &mesh::Bounds,
@@ -81,7 +160,7 @@ impl Renderer {
         output: Output<'_>,
     ) -> Result<(), RenderError> {
         let format = match output {
-            Output::Image => gpu::OUTPUT_FORMAT,
+            Output::Image => OUTPUT_FORMAT,
             Output::View(_, format) => format,
         };
         let cam = camera::orbit(
@@ -99,102 +178,102 @@ impl Renderer {
             params.width,
             params.height,
         );
-        let (gpu_styles, edge_aa) = self.prepare(mesh, params, output, format, mesh_box)?;
+        let (gpu_styles, edge_aa) = self.prepare(gpu, mesh, params, output, format, mesh_box)?;
         let crop = match &self.targets {
-            Some(t) => Crop::around(mesh_box, t.scene, params.width, params.height),
+            Some(t) => Crop::around(mesh_box, t.scene.size, params.width, params.height),
             None => return Err(RenderError::Gpu("frame resources missing".into())),
         };
-        let detail = self.upload_mesh(mesh, bounds, params)?;
-        let sss = self.write_uniforms(params, &cam, &crop, &detail)?;
+        let detail = self.upload_mesh(gpu, mesh, bounds, params)?;
+        let passes = &self.passes;
+        let volume = self.surface.volume_box;
+        let queue = gpu.queue;
+        passes
+            .scene
+            .write_uniform(queue, params, &cam, &crop, &detail, volume);
+        passes.composite.write_uniform(queue, params, &crop);
+        let sss = passes.sss.write_uniforms(queue, params, &cam)?;
 
         let (Some(targets), Some(buffers)) = (&self.targets, &self.mesh_buffers) else {
             return Err(RenderError::Gpu("frame resources missing".into()));
         };
-        let frame = Frame {
-            pipelines: &self.pipelines,
-            targets,
-            buffers,
-            surface: &self.surface,
-            draw: detail.draw,
-        };
+        let image = matches!(output, Output::Image);
         let mut stamps = Stamps {
-            timer: match output {
-                Output::Image => self.timer.as_ref(),
-                Output::View(..) => None,
-            },
+            timer: gpu.timer.filter(|_| image),
             passes: Vec::new(),
         };
         if let Some(bake) = &self.surface.pending_bake {
-            volume_pass(encoder, &frame, bake)?;
+            passes.noise.encode(encoder, bake)?;
         }
         if detail.lamp.is_some() {
-            shadow_pass(encoder, &frame, &mut stamps);
+            let faces = &self.surface.shadow_faces;
+            passes
+                .shadow
+                .encode(encoder, faces, buffers, detail.draw, &mut stamps);
         }
-        let engraved = detail.band_mm.map(|_| detail.engraved);
-        scene_pass(encoder, &frame, detail.plain, engraved, &mut stamps)?;
+        let surface = &self.surface.bind_group;
+        passes.scene.encode(
+            encoder,
+            &targets.scene,
+            buffers,
+            surface,
+            &detail,
+            &mut stamps,
+        )?;
         if sss {
-            match (
-                &self.pipelines.sss_compute,
-                &targets.sss_compute_bind_groups,
-            ) {
-                (Some((pipeline, _)), Some(groups)) if self.compute_passes => {
-                    sss_compute_passes(encoder, targets, pipeline, groups, &mut stamps)
-                }
-                _ => sss_passes(encoder, &frame, &mut stamps),
-            }
+            passes
+                .sss
+                .encode(encoder, &targets.sss, gpu.compute_passes, &mut stamps);
         }
         let final_view = match output {
-            Output::Image => &targets.output_view,
+            Output::Image => &targets.output.view,
             Output::View(view, _) => view,
         };
         let styles = &params.styles[..gpu_styles];
-        let style_targets = self
-            .style_targets
+        let chain = self
+            .chain
             .as_ref()
             .filter(|_| !styles.is_empty() || edge_aa);
-        // With passes after it the composite writes the chain's first image.
-        let composite_view = style_targets.map_or(final_view, |st| &st.views[0]);
-        // Into the output image alone, it may run as a compute pass.
-        let compute_composite = match (
-            &output,
-            style_targets,
-            self.pipelines.composite_compute(params.transparent),
-            &targets.composite_compute_bind_groups,
-        ) {
-            (Output::Image, None, Some(pipeline), Some(groups)) if self.compute_passes => {
-                Some((pipeline, &groups[usize::from(sss)]))
-            }
-            _ => None,
-        };
-        if let Some((pipeline, group)) = compute_composite {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("glyptic composite compute pass"),
-                timestamp_writes: stamps.compute_writes(TimedPass::Composite),
-            });
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, group, &[]);
-            pass.dispatch_workgroups(targets.width.div_ceil(8), targets.height.div_ceil(8), 1);
-        } else {
-            composite_pass(
+        // Into the output image alone, the composite may run as a compute pass.
+        let composed = image
+            && chain.is_none()
+            && gpu.compute_passes
+            && passes.composite.encode_compute(
                 encoder,
-                &frame,
-                format,
-                composite_view,
+                &targets.composite,
+                [targets.width, targets.height],
+                sss,
+                params.transparent,
+                &mut stamps,
+            );
+        if !composed {
+            // With passes after it the composite writes the chain's first image.
+            let view = chain.map_or(final_view, |c| &c.views[0]);
+            passes.composite.encode(
+                encoder,
+                &targets.composite,
+                if chain.is_some() {
+                    crate::pass::chain::STYLE_FORMAT
+                } else {
+                    format
+                },
+                view,
                 sss,
                 params.transparent,
                 &mut stamps,
             )?;
         }
-        if let Some(st) = style_targets {
+        if let Some(chain_targets) = chain {
             let chain = Chain {
                 styles,
                 edge_aa,
                 final_view,
                 format,
             };
-            style_passes(encoder, &frame, st, &chain, &mut stamps)?;
+            passes
+                .chain
+                .encode(encoder, chain_targets, &chain, &mut stamps)?;
         }
-        self.timed_passes = stamps.passes;
+        self.timed = stamps.passes;
         // Recorded: the volume is baked when this frame runs.
         self.surface.pending_bake = None;
         Ok(())
@@ -205,27 +284,47 @@ impl Renderer {
     /// them: on every frame drawn with one sample a pixel).
     fn prepare(
         &mut self,
+        gpu: &Gpu<'_>,
         mesh: &Mesh,
         params: &RenderParams,
         output: Output<'_>,
         format: wgpu::TextureFormat,
         mesh_box: [u32; 4],
     ) -> Result<(usize, bool), RenderError> {
+        let device = gpu.device;
         let (w, h) = (params.width, params.height);
-        self.pipelines
-            .ensure_composite(&self.device, format, params.transparent);
-        if self.compute_passes && matches!(output, Output::Image) {
-            self.pipelines
-                .ensure_composite_compute(&self.device, params.transparent);
+        let samples = self.samples(params);
+        // The styles the GPU does: those before the first done on the CPU.
+        let gpu_styles = &params.styles[..gpu_style_count(&params.styles)];
+        if matches!(output, Output::View(..)) && gpu_styles.len() < params.styles.len() {
+            return Err(RenderError::InvalidParams(
+                "dithering runs on the CPU after a readback: a window's frame takes toon, \
+                 painterly, fisheye and chromatic only"
+                    .into(),
+            ));
         }
-        let samples = self.frame_samples(params);
+        let edge_aa = samples == 1;
+        let chained = !gpu_styles.is_empty() || edge_aa;
+        let composite_format = if chained {
+            crate::pass::chain::STYLE_FORMAT
+        } else {
+            format
+        };
+        self.passes
+            .composite
+            .ensure(device, composite_format, params.transparent);
+        if gpu.compute_passes && matches!(output, Output::Image) {
+            self.passes
+                .composite
+                .ensure_compute(device, params.transparent);
+        }
         let scene = Crop::size_for(mesh_box, w, h);
         // The scene images are kept while the mesh's box fits them and they are no more than
         // a step larger than it needs (a turning gem's box changes size every frame).
         let fits = |t: &Targets| {
             (0..2).all(|a| {
                 let needed = mesh_box[a + 2] - mesh_box[a];
-                t.scene[a] >= needed && t.scene[a] <= scene[a] + camera::CROP_STEP_PX
+                t.scene.size[a] >= needed && t.scene.size[a] <= scene[a] + camera::CROP_STEP_PX
             })
         };
         let resized = self
@@ -236,69 +335,32 @@ impl Renderer {
             || self
                 .targets
                 .as_ref()
-                .is_some_and(|t| t.samples != samples || !fits(t))
+                .is_some_and(|t| t.scene.samples != samples || !fits(t))
         {
-            // Drop the old targets first so both sets are never alive at once; the style
-            // chain's images have the frame's size and outlive a new crop or sample count.
+            // Drop the old targets first so both sets are never alive at once; the chain's
+            // images have the frame's size and outlive a new crop or sample count.
             self.targets = None;
             if resized {
-                self.style_targets = None;
+                self.chain = None;
             }
-            self.targets = Some(Targets::new(
-                &self.device,
-                &self.pipelines,
-                w,
-                h,
-                scene,
-                samples,
-            ));
+            self.targets = Some(Targets::new(device, &self.passes, (w, h), scene, samples));
         }
         let vb = std::mem::size_of_val(mesh.vertices.as_slice()) as u64;
         let ib = std::mem::size_of_val(mesh.indices.as_slice()) as u64;
         if self.mesh_buffers.as_ref().is_none_or(|b| !b.fits(vb, ib)) {
             self.mesh_buffers = None;
-            self.mesh_buffers = Some(MeshBuffers::new(
-                &self.device,
-                vb,
-                ib,
-                self.limits.max_buffer_size,
-            ));
+            self.mesh_buffers = Some(MeshBuffers::new(device, vb, ib, gpu.max_buffer_size));
         }
-        // The styles the GPU does: those before the first done on the CPU.
-        let gpu_styles = &params.styles[..gpu_style_count(&params.styles)];
-        if matches!(output, Output::View(..)) && gpu_styles.len() < params.styles.len() {
-            return Err(RenderError::InvalidParams(
-                "dithering runs on the CPU after a readback: a window's frame takes toon, \
-                 painterly, fisheye and chromatic only"
-                    .into(),
-            ));
-        }
-        if gpu_styles.len() > gpu::MAX_GPU_STYLES {
-            return Err(RenderError::InvalidParams(format!(
-                "{} GPU styles in a row; at most {}",
-                gpu_styles.len(),
-                gpu::MAX_GPU_STYLES
-            )));
-        }
-        let edge_aa = samples == 1;
-        if (!gpu_styles.is_empty() || edge_aa) && self.style_targets.is_none() {
-            self.style_targets = Some(gpu::StyleTargets::new(&self.device, &self.pipelines, w, h));
-        }
-        if edge_aa {
-            self.pipelines.ensure_edge_aa(&self.device, format);
-        }
-        for (i, &style) in gpu_styles.iter().enumerate() {
-            let last = i + 1 == gpu_styles.len() && !edge_aa;
-            let target_format = if last { format } else { gpu::STYLE_FORMAT };
-            self.pipelines
-                .ensure_style(&self.device, style, target_format);
-            if let Some(u) = gpu::style_uniform(style, params.style_time_s) {
-                self.queue.write_buffer(
-                    &self.pipelines.style_uniforms[i],
-                    0,
-                    bytemuck::cast_slice(&u),
-                );
-            }
+        self.passes.chain.prepare(
+            device,
+            gpu.queue,
+            gpu_styles,
+            edge_aa,
+            format,
+            params.style_time_s,
+        )?;
+        if chained && self.chain.is_none() {
+            self.chain = Some(ChainTargets::new(device, &self.passes.chain, w, h));
         }
         Ok((gpu_styles.len(), edge_aa))
     }
@@ -308,10 +370,12 @@ impl Renderer {
     /// uniforms), the scene pipelines, and the mesh's upload (band last when engraved).
     fn upload_mesh(
         &mut self,
+        gpu: &Gpu<'_>,
         mesh: &Mesh,
         bounds: &mesh::Bounds,
         params: &RenderParams,
     ) -> Result<Detail, RenderError> {
+        let (device, queue) = (gpu.device, gpu.queue);
         let planar = surface::PlanarFrame {
             centre: [bounds.center[0], bounds.center[1]],
             half: [
@@ -319,39 +383,28 @@ impl Renderer {
                 (0.5 * (bounds.max[1] - bounds.min[1])).max(1e-3),
             ],
         };
+        let scene = &self.passes.scene;
         if let Some(e) = &params.engraving {
             let key = (planar, e.clone());
             if self.surface.engraving_key.as_ref() != Some(&key) {
                 let maps = surface::engraving(&planar, e);
-                self.surface
-                    .set_engraving(&self.device, &self.queue, &self.pipelines, key, &maps);
+                self.surface.set_engraving(device, queue, scene, key, &maps);
             }
         }
-        let lamp = params.lamp.map(|l| {
-            let offset = glam::Vec3::from(l.offset_mm);
-            let position = glam::Vec3::from(bounds.center) + offset;
-            (l, position, offset.length() + 1.05 * bounds.radius + 1.0)
-        });
-        if let Some((_, position, far)) = lamp {
-            self.surface.ensure_shadow(&self.device, &self.pipelines);
-            for (face, buffer) in self.pipelines.shadow_uniforms.iter().enumerate() {
-                let u = gpu::ShadowFaceUniform {
-                    view_proj: camera::cube_face_view_proj(position, face, LAMP_NEAR_MM, far)
-                        .to_cols_array_2d(),
-                    lamp: [position.x, position.y, position.z, 1.0 / far],
-                };
-                self.queue.write_buffer(buffer, 0, bytemuck::bytes_of(&u));
-            }
+        let lamp = params.lamp.map(|l| LampAt::new(l, bounds));
+        if let Some(lamp) = &lamp {
+            self.surface.ensure_shadow(device, scene);
+            self.passes.shadow.write_uniforms(queue, lamp);
         }
-        // The slowly varying noise, baked over the mesh once it has been drawn twice (again only
-        // when a mesh leaves the volume).
-        let baked_noise = self.noise_baking
+        // The slowly varying noise, baked over the mesh once it has been drawn twice (again
+        // only when a mesh leaves the volume).
+        let baked_noise = gpu.noise_baking
             && self.surface.ensure_volume(
-                &self.device,
-                &mut self.pipelines,
+                device,
+                &mut self.passes.noise,
+                &self.passes.scene,
                 bounds.min,
                 bounds.max,
-                TEXTURE_SCALE,
             );
         // The band the engraving's parallax search covers (mm inside the outline): a groove's
         // width beyond it each side.
@@ -361,25 +414,25 @@ impl Renderer {
         });
         // The scene pipelines: without the engraving for everything but the band's triangles
         // (drawn last, from index `band_start`, with it).
-        let plain = gpu::SceneVariant {
+        let plain = SceneVariant {
             engraving: false,
             lamp: params.lamp.is_some(),
-            samples: self.frame_samples(params),
+            samples: self.samples(params),
             baked_noise,
         };
-        let engraved = gpu::SceneVariant {
+        let engraved = SceneVariant {
             engraving: true,
             ..plain
         };
-        self.pipelines.ensure_scene(&self.device, plain);
+        self.passes.scene.ensure(device, plain);
         if band_mm.is_some() {
-            self.pipelines.ensure_scene(&self.device, engraved);
+            self.passes.scene.ensure(device, engraved);
         }
         let Some(buffers) = &self.mesh_buffers else {
             return Err(RenderError::Gpu("frame resources missing".into()));
         };
         let vertex_bytes: &[u8] = bytemuck::cast_slice(&mesh.vertices);
-        self.queue.write_buffer(&buffers.vertices, 0, vertex_bytes);
+        queue.write_buffer(&buffers.vertices, 0, vertex_bytes);
         let band_start = match band_mm {
             Some(band) => {
                 let key = (mesh.fingerprint(), planar, band);
@@ -398,15 +451,12 @@ impl Renderer {
                 let Some(c) = &self.engraved_mesh else {
                     return Err(RenderError::Gpu("engraving data missing".into()));
                 };
-                self.queue
-                    .write_buffer(&buffers.indices, 0, bytemuck::cast_slice(&c.indices));
-                self.queue
-                    .write_buffer(&buffers.tangents, 0, bytemuck::cast_slice(&c.tangents));
+                queue.write_buffer(&buffers.indices, 0, bytemuck::cast_slice(&c.indices));
+                queue.write_buffer(&buffers.tangents, 0, bytemuck::cast_slice(&c.tangents));
                 c.band_start
             }
             None => {
-                self.queue
-                    .write_buffer(&buffers.indices, 0, bytemuck::cast_slice(&mesh.indices));
+                queue.write_buffer(&buffers.indices, 0, bytemuck::cast_slice(&mesh.indices));
                 mesh.indices.len()
             }
         };
@@ -422,373 +472,10 @@ impl Renderer {
             draw: Draw {
                 vertex_bytes: vb,
                 index_bytes: std::mem::size_of_val(mesh.indices.as_slice()) as u64,
-                tangent_bytes: gpu::tangent_bytes(vb),
+                tangent_bytes: crate::mesh::tangent_bytes(vb),
                 count,
                 band_start: u32::try_from(band_start).unwrap_or(count),
             },
         })
     }
-
-    /// The frame, composite and SSS uniforms; returns whether the SSS passes run.
-    fn write_uniforms(
-        &mut self,
-        params: &RenderParams,
-        cam: &Camera,
-        crop: &Crop,
-        detail: &Detail,
-    ) -> Result<bool, RenderError> {
-        let v4 = |v: glam::Vec3, w: f32| v.extend(w).to_array();
-        let planar = &detail.planar;
-        let (w, h) = (params.width, params.height);
-        let layers = params.material.layers();
-        let frame = FrameUniform {
-            // Column-major, as WGSL expects; onto the crop's images.
-            view_proj: (crop.clip_matrix(w, h) * cam.view_proj).to_cols_array_2d(),
-            eye: v4(cam.eye, 1.0),
-            light_dir: v4(
-                cam.light,
-                LIGHT_INTENSITY * params.lamp.map_or(1.0, |l| l.key_light),
-            ),
-            cam_right: v4(cam.right, 0.0),
-            cam_up: v4(cam.up, 0.0),
-            cam_fwd: v4(cam.forward, 0.0),
-            marble: [
-                params.marble.vein_softness.clamp(0.0, 1.0),
-                params.marble.vein_lightness.clamp(0.0, 1.0),
-                TEXTURE_SCALE,
-                AMBIENT,
-            ],
-            // z: how much of the light passing through thin parts shows (with the scattering
-            // only: it is the same light, travelling further).
-            depth: [
-                cam.near,
-                1.0 / (cam.far - cam.near).max(1e-6),
-                params.sss.as_ref().map_or(0.0, |s| {
-                    // The glow follows the scattering's strength (the kiosk's slider).
-                    let share = s.strength[0] / crate::sss::SssParams::default().strength[0];
-                    TRANSLUCENCY * share.clamp(0.0, 2.0) * layers.map_or(1.0, |l| l.scatter)
-                }),
-                0.0,
-            ],
-            material: [
-                u32::from(layers.is_some()),
-                u32::from(params.hair_layer && layers.is_some_and(|l| l.top.is_some())),
-                0,
-                0,
-            ],
-            planar: [
-                planar.centre[0],
-                planar.centre[1],
-                planar.half[0],
-                planar.half[1],
-            ],
-            engraving: match (&params.engraving, detail.band_mm) {
-                (Some(e), Some([lo, hi])) => [1.0, e.depth_mm, lo, hi],
-                _ => [0.0; 4],
-            },
-            lamp: detail
-                .lamp
-                .map_or([0.0; 4], |(l, p, _)| [p.x, p.y, p.z, l.intensity]),
-            shadow: detail.lamp.map_or([0.0; 4], |(l, _, far)| {
-                let centre_mm = l.offset_mm.iter().map(|c| c * c).sum::<f32>().sqrt();
-                [far, SHADOW_BIAS_MM, SHADOW_PCF_MM, centre_mm]
-            }),
-            // Without a volume (no mesh drawn yet) the placeholder's one zero voxel.
-            volume: self.surface.volume_box.map_or([0.0, 0.0, 0.0, 1.0], |v| {
-                [v.origin[0], v.origin[1], v.origin[2], 1.0 / v.voxel_mm]
-            }),
-            volume_texel: self.surface.volume_box.map_or([1.0; 4], |v| {
-                [v.dims[0], v.dims[1], v.dims[2], 1].map(|d| 1.0 / d as f32)
-            }),
-            layers: layers.map_or([[0.0; 4]; 5], |l| l.uniforms()),
-        };
-        self.queue
-            .write_buffer(&self.pipelines.frame_uniform, 0, bytemuck::bytes_of(&frame));
-        let composite = CompositeUniform {
-            background: {
-                let [r, g, b] = params.background.map(|c| srgb_to_linear(c.clamp(0.0, 1.0)));
-                [r, g, b, 1.0]
-            },
-            params: COMPOSITE_PARAMS,
-            crop: [crop.x, crop.y, crop.width, crop.height].map(|v| v as f32),
-            size: [w as f32, h as f32, 0.0, 0.0],
-        };
-        self.queue.write_buffer(
-            &self.pipelines.composite_uniform,
-            0,
-            bytemuck::bytes_of(&composite),
-        );
-        let Some(p) = &params.sss else {
-            return Ok(false);
-        };
-        let kernel = crate::sss::kernel(p)
-            .map_err(|e| RenderError::InvalidParams(format!("subsurface scattering: {e}")))?;
-        let px_per_mm = 0.5 * params.height as f32 / (0.5 * FOV_Y_DEG).to_radians().tan();
-        for (buffer, dir) in self
-            .pipelines
-            .sss_uniforms
-            .iter()
-            .zip([[1.0, 0.0], [0.0, 1.0]])
-        {
-            let u = gpu::sss_uniform(
-                &kernel,
-                p.width_mm,
-                px_per_mm,
-                cam.near,
-                cam.far - cam.near,
-                dir,
-            );
-            self.queue.write_buffer(buffer, 0, bytemuck::cast_slice(&u));
-        }
-        Ok(true)
-    }
-}
-
-/// Pass 0: the mesh's distance from the lamp into the six faces of the shadow cube.
-fn shadow_pass(encoder: &mut wgpu::CommandEncoder, frame: &Frame<'_>, stamps: &mut Stamps<'_>) {
-    let Draw {
-        vertex_bytes,
-        index_bytes,
-        count,
-        ..
-    } = frame.draw;
-    for (face, view) in frame.surface.shadow_faces.iter().enumerate() {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("glyptic shadow pass"),
-            color_attachments: &[],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: stamps.writes(TimedPass::Shadow),
-            ..Default::default()
-        });
-        pass.set_pipeline(&frame.pipelines.shadow);
-        pass.set_bind_group(0, &frame.pipelines.shadow_bind_groups[face], &[]);
-        pass.set_vertex_buffer(0, frame.buffers.vertices.slice(..vertex_bytes));
-        pass.set_index_buffer(
-            frame.buffers.indices.slice(..index_bytes),
-            wgpu::IndexFormat::Uint32,
-        );
-        pass.draw_indexed(0..count, 0, 0..1);
-    }
-}
-
-/// Before the passes, once: the slowly varying noise baked into the volume over the mesh.
-fn volume_pass(
-    encoder: &mut wgpu::CommandEncoder,
-    frame: &Frame<'_>,
-    bake: &gpu::NoiseBake,
-) -> Result<(), RenderError> {
-    let pipeline = frame
-        .pipelines
-        .noise_bake_pipeline()
-        .ok_or_else(|| RenderError::Gpu("no noise volume pipeline".into()))?;
-    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-        label: Some("glyptic noise volume"),
-        // Not timed: lavapipe stamps a compute pass before its work is done (0.01-0.07 ms for
-        // ~45 ms of work); bench_render times the bake by the frame's wall time instead.
-        timestamp_writes: None,
-    });
-    pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, &bake.bind_group, &[]);
-    let [x, y, z] = bake.workgroups;
-    pass.dispatch_workgroups(x, y, z);
-    Ok(())
-}
-
-/// Pass 1: lit diffuse, specular and depth with the scattering mask; the engraved band's
-/// triangles last, with the engraving pipeline.
-fn scene_pass(
-    encoder: &mut wgpu::CommandEncoder,
-    frame: &Frame<'_>,
-    plain: gpu::SceneVariant,
-    engraved: Option<gpu::SceneVariant>,
-    stamps: &mut Stamps<'_>,
-) -> Result<(), RenderError> {
-    let scene_pipeline = |variant| {
-        frame
-            .pipelines
-            .scene(variant)
-            .ok_or_else(|| RenderError::Gpu(format!("no scene pipeline for {variant:?}")))
-    };
-    let plain = scene_pipeline(plain)?;
-    let engraved = engraved.map(scene_pipeline).transpose()?;
-    let (targets, buffers, d) = (frame.targets, frame.buffers, frame.draw);
-    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("glyptic scene pass"),
-        color_attachments: &[
-            Some(targets.diffuse.attachment()),
-            Some(targets.specular.attachment()),
-            Some(targets.depth_mask.attachment()),
-        ],
-        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-            view: &targets.depth,
-            depth_ops: Some(wgpu::Operations {
-                load: wgpu::LoadOp::Clear(1.0),
-                store: wgpu::StoreOp::Discard,
-            }),
-            stencil_ops: None,
-        }),
-        timestamp_writes: stamps.writes(TimedPass::Scene),
-        ..Default::default()
-    });
-    pass.set_pipeline(plain);
-    pass.set_bind_group(0, &frame.pipelines.scene_bind_group, &[]);
-    pass.set_bind_group(1, &frame.surface.bind_group, &[]);
-    pass.set_vertex_buffer(0, buffers.vertices.slice(..d.vertex_bytes));
-    pass.set_vertex_buffer(1, buffers.tangents.slice(..d.tangent_bytes));
-    pass.set_index_buffer(
-        buffers.indices.slice(..d.index_bytes),
-        wgpu::IndexFormat::Uint32,
-    );
-    pass.draw_indexed(0..d.band_start, 0, 0..1);
-    if let Some(engraved) = engraved
-        && d.band_start < d.count
-    {
-        pass.set_pipeline(engraved);
-        pass.draw_indexed(d.band_start..d.count, 0, 0..1);
-    }
-    Ok(())
-}
-
-/// Pass 2: the resolved diffuse blurred horizontally, then vertically.
-fn sss_passes(encoder: &mut wgpu::CommandEncoder, frame: &Frame<'_>, stamps: &mut Stamps<'_>) {
-    let targets = frame.targets;
-    let outputs = [&targets.sss_temp, &targets.sss_out];
-    for (group, output) in targets.sss_bind_groups.iter().zip(outputs) {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("glyptic sss pass"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: output,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            timestamp_writes: stamps.writes(TimedPass::Sss),
-            ..Default::default()
-        });
-        pass.set_pipeline(&frame.pipelines.sss);
-        pass.set_bind_group(0, group, &[]);
-        pass.draw(0..3, 0..1);
-    }
-}
-
-/// Pass 2 as compute passes (8 x 8 pixels a workgroup), writing the same images.
-fn sss_compute_passes(
-    encoder: &mut wgpu::CommandEncoder,
-    targets: &Targets,
-    pipeline: &wgpu::ComputePipeline,
-    groups: &[wgpu::BindGroup; 2],
-    stamps: &mut Stamps<'_>,
-) {
-    let [w, h] = targets.scene;
-    for group in groups {
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("glyptic sss compute pass"),
-            timestamp_writes: stamps.compute_writes(TimedPass::Sss),
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(w.div_ceil(8), h.div_ceil(8), 1);
-    }
-}
-
-/// Pass 3: diffuse (blurred with `sss`) + specular over the backdrop into `view`.
-fn composite_pass(
-    encoder: &mut wgpu::CommandEncoder,
-    frame: &Frame<'_>,
-    format: wgpu::TextureFormat,
-    view: &wgpu::TextureView,
-    sss: bool,
-    transparent: bool,
-    stamps: &mut Stamps<'_>,
-) -> Result<(), RenderError> {
-    let composite = frame
-        .pipelines
-        .composite(format, transparent)
-        .ok_or_else(|| RenderError::Gpu(format!("no composite pipeline for {format:?}")))?;
-    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("glyptic composite pass"),
-        color_attachments: &[gpu::overwrite(view)],
-        timestamp_writes: stamps.writes(TimedPass::Composite),
-        ..Default::default()
-    });
-    pass.set_pipeline(composite);
-    let group = if sss {
-        &frame.targets.composite_sss_bind_group
-    } else {
-        &frame.targets.composite_bind_group
-    };
-    pass.set_bind_group(0, group, &[]);
-    pass.draw(0..3, 0..1);
-    Ok(())
-}
-
-/// The passes after the composite and where the last one writes.
-struct Chain<'a> {
-    styles: &'a [crate::styles::Style],
-    edge_aa: bool,
-    final_view: &'a wgpu::TextureView,
-    format: wgpu::TextureFormat,
-}
-
-/// Pass 4: the GPU styles in order, then the edge antialiasing, ping-ponging between the
-/// chain's images, the last into `final_view`.
-fn style_passes(
-    encoder: &mut wgpu::CommandEncoder,
-    frame: &Frame<'_>,
-    st: &gpu::StyleTargets,
-    chain: &Chain<'_>,
-    stamps: &mut Stamps<'_>,
-) -> Result<(), RenderError> {
-    let Chain {
-        styles,
-        edge_aa,
-        final_view,
-        format,
-    } = *chain;
-    for (i, &style) in styles.iter().enumerate() {
-        let last = i + 1 == styles.len() && !edge_aa;
-        let (view, target_format) = if last {
-            (final_view, format)
-        } else {
-            (&st.views[(i + 1) % 2], gpu::STYLE_FORMAT)
-        };
-        let pipeline = frame.pipelines.style(style, target_format).ok_or_else(|| {
-            RenderError::Gpu(format!("no {} pass for {target_format:?}", style.name()))
-        })?;
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("glyptic style pass"),
-            color_attachments: &[gpu::overwrite(view)],
-            timestamp_writes: stamps.writes(TimedPass::Style(style)),
-            ..Default::default()
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &st.bind_groups[i], &[]);
-        pass.draw(0..3, 0..1);
-    }
-    if edge_aa {
-        let pipeline = frame
-            .pipelines
-            .edge_aa(format)
-            .ok_or_else(|| RenderError::Gpu(format!("no edge antialiasing for {format:?}")))?;
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("glyptic edge aa pass"),
-            color_attachments: &[gpu::overwrite(final_view)],
-            timestamp_writes: stamps.writes(TimedPass::EdgeAa),
-            ..Default::default()
-        });
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &st.edge_aa_bind_groups[styles.len() % 2], &[]);
-        pass.draw(0..3, 0..1);
-    }
-    Ok(())
 }

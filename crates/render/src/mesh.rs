@@ -1,4 +1,5 @@
-//! Checks on the draw data before anything reaches the GPU, and the bounds the camera needs.
+//! Checks on the draw data before anything reaches the GPU, the bounds the camera needs, and
+//! the GPU buffers the mesh is uploaded into (grown only when a mesh does not fit).
 //!
 //! wgpu reports bad draws asynchronously and, by default, by panicking; a mesh from the gem
 //! module (or from a user's file) is input, so everything it could get wrong is caught here and
@@ -106,6 +107,60 @@ pub(crate) fn validate(mesh: &Mesh, max_buffer_bytes: u64) -> Result<Bounds, Ren
         center,
         radius,
     })
+}
+
+/// Vertex and index buffers that keep their capacity between frames.
+pub(crate) struct MeshBuffers {
+    pub vertices: wgpu::Buffer,
+    /// One tangent frame ([f32; 4]) per vertex.
+    pub tangents: wgpu::Buffer,
+    pub indices: wgpu::Buffer,
+}
+
+/// Bytes of the tangent frames of a mesh with `vertex_bytes` of vertices.
+pub(crate) fn tangent_bytes(vertex_bytes: u64) -> u64 {
+    vertex_bytes / size_of::<Vertex>() as u64 * 16
+}
+
+/// Smallest buffer allocated, so small meshes do not reallocate as they grow a little.
+const MIN_MESH_BUFFER: u64 = 64 * 1024;
+
+fn grown(needed: u64, max: u64) -> u64 {
+    needed
+        .max(MIN_MESH_BUFFER)
+        .checked_next_power_of_two()
+        .unwrap_or(needed)
+        .min(max)
+        .max(needed)
+}
+
+impl MeshBuffers {
+    /// Buffers holding at least the given byte counts (both no larger than `max`).
+    pub fn new(device: &wgpu::Device, vertex_bytes: u64, index_bytes: u64, max: u64) -> Self {
+        let buffer = |label, size, usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: grown(size, max),
+                usage: usage | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        Self {
+            vertices: buffer("glyptic vertices", vertex_bytes, wgpu::BufferUsages::VERTEX),
+            tangents: buffer(
+                "glyptic tangents",
+                tangent_bytes(vertex_bytes),
+                wgpu::BufferUsages::VERTEX,
+            ),
+            indices: buffer("glyptic indices", index_bytes, wgpu::BufferUsages::INDEX),
+        }
+    }
+
+    pub fn fits(&self, vertex_bytes: u64, index_bytes: u64) -> bool {
+        self.vertices.size() >= vertex_bytes
+            && self.tangents.size() >= tangent_bytes(vertex_bytes)
+            && self.indices.size() >= index_bytes
+    }
 }
 
 #[cfg(test)]

@@ -5,6 +5,10 @@
 
 use crate::surface;
 
+/// Gallery styles in one chain on the GPU, at most (a frame's timestamp slots and style
+/// uniforms are made for this many).
+pub(crate) const MAX_GPU_STYLES: usize = 8;
+
 pub use glyptic_core::stone::Material;
 
 /// Controls of the marble veins: quiet, directional grey lines whose contrast stays below the

@@ -258,7 +258,7 @@ pub fn band_last(
     frame: &PlanarFrame,
     band_mm: [f32; 2],
 ) -> (Vec<u32>, usize) {
-    let gold = super::Region::Gold as u32;
+    let gold = glyptic_core::scene::Region::Gold as u32;
     // Each vertex's inset and whether it is stone ground, once (a vertex serves about six
     // triangles).
     let per_vertex: Vec<(f32, bool)> = vertices
@@ -454,7 +454,7 @@ impl NoiseVolume {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Region;
+    use glyptic_core::scene::Region;
 
     fn vertex(p: [f32; 3], n: [f32; 3]) -> Vertex {
         Vertex {

@@ -2,7 +2,8 @@
 //! writes a begin and an end stamp into its slot, the frame resolves them after its passes,
 //! and the renderer reads them once it has waited for the frame.
 
-use super::{Renderer, gpu};
+use crate::params::MAX_GPU_STYLES;
+use crate::styles::Style;
 
 /// GPU time of each pass of the last frame, from timestamp queries (where the device has them).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -15,7 +16,7 @@ pub struct PassTimes {
     pub shadow_ms: Option<f64>,
     /// Each style of the chain, in order: its pass's GPU time, or for those done on the CPU
     /// after the readback (from the first serial one on) their wall time.
-    pub styles_ms: Vec<(crate::styles::Style, f64)>,
+    pub styles_ms: Vec<(Style, f64)>,
     /// The edge antialiasing pass (frames drawn with one sample a pixel).
     pub edge_aa_ms: Option<f64>,
 }
@@ -49,22 +50,22 @@ pub(crate) enum TimedPass {
     Scene,
     Sss,
     Composite,
-    Style(crate::styles::Style),
+    Style(Style),
     EdgeAa,
 }
 
 /// Timestamp queries around each pass: scene, the SSS passes, composite, the GPU styles.
 pub(crate) struct PassTimer {
-    pub(crate) queries: wgpu::QuerySet,
-    pub(crate) resolve: wgpu::Buffer,
-    pub(crate) read: wgpu::Buffer,
+    queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
     /// Nanoseconds per timestamp tick.
-    pub(crate) period_ns: f64,
+    period_ns: f64,
 }
 
 /// The most passes a frame times: six shadow faces, scene, two SSS, composite and the GPU
 /// styles.
-const TIMED_PASSES: u32 = 11 + gpu::MAX_GPU_STYLES as u32;
+const TIMED_PASSES: u32 = 11 + MAX_GPU_STYLES as u32;
 
 impl PassTimer {
     pub(crate) fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
@@ -82,7 +83,7 @@ impl PassTimer {
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             }),
-            read: device.create_buffer(&wgpu::BufferDescriptor {
+            readback: device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("glyptic pass times read"),
                 size: bytes,
                 usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
@@ -128,16 +129,24 @@ impl PassTimer {
     }
 }
 
-impl Renderer {
-    /// Reads the pass timestamps of the frame just waited for.
-    pub(crate) fn read_pass_times(&self) -> Option<PassTimes> {
-        let t = self.timer.as_ref()?;
-        let slice = t.read.slice(..);
+impl PassTimer {
+    /// Encodes the resolve of the `passes` a frame timed and their copy into the mappable
+    /// buffer. Only what was written is resolved: unwritten queries are an error on some
+    /// backends.
+    pub(crate) fn resolve(&self, encoder: &mut wgpu::CommandEncoder, passes: usize) {
+        let n = 2 * passes as u32;
+        encoder.resolve_query_set(&self.queries, 0..n, &self.resolve, 0);
+        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, u64::from(n) * 8);
+    }
+
+    /// Reads the timestamps of the frame just waited for, which timed `passes` in this order.
+    pub(crate) fn read(&self, device: &wgpu::Device, passes: &[TimedPass]) -> Option<PassTimes> {
+        let slice = self.readback.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        self.device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
+        device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
         let mapped = matches!(rx.try_recv(), Ok(Ok(())));
         let ticks: Option<Vec<u64>> = mapped
             .then(|| {
@@ -148,12 +157,12 @@ impl Renderer {
                 })
             })
             .flatten();
-        t.read.unmap();
+        self.readback.unmap();
         let ticks = ticks?;
         let mut times = PassTimes::default();
-        for (slot, pass) in self.timed_passes.iter().enumerate() {
+        for (slot, pass) in passes.iter().enumerate() {
             let (a, b) = (*ticks.get(2 * slot)?, *ticks.get(2 * slot + 1)?);
-            let ms = b.saturating_sub(a) as f64 * t.period_ns / 1e6;
+            let ms = b.saturating_sub(a) as f64 * self.period_ns / 1e6;
             match *pass {
                 TimedPass::Shadow => *times.shadow_ms.get_or_insert(0.0) += ms,
                 TimedPass::Scene => times.scene_ms += ms,
@@ -164,5 +173,25 @@ impl Renderer {
             }
         }
         Some(times)
+    }
+}
+
+/// The timestamp queries of one frame (none for a window's frame): each pass asks for its
+/// writes, which take the next slot.
+pub(crate) struct Stamps<'a> {
+    pub timer: Option<&'a PassTimer>,
+    pub passes: Vec<TimedPass>,
+}
+
+impl<'a> Stamps<'a> {
+    pub fn writes(&mut self, pass: TimedPass) -> Option<wgpu::RenderPassTimestampWrites<'a>> {
+        self.timer.map(|t| t.writes(&mut self.passes, pass))
+    }
+
+    pub fn compute_writes(
+        &mut self,
+        pass: TimedPass,
+    ) -> Option<wgpu::ComputePassTimestampWrites<'a>> {
+        self.timer.map(|t| t.compute_writes(&mut self.passes, pass))
     }
 }
