@@ -20,6 +20,7 @@ mod face_thread;
 mod gem_thread;
 mod news;
 mod restarts;
+mod screen;
 mod staff;
 mod timeline;
 mod trace;
@@ -300,7 +301,10 @@ impl ApplicationHandler for App {
         let Some(r) = self.running.as_mut() else {
             return;
         };
-        let response = r.egui_state.on_window_event(&r.window, &event);
+        let response = r
+            .screen
+            .egui_state
+            .on_window_event(&r.screen.window, &event);
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::ModifiersChanged(m) => r.modifiers = m.state(),
@@ -309,7 +313,7 @@ impl ApplicationHandler for App {
             {
                 if let Some(key) = key_name(&event) {
                     r.key(key);
-                    r.window.request_redraw();
+                    r.screen.window.request_redraw();
                 }
             }
             WindowEvent::Resized(size) => r.resize(size.width, size.height),
@@ -329,7 +333,7 @@ impl ApplicationHandler for App {
             _ => {}
         }
         if response.repaint {
-            r.window.request_redraw();
+            r.screen.window.request_redraw();
         }
     }
 
@@ -337,7 +341,7 @@ impl ApplicationHandler for App {
         if let Some(r) = self.running.as_mut() {
             // Poll the gem and face threads about 60 times a second; draw when needed.
             if r.poll() {
-                r.window.request_redraw();
+                r.screen.window.request_redraw();
             }
             // A worker that cannot be restarted: nothing more can be shown.
             if let Some(e) = r.fatal.take() {

@@ -303,8 +303,8 @@ impl Running {
                 "window",
                 format!(
                     "{}x{}{}{}",
-                    self.surface_config.width,
-                    self.surface_config.height,
+                    self.screen.surface_config.width,
+                    self.screen.surface_config.height,
                     if self.config.fullscreen {
                         ", full screen"
                     } else {

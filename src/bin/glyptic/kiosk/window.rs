@@ -2,52 +2,37 @@
 //! frame: the controls every time, the gem into its own texture only when something it shows
 //! changed (a new gem, a control, the orbit, the size).
 //!
-//! About 940 lines: the window's state (`Running`, its parts in `staff`, `timeline`, `restarts`)
-//! and the frame's steps (controls, layer, gem, controls pass, bookkeeping) share the surface
-//! and egui's state, which live here; the next step is the state as owned parts behind init,
-//! resize, update and render (issue #41).
+//! The window's state is owned parts: the [`Screen`] (window, surface, renderer, egui: made
+//! once, resized, drawn into), the staff's ([`Staff`]), the times ([`Timeline`]), the workers'
+//! restarts ([`Restarts`]); `news`, `visit` and `trace` add the update steps (what the workers
+//! sent, the visitor, the trace line). A frame is [`Running::frame`]: update the controls,
+//! render the gem if it changed, draw the controls over it, present.
 
 use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Result, anyhow};
 use winit::event_loop::ActiveEventLoop;
-use winit::window::{Fullscreen, Window};
 
 use glyptic::gem::HairStyle;
 use glyptic::kiosk::{Controls, KioskConfig, MOVING, Orbit, Presence};
-use glyptic::render::{Mesh, RenderParams, Renderer};
+use glyptic::render::{Mesh, RenderParams};
 
 use super::gem_thread::{GemFault, GemJob, GemThread};
 use super::restarts::Restarts;
+use super::screen::{Screen, ScreenCopy};
 use super::staff::Staff;
 use super::timeline::{Rate, Timeline};
-use super::ui::{UiFrame, style};
+use super::ui::UiFrame;
 use super::{Continue, KioskArgs};
 
 /// The first gem's resolution, of the window's (per side).
 pub(super) const PREVIEW_SCALE: f32 = 0.5;
 
-/// The gem's own texture, drawn by egui as the window's background.
-pub(super) struct GemLayer {
-    texture: wgpu::Texture,
-    view: wgpu::TextureView,
-    id: egui::TextureId,
-    pub(super) size: [u32; 2],
-}
-
 pub(super) struct Running {
-    pub(super) window: Arc<Window>,
-    pub(super) surface: wgpu::Surface<'static>,
-    pub(super) surface_config: wgpu::SurfaceConfiguration,
-    /// The surface's format without sRGB encoding (the composite and egui encode).
-    pub(super) view_format: wgpu::TextureFormat,
-    pub(super) renderer: Renderer,
-    pub(super) egui_ctx: egui::Context,
-    pub(super) egui_state: egui_winit::State,
-    pub(super) egui_renderer: egui_wgpu::Renderer,
-    pub(super) layer: Option<GemLayer>,
+    /// The window, its surface, the renderer and egui.
+    pub(super) screen: Screen,
     /// The gem needs rendering again.
     pub(super) dirty: bool,
     /// When the visitor last turned or zoomed the gem; within [`MOVING`]`.hold_s` of it the
@@ -120,34 +105,8 @@ impl Running {
         started: Instant,
         staff_open: bool,
     ) -> Result<Self> {
-        let mut attributes = Window::default_attributes()
-            .with_title("glyptic")
-            .with_inner_size(winit::dpi::LogicalSize::new(config.width, config.height));
-        if config.fullscreen {
-            // The monitor's own size at its origin, undecorated: full screen with no window
-            // manager (a kiosk's X server alone); a window manager also gets the request.
-            let monitor = event_loop
-                .primary_monitor()
-                .or_else(|| event_loop.available_monitors().next());
-            if let Some(m) = monitor.as_ref().filter(|m| m.size().width > 0) {
-                attributes = attributes
-                    .with_position(m.position())
-                    .with_inner_size(m.size());
-            }
-            attributes = attributes
-                .with_decorations(false)
-                .with_fullscreen(Some(Fullscreen::Borderless(monitor)));
-        }
-        let window = Arc::new(
-            event_loop
-                .create_window(attributes)
-                .context("creating the window")?,
-        );
+        let window = Screen::open(event_loop, config)?;
         let cursor_hidden = config.hides_cursor();
-        if cursor_hidden {
-            window.set_cursor_visible(false);
-        }
-        window.focus_window();
         let fault = super::Fault::from_env();
         let gem_fault = match fault {
             Some(super::Fault::Gem(f)) => Some(f),
@@ -163,54 +122,15 @@ impl Running {
             },
         )?;
 
-        let display = event_loop.owned_display_handle();
-        let instance = wgpu::Instance::new(
-            wgpu::InstanceDescriptor::new_with_display_handle(Box::new(display)).with_env(),
-        );
-        let surface = instance
-            .create_surface(Arc::clone(&window))
-            .context("creating the window's surface")?;
-        let renderer = Renderer::new_for_surface(&instance, &surface, true)?;
-        let size = window.inner_size();
-        let (surface_config, view_format) =
-            surface_config(&surface, &renderer, size.width.max(1), size.height.max(1))?;
-        surface.configure(renderer.device(), &surface_config);
-
-        let egui_ctx = egui::Context::default();
-        style(&egui_ctx);
-        egui_ctx.set_zoom_factor(glyptic::kiosk::controls_zoom(
-            size.width,
-            window.scale_factor(),
-        ));
-        let egui_state = egui_winit::State::new(
-            egui_ctx.clone(),
-            egui::ViewportId::ROOT,
-            &window,
-            Some(window.scale_factor() as f32),
-            None,
-            Some(renderer.device().limits().max_texture_dimension_2d as usize),
-        );
-        let egui_renderer = egui_wgpu::Renderer::new(
-            renderer.device(),
-            view_format,
-            egui_wgpu::RendererOptions::default(),
-        );
+        let screen = Screen::new(event_loop, window)?;
         let base = RenderParams {
             background: [0.10, 0.11, 0.13],
             hair_layer: config.hair_layer,
             ..RenderParams::default()
         };
-        window.request_redraw();
+        screen.window.request_redraw();
         Ok(Running {
-            window,
-            surface,
-            surface_config,
-            view_format,
-            renderer,
-            egui_ctx,
-            egui_state,
-            egui_renderer,
-            layer: None,
+            screen,
             dirty: true,
             moved_at: None,
             drawn_moving: false,
@@ -279,20 +199,10 @@ impl Running {
     }
 
     pub(super) fn resize(&mut self, width: u32, height: u32) {
-        // A minimised window has no size: keep the old surface until it comes back.
-        if width == 0 || height == 0 {
-            return;
+        if self.screen.resize(width, height) {
+            self.dirty = true;
+            self.screen.window.request_redraw();
         }
-        self.surface_config.width = width;
-        self.surface_config.height = height;
-        self.surface
-            .configure(self.renderer.device(), &self.surface_config);
-        self.egui_ctx.set_zoom_factor(glyptic::kiosk::controls_zoom(
-            width,
-            self.window.scale_factor(),
-        ));
-        self.dirty = true;
-        self.window.request_redraw();
     }
 
     /// Draws one frame: the controls, and the gem if it changed.
@@ -300,70 +210,38 @@ impl Running {
         if self.staff.quit {
             return Ok(Continue::Quit);
         }
-        if let Some(error) = self.renderer.take_gpu_error() {
+        if let Some(error) = self.screen.renderer.take_gpu_error() {
             self.note_problem(format!("GPU: {error}"));
         }
         let (output, gem_rect) = self.controls_step();
         let ppp = output.pixels_per_point;
         self.fit_layer(gem_rect, ppp);
-
-        // egui's texture changes (the font atlas among them) are kept even when no surface
-        // texture comes this frame: egui sends each change once.
-        for (id, deltas) in &output.textures_delta.set {
-            for delta in deltas {
-                self.egui_renderer.update_texture(
-                    self.renderer.device(),
-                    self.renderer.queue(),
-                    *id,
-                    delta,
-                );
+        self.screen.update_textures(&output.textures_delta);
+        let (frame, view) = match self.screen.acquire() {
+            Ok(Some(frame)) => frame,
+            Ok(None) => {
+                self.screen.free_textures(&output.textures_delta);
+                self.screen.window.request_redraw();
+                return Ok(Continue::Yes);
             }
-        }
-        let frame = match self.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(f)
-            | wgpu::CurrentSurfaceTexture::Suboptimal(f) => Some(f),
-            wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                // Reconfigure and try on the next frame.
-                self.surface
-                    .configure(self.renderer.device(), &self.surface_config);
-                None
-            }
-            other => {
-                self.note_problem(format!("window surface: {other:?}"));
-                None
+            Err(problem) => {
+                self.note_problem(problem);
+                self.screen.free_textures(&output.textures_delta);
+                self.screen.window.request_redraw();
+                return Ok(Continue::Yes);
             }
         };
-        let Some(frame) = frame else {
-            for id in &output.textures_delta.free {
-                self.egui_renderer.free_texture(id);
-            }
-            self.window.request_redraw();
-            return Ok(Continue::Yes);
-        };
-        let view = frame.texture.create_view(&wgpu::TextureViewDescriptor {
-            format: Some(self.view_format),
-            ..Default::default()
-        });
-        let device = self.renderer.device().clone();
-        let queue = self.renderer.queue().clone();
+        let device = self.screen.renderer.device().clone();
+        let queue = self.screen.renderer.queue().clone();
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("kiosk frame"),
         });
         let t = Instant::now();
         let rendered_gem = self.draw_gem(&mut encoder, &queue);
-        let screen = egui_wgpu::ScreenDescriptor {
-            size_in_pixels: [self.surface_config.width, self.surface_config.height],
-            pixels_per_point: ppp,
-        };
-        let jobs = self.egui_ctx.tessellate(output.shapes, ppp);
-        let extra =
-            self.egui_renderer
-                .update_buffers(&device, &queue, &mut encoder, &jobs, &screen);
-        self.draw_controls(&mut encoder, &view, &jobs, &screen);
-        let can_copy = self
-            .surface_config
-            .usage
-            .contains(wgpu::TextureUsages::COPY_SRC);
+        let extra = self
+            .screen
+            .draw_controls(&mut encoder, &view, output.shapes, ppp);
+        let can_copy = self.screen.can_copy();
         let want_copy = self.snapshot_request || args.screenshot.is_some();
         if want_copy && !can_copy {
             self.note_problem("this window cannot be copied (no snapshot, no screenshot)");
@@ -385,7 +263,7 @@ impl Running {
             }
         }
         if let Some(copy) = capture {
-            match copy.read(&device, self.view_format) {
+            match self.screen.read_copy(copy) {
                 Ok(image) => {
                     if self.snapshot_request {
                         self.save_snapshot(&image, &args.snapshots);
@@ -396,11 +274,8 @@ impl Running {
                 Err(e) => self.note_problem(format!("screenshot: {e}")),
             }
         }
-        self.window.pre_present_notify();
-        queue.present(frame);
-        for id in &output.textures_delta.free {
-            self.egui_renderer.free_texture(id);
-        }
+        self.screen.present(frame);
+        self.screen.free_textures(&output.textures_delta);
         self.count_frame(rendered_gem);
         if args.trace {
             say!("{}", self.trace_line(rendered_gem));
@@ -423,7 +298,7 @@ impl Running {
                 .values()
                 .any(|v| v.repaint_delay.is_zero())
         {
-            self.window.request_redraw();
+            self.screen.window.request_redraw();
         }
         Ok(Continue::Yes)
     }
@@ -431,7 +306,7 @@ impl Running {
     /// Runs the controls for this frame: what the visitor changed takes effect (the gem is
     /// marked for rendering; unfreezing shows the newest face again).
     fn controls_step(&mut self) -> (egui::FullOutput, Option<egui::Rect>) {
-        let raw_input = self.egui_state.take_egui_input(&self.window);
+        let raw_input = self.screen.input();
         // A press, a touch, a scroll or a pinch is a visitor: taken before the controls run,
         // so that a tap that wakes the kiosk from attract mode also takes effect.
         let touched = raw_input.events.iter().any(|e| {
@@ -461,7 +336,7 @@ impl Running {
             controls: &mut self.controls,
             labels: &self.config.labels,
             orbit: &mut self.orbit,
-            layer: self.layer.as_ref().map(|l| l.id),
+            layer: self.screen.layer.as_ref().map(|l| l.id),
             prompt,
             caption,
             staff,
@@ -479,7 +354,10 @@ impl Running {
             corner_held: false,
             rects: Vec::new(),
         };
-        let mut output = self.egui_ctx.run_ui(raw_input, |ui_root| ui.draw(ui_root));
+        let mut output = self
+            .screen
+            .egui_ctx
+            .run_ui(raw_input, |ui_root| ui.draw(ui_root));
         let (gem_rect, snapshot) = (ui.gem_rect, ui.snapshot);
         let (close_staff, quit, corner_held) = (ui.close_staff, ui.quit, ui.corner_held);
         let pad_inputs = std::mem::take(&mut ui.pad_inputs);
@@ -528,8 +406,8 @@ impl Running {
                 self.sent_weight = 0.0;
             }
         }
-        self.egui_state
-            .handle_platform_output(&self.window, std::mem::take(&mut output.platform_output));
+        self.screen
+            .platform_output(std::mem::take(&mut output.platform_output));
         (output, gem_rect)
     }
 
@@ -548,7 +426,7 @@ impl Running {
             self.moving_gem = Some((Arc::clone(gem), gem.simplified(MOVING.max_triangles)));
         }
         if self.dirty
-            && let (Some(gem), Some(layer)) = (&self.gem, &self.layer)
+            && let (Some(gem), Some(layer)) = (&self.gem, &self.screen.layer)
         {
             let gem = match &self.moving_gem {
                 Some((_, coarse)) if moving => coarse,
@@ -564,7 +442,7 @@ impl Running {
             let drawn = if params.styles.iter().any(|s| s.is_serial()) {
                 // Dithering runs on the CPU: read the gem back, dither it, and upload it to the
                 // layer (only when the gem changes: it is still).
-                self.renderer.render(gem, &params).map(|image| {
+                self.screen.renderer.render(gem, &params).map(|image| {
                     queue.write_texture(
                         layer.texture.as_image_copy(),
                         &image,
@@ -577,7 +455,7 @@ impl Running {
                     );
                 })
             } else {
-                self.renderer.render_to_view(
+                self.screen.renderer.render_to_view(
                     encoder,
                     gem,
                     &params,
@@ -644,86 +522,10 @@ impl Running {
                 ((rect.width() * scale).round() as u32).clamp(16, 4096),
                 ((rect.height() * scale).round() as u32).clamp(16, 4096),
             ];
-            if self.layer.as_ref().is_none_or(|l| l.size != size) {
-                self.make_layer(size);
+            if self.screen.fit_layer(size) {
+                self.dirty = true;
             }
         }
-    }
-
-    /// The controls (egui) over the whole window, the gem's layer among them.
-    fn draw_controls(
-        &mut self,
-        encoder: &mut wgpu::CommandEncoder,
-        view: &wgpu::TextureView,
-        jobs: &[egui::ClippedPrimitive],
-        screen: &egui_wgpu::ScreenDescriptor,
-    ) {
-        {
-            let mut pass = encoder
-                .begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("kiosk controls"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color {
-                                r: 0.01,
-                                g: 0.012,
-                                b: 0.016,
-                                a: 1.0,
-                            }),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
-                    ..Default::default()
-                })
-                .forget_lifetime();
-            self.egui_renderer.render(&mut pass, jobs, screen);
-        }
-    }
-
-    pub(super) fn make_layer(&mut self, size: [u32; 2]) {
-        let device = self.renderer.device();
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("kiosk gem layer"),
-            size: wgpu::Extent3d {
-                width: size[0],
-                height: size[1],
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::Rgba8Unorm,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        let view = texture.create_view(&Default::default());
-        let id = match &self.layer {
-            Some(old) => {
-                self.egui_renderer.update_egui_texture_from_wgpu_texture(
-                    device,
-                    &view,
-                    wgpu::FilterMode::Linear,
-                    old.id,
-                );
-                old.id
-            }
-            None => {
-                self.egui_renderer
-                    .register_native_texture(device, &view, wgpu::FilterMode::Linear)
-            }
-        };
-        self.layer = Some(GemLayer {
-            texture,
-            view,
-            id,
-            size,
-        });
-        self.dirty = true;
     }
 
     pub(super) fn save_snapshot(&mut self, image: &image::RgbaImage, dir: &Path) {
@@ -788,144 +590,6 @@ impl Running {
                 .map_or("-".into(), |s| format!("{s:.2} s")),
         );
         Ok(())
-    }
-}
-
-/// Chooses the surface's format (the composite and egui write display values themselves, so a
-/// view without sRGB encoding) and usage (copies out for screenshots where allowed).
-fn surface_config(
-    surface: &wgpu::Surface<'_>,
-    renderer: &Renderer,
-    width: u32,
-    height: u32,
-) -> Result<(wgpu::SurfaceConfiguration, wgpu::TextureFormat)> {
-    let caps = renderer.surface_capabilities(surface);
-    let eight_bit = |f: &wgpu::TextureFormat| {
-        matches!(
-            f.remove_srgb_suffix(),
-            wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Rgba8Unorm
-        )
-    };
-    let format = caps
-        .formats
-        .iter()
-        .copied()
-        .find(eight_bit)
-        .or_else(|| caps.formats.first().copied())
-        .ok_or_else(|| anyhow!("the window's surface offers no format"))?;
-    let view_format = format.remove_srgb_suffix();
-    let mut usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
-    if caps.usages.contains(wgpu::TextureUsages::COPY_SRC) {
-        usage |= wgpu::TextureUsages::COPY_SRC;
-    }
-    let config = wgpu::SurfaceConfiguration {
-        usage,
-        format,
-        width,
-        height,
-        present_mode: wgpu::PresentMode::AutoVsync,
-        desired_maximum_frame_latency: 2,
-        color_space: wgpu::SurfaceColorSpace::Auto,
-        alpha_mode: caps
-            .alpha_modes
-            .first()
-            .copied()
-            .unwrap_or(wgpu::CompositeAlphaMode::Auto),
-        view_formats: if view_format == format {
-            vec![]
-        } else {
-            vec![view_format]
-        },
-    };
-    Ok((config, view_format))
-}
-
-/// A copy of the presented frame on its way to the CPU.
-struct ScreenCopy {
-    buffer: wgpu::Buffer,
-    width: u32,
-    height: u32,
-    padded_row: u32,
-}
-
-impl ScreenCopy {
-    fn encode(
-        device: &wgpu::Device,
-        encoder: &mut wgpu::CommandEncoder,
-        texture: &wgpu::Texture,
-    ) -> Self {
-        let (width, height) = (texture.width(), texture.height());
-        let padded_row = (width * 4).div_ceil(256) * 256;
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("kiosk screenshot"),
-            size: u64::from(padded_row) * u64::from(height),
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded_row),
-                    rows_per_image: Some(height),
-                },
-            },
-            wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-        );
-        ScreenCopy {
-            buffer,
-            width,
-            height,
-            padded_row,
-        }
-    }
-
-    fn read(self, device: &wgpu::Device, format: wgpu::TextureFormat) -> Result<image::RgbaImage> {
-        let slice = self.buffer.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| anyhow!("{e}"))?;
-        rx.recv()
-            .map_err(|e| anyhow!("{e}"))?
-            .map_err(|e| anyhow!("{e}"))?;
-        let bgra = matches!(
-            format,
-            wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
-        );
-        let mut pixels = Vec::with_capacity((self.width * self.height * 4) as usize);
-        {
-            let data = slice.get_mapped_range().map_err(|e| anyhow!("{e}"))?;
-            for row in data
-                .chunks(self.padded_row as usize)
-                .take(self.height as usize)
-            {
-                for px in row[..(self.width * 4) as usize].chunks_exact(4) {
-                    if bgra {
-                        pixels.extend_from_slice(&[px[2], px[1], px[0], 255]);
-                    } else {
-                        pixels.extend_from_slice(&[px[0], px[1], px[2], 255]);
-                    }
-                }
-            }
-        }
-        self.buffer.unmap();
-        image::RgbaImage::from_raw(self.width, self.height, pixels)
-            .ok_or_else(|| anyhow!("screenshot smaller than the window"))
     }
 }
 
