@@ -24,5 +24,6 @@ pub mod pin;
 pub mod raster;
 pub mod scene;
 pub mod shapemodel;
+mod simd;
 pub mod smooth;
 pub mod stone;

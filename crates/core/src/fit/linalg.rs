@@ -2,37 +2,7 @@
 //! written for that size: nalgebra's generic Gram product and Cholesky were two thirds of a
 //! fit's time here (callgrind, `glyptic fit --no-contour --repeat 100`).
 
-/// Whether this CPU has AVX2 and FMA (checked once; the build targets baseline x86-64).
-#[cfg(target_arch = "x86_64")]
-#[inline]
-pub(crate) fn has_avx2_fma() -> bool {
-    std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-}
-
-/// Defines `fn $name(args) -> R` that runs `$generic` compiled for AVX2 and FMA when the CPU has
-/// them (checked at run time; the build targets baseline x86-64), and as it is otherwise.
-/// `$generic` should be `#[inline(always)]` so that the AVX2 copy gets its own code.
-macro_rules! with_avx2 {
-    ($(#[$meta:meta])* $vis:vis fn $name:ident / $avx2:ident => $generic:ident
-        ($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty) => {
-        $(#[$meta])*
-        $vis fn $name($($arg: $ty),*) -> $ret {
-            #[cfg(target_arch = "x86_64")]
-            if $crate::fit::linalg::has_avx2_fma() {
-                // SAFETY: the CPU supports the features `$avx2` is compiled for (checked above).
-                return unsafe { $avx2($($arg),*) };
-            }
-            $generic($($arg),*)
-        }
-
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "avx2,fma")]
-        fn $avx2($($arg: $ty),*) -> $ret {
-            $generic($($arg),*)
-        }
-    };
-}
-pub(crate) use with_avx2;
+use crate::simd::with_avx2;
 
 /// `(A^T A, A^T t)` for a column-major `rows x n` matrix `a`, as a full symmetric row-major
 /// `n x n` matrix and a vector. Blocks of 4x4 output entries share each row's loads, so the

@@ -19,6 +19,7 @@ use nalgebra::{Matrix2x3, Vector3};
 
 use super::{Camera, Coefficients, Correspondence, linalg};
 use crate::shapemodel::{AXIS_PAIRS, BasisProducts, SurreyModel};
+use crate::simd::with_avx2;
 
 /// Which parameters a linearisation covers, in this order: camera (6, in the order of
 /// [`Camera::update`]) if `camera`, the first `identity` identity coefficients, the first
@@ -85,7 +86,7 @@ impl<'a> FixedProducts<'a> {
     }
 }
 
-linalg::with_avx2! {
+with_avx2! {
     /// `(N_a, U_ra)` of [`FixedProducts`].
     fn first_moments / first_moments_avx2 => first_moments_generic
         (model: &SurreyModel, mapped: &[Correspondence]) -> ([Vec<f64>; 3], [[Vec<f64>; 3]; 2])
@@ -153,49 +154,24 @@ pub(super) struct Linearised {
     pub lips_mm2: f64,
 }
 
-/// `(H, g)` with `H = J^T W J` and `g = J^T W r`: `r` the residuals (image point minus
-/// projection, along the normal for sliding outline points; lower minus upper lip vertex in
-/// 3D for closed lips), `J` their derivative with respect to `params`. A Gauss-Newton step is
-/// `H delta = g`. Only the upper triangle of `H` is filled in (all that the Cholesky
-/// factorisation reads; [`mirror_upper`] completes it). `H` is built in `buffer`, whose
-/// contents do not matter (pass an old `H` to save an allocation).
-#[allow(clippy::too_many_arguments)]
-pub(super) fn normal_equations<C: Camera>(
-    model: &SurreyModel,
-    corr: &[Correspondence],
-    closed_lips: &[(usize, usize)],
-    at: &At<C>,
-    params: Params,
-    weights: Weights,
-    fixed: Option<&FixedProducts>,
-    buffer: Vec<f64>,
-) -> Linearised {
-    #[cfg(target_arch = "x86_64")]
-    if linalg::has_avx2_fma() {
-        // SAFETY: the CPU supports the features this function is compiled for (checked above).
-        return unsafe {
-            normal_equations_avx2(model, corr, closed_lips, at, params, weights, fixed, buffer)
-        };
-    }
-    normal_equations_generic(model, corr, closed_lips, at, params, weights, fixed, buffer)
-}
-
-/// [`normal_equations`] compiled for AVX2 and FMA (4-wide arithmetic in the per-landmark loops
-/// and the basis-product sums).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-#[allow(clippy::too_many_arguments)]
-fn normal_equations_avx2<C: Camera>(
-    model: &SurreyModel,
-    corr: &[Correspondence],
-    closed_lips: &[(usize, usize)],
-    at: &At<C>,
-    params: Params,
-    weights: Weights,
-    fixed: Option<&FixedProducts>,
-    buffer: Vec<f64>,
-) -> Linearised {
-    normal_equations_generic(model, corr, closed_lips, at, params, weights, fixed, buffer)
+with_avx2! {
+    /// `(H, g)` with `H = J^T W J` and `g = J^T W r`: `r` the residuals (image point minus
+    /// projection, along the normal for sliding outline points; lower minus upper lip vertex in
+    /// 3D for closed lips), `J` their derivative with respect to `params`. A Gauss-Newton step is
+    /// `H delta = g`. Only the upper triangle of `H` is filled in (all that the Cholesky
+    /// factorisation reads; [`mirror_upper`] completes it). `H` is built in `buffer`, whose
+    /// contents do not matter (pass an old `H` to save an allocation).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn normal_equations<C: Camera> / normal_equations_avx2 => normal_equations_generic (
+        model: &SurreyModel,
+        corr: &[Correspondence],
+        closed_lips: &[(usize, usize)],
+        at: &At<C>,
+        params: Params,
+        weights: Weights,
+        fixed: Option<&FixedProducts>,
+        buffer: Vec<f64>,
+    ) -> Linearised
 }
 
 #[inline(always)]

@@ -22,6 +22,8 @@ use std::sync::OnceLock;
 
 use nalgebra::{DMatrix, DVector};
 
+use crate::simd::with_avx2;
+
 pub use cereal::CerealError;
 
 /// Number of vertices of the low-resolution SFM.
@@ -287,25 +289,21 @@ impl BasisProducts {
     /// Adds (`sign` 1) or removes (`sign` -1) the products of the given vertices (a vertex
     /// listed twice counts twice).
     pub fn add_vertices(&mut self, packed: &PackedRows, vertices: &[usize], sign: f64) {
-        #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-            // SAFETY: the CPU supports the features this function is compiled for.
-            return unsafe { self.add_vertices_avx2(packed, vertices, sign) };
-        }
-        self.add_vertices_generic(packed, vertices, sign)
+        add_vertices(self, packed, vertices, sign);
     }
+}
 
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn add_vertices_avx2(&mut self, packed: &PackedRows, vertices: &[usize], sign: f64) {
-        self.add_vertices_generic(packed, vertices, sign)
-    }
+with_avx2! {
+    fn add_vertices / add_vertices_avx2 => add_vertices_generic
+        (products: &mut BasisProducts, packed: &PackedRows, vertices: &[usize], sign: f64)
+}
 
+impl BasisProducts {
     /// All vertices row by row of the six upper triangles, so that each row stays in cache
     /// while every vertex adds to it (a pass over all six matrices per vertex was bound by
     /// memory: 19 hidden landmarks cost 40 % of a fit).
     #[inline(always)]
-    fn add_vertices_generic(&mut self, packed: &PackedRows, vertices: &[usize], sign: f64) {
+    fn add_vertices_to(&mut self, packed: &PackedRows, vertices: &[usize], sign: f64) {
         let c = self.columns;
         let nv = vertices.len();
         if nv == 0 {
@@ -348,6 +346,16 @@ impl BasisProducts {
             }
         }
     }
+}
+
+#[inline(always)]
+fn add_vertices_generic(
+    products: &mut BasisProducts,
+    packed: &PackedRows,
+    vertices: &[usize],
+    sign: f64,
+) {
+    products.add_vertices_to(packed, vertices, sign);
 }
 
 /// The model's rows laid out vertex-major: coordinate row `r = 3 v + axis` holds
