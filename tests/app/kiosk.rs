@@ -3,6 +3,9 @@
 //! without moving the camera, and bad set-ups are reported without a crash.
 //!
 //! Needs `Xvfb` and `xdotool` (scripts/setup.sh installs both) and the models.
+//!
+//! Length: about 1250 lines, each test a scripted visit sharing the helpers at the top (a
+//! virtual X server's start, the kiosk's launch, its trace reader, the pointer's moves).
 #![cfg(all(feature = "face", feature = "video"))]
 
 use crate::common;

@@ -18,6 +18,11 @@
 //! Frame and units: origin midway between the eyes' centres, `s` along the eye line towards
 //! the image-right eye, `t` perpendicular to it down the face, both in inter-ocular distances
 //! (IOD, the eyes' centres apart, about 63 mm on an adult). Pure computation.
+//!
+//! Length: about 900 lines, most of it [`analyse_shaded`], one pass read top to bottom: every
+//! decision (skin, hair, beard, moustache, glasses, hat, ears, the crown) reads the same head-frame
+//! canvas and its labels, and each is measured against the others (a beard is dark below the
+//! mouth only where it is not hair); the readers with their own state are the submodules.
 
 mod canvas;
 mod colour;

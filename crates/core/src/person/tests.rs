@@ -1,4 +1,7 @@
 //! The person pass on synthetic heads (painted skin, hair, background) and its failure modes.
+//!
+//! Length: about 730 lines of tests sharing one painter of synthetic heads (skin, hair kinds,
+//! beard, glasses, hat, background) and its helpers.
 
 use super::*;
 
