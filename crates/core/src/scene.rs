@@ -32,6 +32,24 @@ pub struct Vertex {
     pub transmit: f32,
 }
 
+impl Vertex {
+    /// A vertex of `region` in the open: all the key light and ambient light reach it, none
+    /// shines through, and the agate's hair layer lies on the hair alone. The draw data of
+    /// simple meshes (a glTF's, the tests').
+    pub fn open(position: [f32; 3], normal: [f32; 3], relief: f32, region: Region) -> Vertex {
+        Vertex {
+            position,
+            normal,
+            relief,
+            region: region as u32,
+            hair: if region == Region::Hair { 1.0 } else { 0.0 },
+            occlusion: 1.0,
+            key_light: 1.0,
+            transmit: 0.0,
+        }
+    }
+}
+
 /// What a vertex is made of.
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -202,16 +220,7 @@ mod tests {
     use super::*;
 
     fn vertex(position: [f32; 3], normal: [f32; 3], region: Region) -> Vertex {
-        Vertex {
-            position,
-            normal,
-            relief: position[2],
-            region: region as u32,
-            hair: 0.0,
-            occlusion: 1.0,
-            key_light: 1.0,
-            transmit: 0.0,
-        }
+        Vertex::open(position, normal, position[2], region)
     }
 
     /// A grid of `n` x `n` cells over [0, 2] mm square, heights from `z`.

@@ -168,16 +168,7 @@ mod tests {
     use super::*;
 
     fn vertex(x: f32, y: f32, z: f32) -> Vertex {
-        Vertex {
-            position: [x, y, z],
-            normal: [0.0, 0.0, 1.0],
-            relief: 0.0,
-            region: 0,
-            hair: 0.0,
-            occlusion: 1.0,
-            key_light: 1.0,
-            transmit: 0.0,
-        }
+        Vertex::open([x, y, z], [0.0, 0.0, 1.0], 0.0, Region::Ground)
     }
 
     fn triangle() -> Mesh {

@@ -457,16 +457,7 @@ mod tests {
     use glyptic_core::scene::Region;
 
     fn vertex(p: [f32; 3], n: [f32; 3]) -> Vertex {
-        Vertex {
-            position: p,
-            normal: n,
-            relief: 0.0,
-            region: Region::Ground as u32,
-            hair: 0.0,
-            occlusion: 1.0,
-            key_light: 1.0,
-            transmit: 0.0,
-        }
+        Vertex::open(p, n, 0.0, Region::Ground)
     }
 
     const FRAME: PlanarFrame = PlanarFrame {

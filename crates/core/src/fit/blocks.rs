@@ -7,106 +7,98 @@ use super::{
     mirror_upper, nnls, normal, normal_equations, solve_spd,
 };
 
-/// The first iteration's block solves: normal equations for identity alone or expressions
-/// alone at the current solution, as `(H, H x + g)`, i.e. for the block's coefficients `x`
-/// outright (see [`absolute_rhs`]).
-pub(super) fn block_equations<C: Camera>(
-    problem: &Problem,
-    corr: &[Correspondence],
-    pose: &C,
-    shape: &[f32],
-    expression: &[f32],
-    params: Params,
-    sigma_mm: f64,
-) -> (Vec<f64>, Vec<f64>) {
-    let opts = problem.opts;
-    let at = At {
-        camera: pose,
-        shape,
-        expression,
-    };
-    let weights = Weights {
-        landmarks: 1.0 / (pose.scale() * sigma_mm).powi(2),
-        lips: 1.0 / opts.sigma_closed_mm.powi(2),
-    };
-    let normal::Linearised { mut h, g, .. } = normal_equations(
-        problem.model,
-        corr,
-        &problem.closed_lips,
-        &at,
-        params,
-        weights,
-        problem.fixed.as_ref(),
-        Vec::new(),
-    );
-    mirror_upper(&mut h, params.len());
-    let current = if params.identity > 0 {
-        &shape[..params.identity]
-    } else {
-        &expression[..params.expressions]
-    };
-    let rhs = absolute_rhs(&h, &g, current);
-    (h, rhs)
+/// One block solve's inputs: the problem, the correspondences, the current solution (the
+/// other block held there) and the landmarks' noise (mm).
+pub(super) struct Block<'a, C> {
+    pub(super) problem: &'a Problem<'a>,
+    pub(super) corr: &'a [Correspondence],
+    pub(super) at: At<'a, C>,
+    pub(super) sigma_mm: f64,
 }
 
-/// Identity by regularised linear least squares, with the expressions held fixed.
-pub(super) fn fit_shape<C: Camera>(
-    problem: &Problem,
-    corr: &[Correspondence],
-    pose: &C,
-    shape: &[f32],
-    expression: &[f32],
-    sigma_mm: f64,
-) -> Result<Vec<f32>, FitError> {
-    let n = problem.opts.shape_coefficients;
-    if n == 0 {
-        return Ok(Vec::new());
+impl<C: Camera> Block<'_, C> {
+    /// Normal equations for identity alone or expressions alone at the current solution, as
+    /// `(H, H x + g)`, i.e. for the block's coefficients `x` outright (see [`absolute_rhs`]).
+    fn equations(&self, params: Params) -> (Vec<f64>, Vec<f64>) {
+        let Block {
+            problem,
+            corr,
+            ref at,
+            sigma_mm,
+        } = *self;
+        let (pose, shape, expression) = (at.camera, at.shape, at.expression);
+        let opts = problem.opts;
+        let weights = Weights {
+            landmarks: 1.0 / (pose.scale() * sigma_mm).powi(2),
+            lips: 1.0 / opts.sigma_closed_mm.powi(2),
+        };
+        let normal::Linearised { mut h, g, .. } = normal_equations(
+            problem.model,
+            corr,
+            &problem.closed_lips,
+            at,
+            params,
+            weights,
+            problem.fixed.as_ref(),
+            Vec::new(),
+        );
+        mirror_upper(&mut h, params.len());
+        let current = if params.identity > 0 {
+            &shape[..params.identity]
+        } else {
+            &expression[..params.expressions]
+        };
+        let rhs = absolute_rhs(&h, &g, current);
+        (h, rhs)
     }
-    let params = Params {
-        camera: false,
-        identity: n,
-        expressions: 0,
-    };
-    let (ata, atb) = block_equations(problem, corr, pose, shape, expression, params, sigma_mm);
-    // Trust region on the prior: inconsistent landmarks (duplicates, outliers) can ask for an
-    // implausible face; raise the prior weight until every coefficient is within the bound.
-    let mut lambda = problem.opts.lambda_shape.max(1e-6);
-    for _ in 0..40 {
-        let mut a = ata.clone();
+
+    /// Identity by regularised linear least squares, with the expressions held fixed.
+    pub fn shape(&self) -> Result<Vec<f32>, FitError> {
+        let problem = self.problem;
+        let n = problem.opts.shape_coefficients;
+        if n == 0 {
+            return Ok(Vec::new());
+        }
+        let params = Params {
+            camera: false,
+            identity: n,
+            expressions: 0,
+        };
+        let (ata, atb) = self.equations(params);
+        // Trust region on the prior: inconsistent landmarks (duplicates, outliers) can ask for an
+        // implausible face; raise the prior weight until every coefficient is within the bound.
+        let mut lambda = problem.opts.lambda_shape.max(1e-6);
+        for _ in 0..40 {
+            let mut a = ata.clone();
+            for i in 0..n {
+                a[i * n + i] += lambda;
+            }
+            let x = solve_spd(a, &atb)?;
+            if x.iter().all(|v| v.abs() <= MAX_SHAPE_SD) {
+                return Ok(x.iter().map(|&v| v as f32).collect());
+            }
+            lambda *= 2.0;
+        }
+        Err(FitError::NotFinite)
+    }
+
+    /// Expressions by non-negative least squares with a small ridge, identity held fixed.
+    pub fn expressions(&self) -> Result<Vec<f32>, FitError> {
+        let problem = self.problem;
+        let n = self.at.expression.len();
+        if n == 0 {
+            return Ok(Vec::new());
+        }
+        let params = Params {
+            camera: false,
+            identity: 0,
+            expressions: n,
+        };
+        let (mut ata, atb) = self.equations(params);
         for i in 0..n {
-            a[i * n + i] += lambda;
+            ata[i * n + i] += problem.opts.lambda_expression;
         }
-        let x = solve_spd(a, &atb)?;
-        if x.iter().all(|v| v.abs() <= MAX_SHAPE_SD) {
-            return Ok(x.iter().map(|&v| v as f32).collect());
-        }
-        lambda *= 2.0;
+        let x = nnls(&ata, &atb)?;
+        Ok(x.iter().map(|&v| v as f32).collect())
     }
-    Err(FitError::NotFinite)
-}
-
-/// Expressions by non-negative least squares with a small ridge, identity held fixed.
-pub(super) fn fit_expressions<C: Camera>(
-    problem: &Problem,
-    corr: &[Correspondence],
-    pose: &C,
-    shape: &[f32],
-    expression: &[f32],
-    sigma_mm: f64,
-) -> Result<Vec<f32>, FitError> {
-    let n = expression.len();
-    if n == 0 {
-        return Ok(Vec::new());
-    }
-    let params = Params {
-        camera: false,
-        identity: 0,
-        expressions: n,
-    };
-    let (mut ata, atb) = block_equations(problem, corr, pose, shape, expression, params, sigma_mm);
-    for i in 0..n {
-        ata[i * n + i] += problem.opts.lambda_expression;
-    }
-    let x = nnls(&ata, &atb)?;
-    Ok(x.iter().map(|&v| v as f32).collect())
 }

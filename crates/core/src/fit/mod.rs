@@ -40,7 +40,7 @@ pub use occluding::visible_occluding_vertices;
 pub use pose::{Pose, estimate_linear, nearest_rotation, refine};
 
 use crate::shapemodel::SurreyModel;
-use blocks::{fit_expressions, fit_shape};
+use blocks::Block;
 use joint::joint_step;
 use normal::{At, FixedProducts, Params, Weights, absolute_rhs, mirror_upper, normal_equations};
 use outline::{BoundaryCache, outline_correspondences};
@@ -632,12 +632,34 @@ fn run_loop<C: Camera + Clone>(
             if it > 0 || corr.len() != mapped.len() {
                 pose = estimate(&pose, &corr, &shape, &expression, false)?;
             }
-            expression = fit_expressions(problem, &corr, &pose, &shape, &expression, sigma_mm)?;
+            let at = At {
+                camera: &pose,
+                shape: &shape,
+                expression: &expression,
+            };
+            expression = Block {
+                problem,
+                corr: &corr,
+                at,
+                sigma_mm,
+            }
+            .expressions()?;
             // With joint steps to follow, the first of them solves identity together with
             // the camera; a block solve here first cost 15 % of a no-contour fit and gained
             // nothing on the benchmark (`scripts/bench-fit.sh --quick`).
             if !hold_identity && !opts.joint {
-                shape = fit_shape(problem, &corr, &pose, &shape, &expression, sigma_mm)?;
+                let at = At {
+                    camera: &pose,
+                    shape: &shape,
+                    expression: &expression,
+                };
+                shape = Block {
+                    problem,
+                    corr: &corr,
+                    at,
+                    sigma_mm,
+                }
+                .shape()?;
             }
         }
         if opts.joint {

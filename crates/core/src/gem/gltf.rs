@@ -436,16 +436,7 @@ mod tests {
     use crate::scene::Vertex;
 
     fn vertex(position: [f32; 3], normal: [f32; 3], region: Region, relief: f32) -> Vertex {
-        Vertex {
-            position,
-            normal,
-            relief,
-            region: region as u32,
-            hair: if region == Region::Hair { 1.0 } else { 0.0 },
-            occlusion: 1.0,
-            key_light: 1.0,
-            transmit: 0.0,
-        }
+        Vertex::open(position, normal, relief, region)
     }
 
     /// A toy cameo: a ground square, a raised square (one normal missing) with a hair corner

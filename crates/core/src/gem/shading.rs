@@ -38,20 +38,24 @@ pub(super) fn cavity(height: &[f32], cols: usize, rows: usize, cell: f32) -> Vec
 
 /// One pass of 1-2-1 smoothing in each direction (edges clamped).
 pub(super) fn smooth_121(values: &[f32], cols: usize, rows: usize) -> Vec<f32> {
-    let mut tmp = vec![0f32; values.len()];
-    for y in 0..rows {
-        for x in 0..cols {
-            let at = |xx: usize| values[y * cols + xx];
-            tmp[y * cols + x] =
-                0.25 * at(x.saturating_sub(1)) + 0.5 * at(x) + 0.25 * at((x + 1).min(cols - 1));
-        }
-    }
+    pass_121(&pass_121(values, cols, rows, true), cols, rows, false)
+}
+
+/// One 1-2-1 pass along the rows (`along_x`) or the columns, the edge's node standing in for
+/// its missing neighbour.
+fn pass_121(values: &[f32], cols: usize, rows: usize, along_x: bool) -> Vec<f32> {
     let mut out = vec![0f32; values.len()];
     for y in 0..rows {
         for x in 0..cols {
-            let at = |yy: usize| tmp[yy * cols + x];
-            out[y * cols + x] =
-                0.25 * at(y.saturating_sub(1)) + 0.5 * at(y) + 0.25 * at((y + 1).min(rows - 1));
+            let (i, len, step) = if along_x {
+                (x, cols, 1)
+            } else {
+                (y, rows, cols)
+            };
+            let k = y * cols + x;
+            let before = if i > 0 { k - step } else { k };
+            let after = if i + 1 < len { k + step } else { k };
+            out[k] = 0.25 * values[before] + 0.5 * values[k] + 0.25 * values[after];
         }
     }
     out

@@ -602,12 +602,8 @@ impl WallCut<'_> {
             ..on
         };
         let wall = Vertex { normal, ..top };
-        let first = mesh.vertices.len() as u32;
-        mesh.vertices.extend_from_slice(&[top, wall]);
-        let rim = Rim {
-            top: first,
-            wall: first + 1,
-        };
+        let [top, wall] = push_pair(mesh, [top, wall]);
+        let rim = Rim { top, wall };
         self.rims.insert((inner, outer), rim);
         rim
     }
@@ -636,12 +632,8 @@ impl WallCut<'_> {
             ..off
         };
         let wall = self.wall_vertex(xy, 0.0, normal, inner, outer);
-        let first = mesh.vertices.len() as u32;
-        mesh.vertices.extend_from_slice(&[wall, ground]);
-        let foot = Foot {
-            wall: first,
-            ground: first + 1,
-        };
+        let [wall, ground] = push_pair(mesh, [wall, ground]);
+        let foot = Foot { wall, ground };
         self.feet.insert((inner, outer), foot);
         foot
     }
@@ -731,6 +723,13 @@ impl WallCut<'_> {
 }
 
 /// `v` scaled to unit length (unchanged if it is zero).
+/// Appends two vertices to `mesh`; their indices.
+fn push_pair(mesh: &mut Mesh, pair: [Vertex; 2]) -> [u32; 2] {
+    let first = mesh.vertices.len() as u32;
+    mesh.vertices.extend_from_slice(&pair);
+    [first, first + 1]
+}
+
 fn normalised(v: [f32; 2]) -> [f32; 2] {
     let len = v[0].hypot(v[1]);
     if len > 1e-9 {

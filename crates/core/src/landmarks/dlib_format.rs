@@ -214,23 +214,13 @@ impl<'a> Reader<'a> {
     /// the mantissa is rounded to `f32` first, then scaled by a power of two.
     pub fn read_f32(&mut self, field: &str) -> Result<f32, LandmarkError> {
         let (mantissa, exponent) = self.float_parts(field)?;
-        Ok(match exponent {
-            EXP_INF => f32::INFINITY,
-            EXP_NINF => f32::NEG_INFINITY,
-            e if e >= EXP_NAN => f32::NAN,
-            e => ldexp_f32(mantissa as f32, i32::from(e)),
-        })
+        Ok(f32_from_parts(mantissa, exponent))
     }
 
     /// A `double`, converted like [`Reader::read_f32`] but in `f64`.
     pub fn read_f64(&mut self, field: &str) -> Result<f64, LandmarkError> {
         let (mantissa, exponent) = self.float_parts(field)?;
-        Ok(match exponent {
-            EXP_INF => f64::INFINITY,
-            EXP_NINF => f64::NEG_INFINITY,
-            e if e >= EXP_NAN => f64::NAN,
-            e => ldexp_f64(mantissa as f64, i32::from(e)),
-        })
+        Ok(f64_from_parts(mantissa, exponent))
     }
 
     /// A `float` that must be finite (model parameters; a NaN would silently poison every
@@ -334,7 +324,19 @@ impl<'a> Reader<'a> {
 /// largest (smallest) normal power of two, which stay exact until the result itself over- or
 /// underflows. `$bias`, `$mantissa`: the type's exponent bias and mantissa bits.
 macro_rules! ldexp {
-    ($(#[$doc:meta])* $name:ident, $t:ty, $bits:ty, $bias:literal, $mantissa:literal) => {
+    ($(#[$doc:meta])* $name:ident, $parts:ident, $t:ty, $bits:ty, $bias:literal,
+        $mantissa:literal) => {
+        /// The value of dlib's (mantissa, exponent) pair, the special exponents included:
+        /// the mantissa rounded to this type first, then scaled by a power of two.
+        fn $parts(mantissa: i64, exponent: i16) -> $t {
+            match exponent {
+                EXP_INF => <$t>::INFINITY,
+                EXP_NINF => <$t>::NEG_INFINITY,
+                e if e >= EXP_NAN => <$t>::NAN,
+                e => $name(mantissa as $t, i32::from(e)),
+            }
+        }
+
         $(#[$doc])*
         pub fn $name(mut x: $t, mut e: i32) -> $t {
             // 2^k for k in [1 - bias, bias], built from the exponent bits.
@@ -362,11 +364,11 @@ macro_rules! ldexp {
 
 ldexp!(
     /// `x * 2^e` in `f32`, like C's `ldexpf`.
-    ldexp_f32, f32, u32, 127, 23
+    ldexp_f32, f32_from_parts, f32, u32, 127, 23
 );
 ldexp!(
     /// `x * 2^e` in `f64`, like C's `ldexp`.
-    ldexp_f64, f64, u64, 1023, 52
+    ldexp_f64, f64_from_parts, f64, u64, 1023, 52
 );
 
 /// Encoders, the inverse of [`Reader`], for building test data and small model files.

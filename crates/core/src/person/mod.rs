@@ -912,4 +912,6 @@ pub fn analyse_shaded(
 }
 
 #[cfg(test)]
+mod test_head;
+#[cfg(test)]
 mod tests;

@@ -78,13 +78,11 @@ pub(super) struct Decided {
 pub(super) fn hair_mask(canvas: &Canvas, decided: &Decided) -> HairMask {
     let Canvas {
         labels,
-        w,
-        h,
-        pos,
         in_face,
         skull,
         chin,
         half,
+        ..
     } = *canvas;
     let mut hair = vec![0u32; MASK_COLS * MASK_ROWS];
     let mut seen = vec![0u32; MASK_COLS * MASK_ROWS];
@@ -96,8 +94,10 @@ pub(super) fn hair_mask(canvas: &Canvas, decided: &Decided) -> HairMask {
             .then(|| r as usize * MASK_COLS + c as usize)
     };
     let mut beyond = vec![0u32; MASK_COLS * MASK_ROWS];
-    for i in 0..w * h {
-        let Some(k) = cell_of(pos(i)) else { continue };
+    for i in 0..canvas.w * canvas.h {
+        let Some(k) = cell_of((canvas.pos)(i)) else {
+            continue;
+        };
         // Beyond the photo or under a hat: not seen.
         if matches!(labels[i], Label::Outside | Label::Hat) {
             beyond[k] += 1;

@@ -44,16 +44,9 @@ struct Builder {
 
 impl Builder {
     fn vertex(&mut self, position: [f32; 3], normal: [f32; 3], relief: f32, region: Region) -> u32 {
-        self.mesh.vertices.push(Vertex {
-            position,
-            normal,
-            relief,
-            region: region as u32,
-            hair: if region == Region::Hair { 1.0 } else { 0.0 },
-            occlusion: 1.0,
-            key_light: 1.0,
-            transmit: 0.0,
-        });
+        self.mesh
+            .vertices
+            .push(Vertex::open(position, normal, relief, region));
         (self.mesh.vertices.len() - 1) as u32
     }
 
@@ -188,19 +181,7 @@ fn plate_scene(x: f32, y: f32) -> Mesh {
 /// A mesh that rasterises nothing (one zero-area triangle): the bare backdrop.
 fn speck() -> Mesh {
     Mesh {
-        vertices: vec![
-            Vertex {
-                position: [0.0; 3],
-                normal: [0.0, 0.0, 1.0],
-                relief: 0.0,
-                region: 0,
-                hair: 0.0,
-                occlusion: 1.0,
-                key_light: 1.0,
-                transmit: 0.0,
-            };
-            3
-        ],
+        vertices: vec![Vertex::open([0.0; 3], [0.0, 0.0, 1.0], 0.0, Region::Ground); 3],
         indices: vec![0, 1, 2],
     }
 }
