@@ -89,6 +89,26 @@ struct Picture {
     embedding: Option<Embedding>,
 }
 
+impl Picture {
+    /// `(person, photo)`: the picture's person and which of their photos it was made from.
+    fn new(
+        kind: Kind,
+        (person, photo): (usize, usize),
+        path: PathBuf,
+        landmarks: Option<Vec<[f32; 2]>>,
+        embedding: Option<Embedding>,
+    ) -> Self {
+        Picture {
+            kind,
+            person,
+            photo,
+            path,
+            landmarks,
+            embedding,
+        }
+    }
+}
+
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut dir = None;
@@ -265,14 +285,7 @@ fn main() -> Result<()> {
             let embedding = landmarks
                 .as_ref()
                 .and_then(|l| embedder.embed(&rgb, l).ok());
-            pictures.push(Picture {
-                kind,
-                person: *person,
-                photo: j,
-                path: file,
-                landmarks,
-                embedding,
-            });
+            pictures.push(Picture::new(kind, (*person, j), file, landmarks, embedding));
         }
         for (kind, mesh) in [
             (Kind::FittedMesh, &pg.face.mesh),
@@ -287,14 +300,7 @@ fn main() -> Result<()> {
             });
             // For another judge: the 68 landmarks its own pipeline finds on the render.
             let landmarks = find_face(&mut pipeline, &rgb);
-            pictures.push(Picture {
-                kind,
-                person: *person,
-                photo: j,
-                path: file,
-                landmarks,
-                embedding,
-            });
+            pictures.push(Picture::new(kind, (*person, j), file, landmarks, embedding));
         }
         if (j + 1) % 10 == 0 {
             eprintln!(

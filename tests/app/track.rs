@@ -291,26 +291,18 @@ fn the_face_thread_hands_over_a_built_cameo() {
 /// with a face come before any hair is settled (that takes several readings).
 #[test]
 fn the_face_thread_reads_the_visitors_beard_without_waiting() {
-    use glyptic::capture::{Capture, CaptureOptions, MemorySource};
-    use glyptic::stream::{FaceStream, HairSmoother, StreamOptions};
+    use glyptic::stream::{HairSmoother, StreamOptions};
     let (still, _, _) = common::framed("breakingbad.jpg", 640, 480);
     let frames: Vec<image::RgbImage> = (0..90).map(|_| still.clone()).collect();
     let tracker = tracker(TrackOptions::default());
     let builder = glyptic::gem::CameoBuilder::new(&Default::default()).expect("builder");
-    let capture = Capture::spawn(
-        move || Box::new(MemorySource::new("breakingbad", frames, FPS)),
-        CaptureOptions::default(),
-    );
-    let stream = FaceStream::spawn_with(
-        capture,
-        tracker,
-        StreamOptions {
-            builder: Some(builder),
-            hair: true,
-            models: Some(glyptic::assets::ModelPaths::locate()),
-            likeness: None,
-        },
-    );
+    let options = StreamOptions {
+        builder: Some(builder),
+        hair: true,
+        models: Some(glyptic::assets::ModelPaths::locate()),
+        likeness: None,
+    };
+    let stream = stream_of(frames, tracker, options);
     let (mut before_hair, mut hair) = (0, None);
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
     while std::time::Instant::now() < deadline && hair.is_none() {
@@ -346,8 +338,7 @@ fn the_face_thread_reads_the_visitors_beard_without_waiting() {
 /// portrait then stays for the rest of the track, and differs from the landmark fit's.
 #[test]
 fn the_face_thread_steers_the_visitors_identity_without_waiting() {
-    use glyptic::capture::{Capture, CaptureOptions, MemorySource};
-    use glyptic::stream::{FaceStream, StreamOptions};
+    use glyptic::stream::StreamOptions;
     // breakingbad tracks steadily at this size (as the hair test above finds).
     let (still, _, _) = common::framed("breakingbad.jpg", 640, 480);
     let frames: Vec<image::RgbImage> = (0..150).map(|_| still.clone()).collect();
@@ -361,20 +352,13 @@ fn the_face_thread_steers_the_visitors_identity_without_waiting() {
         tracker.pipeline.caricature,
         tracker.pipeline.portrait_expression,
     );
-    let capture = Capture::spawn(
-        move || Box::new(MemorySource::new("breakingbad", frames, FPS)),
-        CaptureOptions::default(),
-    );
-    let stream = FaceStream::spawn_with(
-        capture,
-        tracker,
-        StreamOptions {
-            builder: None,
-            hair: false,
-            models: Some(glyptic::assets::ModelPaths::locate()),
-            likeness: Some(glyptic::identity::SearchOptions::with_faces(8)),
-        },
-    );
+    let options = StreamOptions {
+        builder: None,
+        hair: false,
+        models: Some(glyptic::assets::ModelPaths::locate()),
+        likeness: Some(glyptic::identity::SearchOptions::with_faces(8)),
+    };
+    let stream = stream_of(frames, tracker, options);
     let (mut plain, mut steered) = (Vec::new(), Vec::new());
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(90);
     while std::time::Instant::now() < deadline && steered.len() < 3 {
@@ -442,4 +426,18 @@ fn the_face_thread_steers_the_visitors_identity_without_waiting() {
         relief > 0.1 && relief < 4.0,
         "the shading's relief moved the portrait {relief} mm"
     );
+}
+
+/// The face thread over `frames` played as a camera at [`FPS`].
+fn stream_of(
+    frames: Vec<image::RgbImage>,
+    tracker: glyptic::track::Tracker,
+    options: glyptic::stream::StreamOptions,
+) -> glyptic::stream::FaceStream {
+    use glyptic::capture::{Capture, CaptureOptions, MemorySource};
+    let capture = Capture::spawn(
+        move || Box::new(MemorySource::new("breakingbad", frames, FPS)),
+        CaptureOptions::default(),
+    );
+    glyptic::stream::FaceStream::spawn_with(capture, tracker, options)
 }

@@ -10,13 +10,33 @@ use super::{
 /// One block solve's inputs: the problem, the correspondences, the current solution (the
 /// other block held there) and the landmarks' noise (mm).
 pub(super) struct Block<'a, C> {
-    pub(super) problem: &'a Problem<'a>,
-    pub(super) corr: &'a [Correspondence],
-    pub(super) at: At<'a, C>,
-    pub(super) sigma_mm: f64,
+    problem: &'a Problem<'a>,
+    corr: &'a [Correspondence],
+    at: At<'a, C>,
+    sigma_mm: f64,
 }
 
-impl<C: Camera> Block<'_, C> {
+impl<'a, C: Camera> Block<'a, C> {
+    /// At the current solution `(pose, shape, expression)`.
+    pub(super) fn new(
+        problem: &'a Problem<'a>,
+        corr: &'a [Correspondence],
+        (camera, shape, expression): (&'a C, &'a [f32], &'a [f32]),
+        sigma_mm: f64,
+    ) -> Self {
+        let at = At {
+            camera,
+            shape,
+            expression,
+        };
+        Block {
+            problem,
+            corr,
+            at,
+            sigma_mm,
+        }
+    }
+
     /// Normal equations for identity alone or expressions alone at the current solution, as
     /// `(H, H x + g)`, i.e. for the block's coefficients `x` outright (see [`absolute_rhs`]).
     fn equations(&self, params: Params) -> (Vec<f64>, Vec<f64>) {

@@ -632,34 +632,14 @@ fn run_loop<C: Camera + Clone>(
             if it > 0 || corr.len() != mapped.len() {
                 pose = estimate(&pose, &corr, &shape, &expression, false)?;
             }
-            let at = At {
-                camera: &pose,
-                shape: &shape,
-                expression: &expression,
-            };
-            expression = Block {
-                problem,
-                corr: &corr,
-                at,
-                sigma_mm,
-            }
-            .expressions()?;
+            expression =
+                Block::new(problem, &corr, (&pose, &shape, &expression), sigma_mm).expressions()?;
             // With joint steps to follow, the first of them solves identity together with
             // the camera; a block solve here first cost 15 % of a no-contour fit and gained
             // nothing on the benchmark (`scripts/bench-fit.sh --quick`).
             if !hold_identity && !opts.joint {
-                let at = At {
-                    camera: &pose,
-                    shape: &shape,
-                    expression: &expression,
-                };
-                shape = Block {
-                    problem,
-                    corr: &corr,
-                    at,
-                    sigma_mm,
-                }
-                .shape()?;
+                shape =
+                    Block::new(problem, &corr, (&pose, &shape, &expression), sigma_mm).shape()?;
             }
         }
         if opts.joint {

@@ -375,25 +375,17 @@ ldexp!(
 pub mod write {
     /// Appends a signed integer in dlib's format.
     pub fn signed(out: &mut Vec<u8>, value: i64) {
-        let neg = value < 0;
-        let mut mag = value.unsigned_abs();
-        let mut buf = [0u8; 8];
-        let mut n = 0;
-        loop {
-            buf[n] = (mag & 0xFF) as u8;
-            n += 1;
-            mag >>= 8;
-            if mag == 0 || n == 8 {
-                break;
-            }
-        }
-        out.push(n as u8 | if neg { 0x80 } else { 0 });
-        out.extend_from_slice(&buf[..n]);
+        magnitude(out, value.unsigned_abs(), value < 0);
     }
 
     /// Appends an unsigned integer in dlib's format.
     pub fn unsigned(out: &mut Vec<u8>, value: u64) {
-        let mut mag = value;
+        magnitude(out, value, false);
+    }
+
+    /// dlib's integer: a byte with the length (and the sign in its top bit), then the
+    /// magnitude's bytes, least significant first (at least one).
+    fn magnitude(out: &mut Vec<u8>, mut mag: u64, negative: bool) {
         let mut buf = [0u8; 8];
         let mut n = 0;
         loop {
@@ -404,7 +396,7 @@ pub mod write {
                 break;
             }
         }
-        out.push(n as u8);
+        out.push(n as u8 | if negative { 0x80 } else { 0 });
         out.extend_from_slice(&buf[..n]);
     }
 

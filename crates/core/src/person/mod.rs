@@ -849,8 +849,9 @@ pub fn analyse_shaded(
         })
         .collect();
     // A hat over the hair: its pixels leave the hair (the hair under it is not seen).
-    let canvas = Canvas {
-        labels: &labels,
+    // The canvas the hat and the hair's traits read, with the labels of the moment.
+    let unlabelled = Canvas {
+        labels: &[],
         w,
         h,
         pos: &pos,
@@ -858,6 +859,10 @@ pub fn analyse_shaded(
         skull: &skull,
         chin,
         half,
+    };
+    let canvas = Canvas {
+        labels: &labels,
+        ..unlabelled
     };
     let (hat, worn) = hat::read(&canvas, &col);
     for i in worn {
@@ -869,13 +874,7 @@ pub fn analyse_shaded(
         .then(|| {
             let canvas = Canvas {
                 labels: &labels,
-                w,
-                h,
-                pos: &pos,
-                in_face: &not_scalp,
-                skull: &skull,
-                chin,
-                half,
+                ..unlabelled
             };
             traits(&canvas, &col)
         })
