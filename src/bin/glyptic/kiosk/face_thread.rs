@@ -39,7 +39,7 @@ pub(super) struct Live {
     pub(super) restarts: super::restarts::Restarts,
 }
 
-/// A frame source that panics at its Nth frame ([`super::Fault::CapturePanic`], for tests):
+/// A frame source that panics at its Nth frame ([`super::run::Fault::CapturePanic`], for tests):
 /// the capture thread dies, and with it the face side.
 struct Faulty {
     inner: Box<dyn FrameSource>,

@@ -10,6 +10,8 @@ use glyptic::capture::latest::{LatestReceiver, LatestSender, latest};
 use glyptic::gem::{CameoBuilder, CameoParams, HairStyle};
 use glyptic::render::Mesh;
 
+use super::restarts::Restarts;
+
 /// A cameo built by the gem thread.
 pub(super) struct BuiltGem {
     pub(super) mesh: Arc<Mesh>,
@@ -27,7 +29,7 @@ pub(super) enum GemNote {
 }
 
 /// Gem threads panic on their Nth cameo: every one, or only the first (a test fault, see
-/// [`super::Fault`]).
+/// [`super::run::Fault`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct GemFault {
     pub(super) at: u64,
@@ -82,6 +84,59 @@ impl GemThread {
             })
             .context("starting the gem thread")?;
         Ok(GemThread { faces, out, notes })
+    }
+}
+
+/// The gem thread under supervision: the jobs given to it (the last kept, so that a restarted
+/// thread carries on with it), its restarts, and what a restart needs (the cameo's parameters,
+/// the fault injected for tests).
+pub(super) struct GemWorker {
+    thread: GemThread,
+    cameo: CameoParams,
+    last_job: Option<GemJob>,
+    fault: Option<GemFault>,
+    pub(super) restarts: Restarts,
+}
+
+impl GemWorker {
+    pub(super) fn spawn(cameo: CameoParams, fault: Option<GemFault>) -> Result<Self> {
+        Ok(Self {
+            thread: GemThread::spawn(cameo.clone(), None, fault)?,
+            cameo,
+            last_job: None,
+            fault,
+            restarts: Restarts::default(),
+        })
+    }
+
+    /// Hands a face to the thread (the newest wins), keeping it for a restarted thread.
+    pub(super) fn send(&mut self, job: GemJob) {
+        self.last_job = Some(job.clone());
+        let _ = self.thread.faces.send(job);
+    }
+
+    /// The notes the thread has sent since the last look.
+    pub(super) fn notes(&self) -> Vec<GemNote> {
+        self.thread.notes.try_iter().collect()
+    }
+
+    /// The newest cameo (or why a face made none); `Err` when the thread has ended.
+    pub(super) fn built(&self) -> Result<Option<Result<BuiltGem, String>>, ()> {
+        self.thread.out.try_recv().map_err(|_| ())
+    }
+
+    /// The thread died: starts another that carries on with the last face. `Err` when it
+    /// cannot go on: it died more than [`super::restarts::MAX_RESTARTS`] times a minute, or
+    /// the new thread could not start.
+    pub(super) fn restart(&mut self, why: &str) -> Result<()> {
+        if let Err(times) = self.restarts.died() {
+            tracing::error!("the gem thread died again ({why}): giving up");
+            anyhow::bail!("the gem thread died {times} (last: {why})");
+        }
+        let fault = self.fault.filter(|f| f.every_thread);
+        self.thread = GemThread::spawn(self.cameo.clone(), self.last_job.clone(), fault)
+            .context("restarting the gem thread")?;
+        Ok(())
     }
 }
 

@@ -7,7 +7,7 @@ use std::time::Instant;
 use glyptic::gem::HairStyle;
 use glyptic::kiosk::{blend_faces, idle_weight};
 
-use super::gem_thread::{GemJob, GemNote, GemThread};
+use super::gem_thread::{GemJob, GemNote};
 use super::window::Running;
 
 /// What [`Running::take_gem_notes`] found: any note, and whether one was the thread's end.
@@ -32,7 +32,7 @@ impl Running {
         let mut changed = false;
         changed |= self.take_gem_notes().noted;
         // The thread's cameos, or its end: its notes (sent before it ends) say why.
-        let built = match self.gems.out.try_recv() {
+        let built = match self.gems.built() {
             Ok(built) => built,
             Err(_) => {
                 if !self.take_gem_notes().ended && self.fatal.is_none() {
@@ -96,7 +96,7 @@ impl Running {
                     }
                     if let Some(face) = face {
                         if !self.controls.frozen {
-                            self.send_job(GemJob {
+                            self.gems.send(GemJob {
                                 face: face.clone(),
                                 hair: self.visitor_hair,
                             });
@@ -133,7 +133,7 @@ impl Running {
     /// The gem thread's notes. A thread that died is restarted; one that could not load its
     /// model ends the kiosk (no cameo could ever be shown).
     fn take_gem_notes(&mut self) -> GemNotes {
-        let notes: Vec<GemNote> = self.gems.notes.try_iter().collect();
+        let notes = self.gems.notes();
         let mut taken = GemNotes {
             noted: !notes.is_empty(),
             ended: false,
@@ -159,29 +159,16 @@ impl Running {
         taken
     }
 
-    /// Hands a face to the gem thread, keeping it for a restarted thread.
-    fn send_job(&mut self, job: GemJob) {
-        self.last_job = Some(job.clone());
-        let _ = self.gems.faces.send(job);
-    }
-
     /// The gem thread died: start another that carries on with the last face, keeping the
     /// gem on screen meanwhile; more than [`super::restarts::MAX_RESTARTS`] deaths a minute and the kiosk
     /// cannot go on.
     fn restart_gems(&mut self, why: &str) {
-        if let Err(times) = self.gem_restarts.died() {
-            tracing::error!("the gem thread died again ({why}): giving up");
-            self.fatal = Some(anyhow::anyhow!("the gem thread died {times} (last: {why})"));
-            return;
-        }
-        self.note_problem(format!("the gem thread died ({why}); restarting it"));
-        let fault = self.gem_fault.filter(|f| f.every_thread);
-        match GemThread::spawn(self.cameo.clone(), self.last_job.clone(), fault) {
-            Ok(gems) => {
-                self.gems = gems;
+        match self.gems.restart(why) {
+            Ok(()) => {
+                self.note_problem(format!("the gem thread died ({why}); restarted it"));
                 self.status = format!("gem thread restarted ({why})");
             }
-            Err(e) => self.fatal = Some(e.context("restarting the gem thread")),
+            Err(e) => self.fatal = Some(e),
         }
     }
 
@@ -206,7 +193,7 @@ impl Running {
             if w >= 1.0 {
                 self.visitor_hair = self.default_hair;
             }
-            self.send_job(GemJob {
+            self.gems.send(GemJob {
                 face: blend,
                 hair: self.visitor_hair,
             });

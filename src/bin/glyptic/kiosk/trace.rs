@@ -66,7 +66,7 @@ impl Running {
             "face_latency_ms": self.timeline.face_latency_ms,
             "face_frame": self.timeline.face_frame,
             "poll_max_ms": self.timeline.poll_max_ms,
-            "gem_restarts": self.gem_restarts.count,
+            "gem_restarts": self.gems.restarts.count,
             "face_restarts": self.face_restarts(),
             "rss_kb": resident_kb(),
             "controls": self.control_rects.iter().map(|(k, r)| (k.to_string(), serde_json::json!(r))).collect::<serde_json::Map<_, _>>(),

@@ -295,7 +295,7 @@ impl Running {
                 "restarts",
                 format!(
                     "gem maker {}, face tracking {}",
-                    self.gem_restarts.count,
+                    self.gems.restarts.count,
                     self.face_restarts()
                 ),
             ),

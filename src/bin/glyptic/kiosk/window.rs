@@ -3,9 +3,9 @@
 //! changed (a new gem, a control, the orbit, the size).
 //!
 //! The window's state is owned parts: the [`Screen`] (window, surface, renderer, egui: made
-//! once, resized, drawn into), the staff's ([`Staff`]), the times ([`Timeline`]), the workers'
-//! restarts ([`Restarts`]); `news`, `visit` and `trace` add the update steps (what the workers
-//! sent, the visitor, the trace line). A frame is [`Running::frame`]: update the controls,
+//! once, resized, drawn into), the gem thread under supervision ([`GemWorker`]: its jobs and
+//! restarts), the staff's ([`Staff`]), the times ([`Timeline`]); `news`, `visit` and `trace`
+//! add the update steps (what the workers sent, the visitor, the trace line). A frame is [`Running::frame`]: update the controls,
 //! render the gem if it changed, draw the controls over it, present.
 
 use std::path::Path;
@@ -19,13 +19,12 @@ use glyptic::gem::HairStyle;
 use glyptic::kiosk::{Controls, KioskConfig, MOVING, Orbit, Presence};
 use glyptic::render::{Mesh, RenderParams};
 
-use super::gem_thread::{GemFault, GemJob, GemThread};
-use super::restarts::Restarts;
+use super::gem_thread::{GemJob, GemWorker};
+use super::run::{Continue, Fault, KioskArgs};
 use super::screen::{Screen, ScreenCopy};
 use super::staff::Staff;
 use super::timeline::{Rate, Timeline};
 use super::ui::UiFrame;
-use super::{Continue, KioskArgs};
 
 /// The first gem's resolution, of the window's (per side).
 pub(super) const PREVIEW_SCALE: f32 = 0.5;
@@ -48,13 +47,8 @@ pub(super) struct Running {
     pub(super) render_scale: f32,
     pub(super) idle_seconds: f32,
     pub(super) ease_seconds: f32,
-    pub(super) gems: GemThread,
-    /// The gem thread's portrait, the last job sent to it (a restarted thread carries on
-    /// with it), the fault injected for tests, and its restarts.
-    pub(super) cameo: glyptic::gem::CameoParams,
-    pub(super) last_job: Option<GemJob>,
-    pub(super) gem_fault: Option<GemFault>,
-    pub(super) gem_restarts: Restarts,
+    /// The gem thread, restarted when it dies.
+    pub(super) gems: GemWorker,
     /// Why the kiosk cannot go on (set by a worker that cannot be restarted): the window
     /// closes and the process exits 1.
     pub(super) fatal: Option<anyhow::Error>,
@@ -107,17 +101,17 @@ impl Running {
     ) -> Result<Self> {
         let window = Screen::open(event_loop, config)?;
         let cursor_hidden = config.hides_cursor();
-        let fault = super::Fault::from_env();
+        let fault = Fault::from_env();
         let gem_fault = match fault {
-            Some(super::Fault::Gem(f)) => Some(f),
+            Some(Fault::Gem(f)) => Some(f),
             _ => None,
         };
-        let gems = GemThread::spawn(config.cameo(), None, gem_fault)?;
+        let gems = GemWorker::spawn(config.cameo(), gem_fault)?;
         #[cfg(feature = "face")]
         let live = super::face_thread::Live::start(
             config,
             match fault {
-                Some(super::Fault::CapturePanic { at }) => Some(at),
+                Some(Fault::CapturePanic { at }) => Some(at),
                 _ => None,
             },
         )?;
@@ -142,10 +136,6 @@ impl Running {
             idle_seconds: config.idle_seconds,
             ease_seconds: config.ease_seconds,
             gems,
-            cameo: config.cameo(),
-            last_job: None,
-            gem_fault,
-            gem_restarts: Restarts::default(),
             fatal: None,
             #[cfg(feature = "face")]
             live,
@@ -399,7 +389,7 @@ impl Running {
         if before.0.frozen && !self.controls.frozen {
             // Unfrozen: show the newest face again.
             if let Some((face, _)) = &self.last_face {
-                let _ = self.gems.faces.send(GemJob {
+                self.gems.send(GemJob {
                     face: face.clone(),
                     hair: self.visitor_hair,
                 });
