@@ -27,11 +27,10 @@ import sys
 import onnx
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from yunet_prepare import fold  # noqa: E402
+from yunet_prepare import fold, save_opset13  # noqa: E402
 
 INPUT = "data"
 OUTPUT = "fc1"
-OPSET = 13
 KEPT_OPS = {"Conv", "BatchNormalization", "PRelu", "Sub", "Mul", "Constant", "Dropout",
             "Flatten", "Gemm"}
 
@@ -74,11 +73,7 @@ def main(src, dst):
                                                    and a.name == "training_mode")]
         del node.attribute[:]
         node.attribute.extend(keep)
-    del model.opset_import[:]
-    model.opset_import.extend([onnx.helper.make_opsetid("", OPSET)])
-    model.ir_version = 7  # IR of opset 13 (ONNX 1.8)
-    onnx.checker.check_model(model, full_check=True)
-    onnx.save(model, dst)
+    save_opset13(model, dst)
 
 
 if __name__ == "__main__":

@@ -140,6 +140,11 @@ def main(src, dst):
         if len(dims) != 3 or dims[0].dim_value != 1 or dims[2].dim_value != HEADS[head]:
             fail(f"{src}: not the YuNet graph: output {out.name} is not [1, N, {HEADS[head]}]")
         dims[1].dim_param = f"N{stride}"
+    save_opset13(model, dst)
+
+
+def save_opset13(model, dst):
+    """Writes `model` as opset 13 (IR 7, ONNX 1.8) once onnx.checker accepts it."""
     del model.opset_import[:]
     model.opset_import.extend([onnx.helper.make_opsetid("", OPSET)])
     model.ir_version = 7  # IR of opset 13 (ONNX 1.8)
