@@ -19,6 +19,7 @@
 mod face_thread;
 mod gem_thread;
 mod news;
+mod portrait;
 mod restarts;
 mod run;
 mod screen;

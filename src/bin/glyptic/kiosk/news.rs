@@ -3,11 +3,7 @@
 
 use std::time::Instant;
 
-#[cfg(feature = "face")]
-use glyptic::gem::HairStyle;
-use glyptic::kiosk::{blend_faces, idle_weight};
-
-use super::gem_thread::{GemJob, GemNote};
+use super::gem_thread::GemNote;
 use super::window::Running;
 
 /// What [`Running::take_gem_notes`] found: any note, and whether one was the thread's end.
@@ -45,7 +41,7 @@ impl Running {
             match built {
                 Ok(built) => {
                     // A gem from the visitor's own face (not the default, not an ease).
-                    self.visitor_gem = self.sent_weight == 0.0 && self.last_face.is_some();
+                    self.visitor_gem = self.portrait.shows_visitor();
                     self.timeline.gem_print = built.mesh.fingerprint();
                     self.gem = Some(built.mesh);
                     self.timeline.gem_ms = built.ms;
@@ -74,10 +70,7 @@ impl Running {
                     latency_ms,
                 } => {
                     if let Some(h) = hair {
-                        self.visitor_hair = HairStyle {
-                            glasses: h.glasses && self.carve_glasses,
-                            ..*h
-                        };
+                        self.portrait.read_hair(&h);
                     }
                     self.timeline.face_rate.tick();
                     self.timeline.face_updates += 1;
@@ -94,15 +87,10 @@ impl Running {
                     if face.is_some() {
                         self.visitor_seen();
                     }
-                    if let Some(face) = face {
-                        if !self.controls.frozen {
-                            self.gems.send(GemJob {
-                                face: face.clone(),
-                                hair: self.visitor_hair,
-                            });
-                            self.sent_weight = 0.0;
-                        }
-                        self.last_face = Some((face, Instant::now()));
+                    if let Some(face) = face
+                        && let Some(job) = self.portrait.seen(face, self.controls.frozen)
+                    {
+                        self.gems.send(job);
                     }
                 }
                 FaceNews::Status(s) => {
@@ -141,7 +129,7 @@ impl Running {
         for note in notes {
             match note {
                 GemNote::Ready { default_face } => {
-                    self.default_face = Some(default_face);
+                    self.portrait.default_face = Some(default_face);
                     self.status = "ready".into();
                 }
                 GemNote::Failed(e) => {
@@ -177,28 +165,14 @@ impl Running {
         if self.controls.frozen {
             return false;
         }
-        let (Some((face, seen)), Some(default)) = (&self.last_face, &self.default_face) else {
-            return false;
-        };
-        let w = idle_weight(
-            seen.elapsed().as_secs_f32(),
-            self.idle_seconds,
-            self.ease_seconds,
-        );
-        if w <= self.sent_weight + 0.02 && !(w >= 1.0 && self.sent_weight < 1.0) {
-            return false;
-        }
-        if let Some(blend) = blend_faces(face, default, w) {
-            // Back at the default face, the classical hair again.
-            if w >= 1.0 {
-                self.visitor_hair = self.default_hair;
+        match self.portrait.ease() {
+            None => false,
+            Some(job) => {
+                if let Some(job) = job {
+                    self.gems.send(job);
+                }
+                true
             }
-            self.gems.send(GemJob {
-                face: blend,
-                hair: self.visitor_hair,
-            });
-            self.sent_weight = w;
         }
-        true
     }
 }

@@ -119,7 +119,7 @@ impl Running {
 
     pub(super) fn prompt(&self) -> Prompt {
         prompt(&Situation {
-            ready: self.default_face.is_some(),
+            ready: self.portrait.default_face.is_some(),
             camera: self.camera_ok,
             mode: self.presence.mode(),
             face: self.face_now,

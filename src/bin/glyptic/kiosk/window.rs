@@ -15,11 +15,11 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, anyhow};
 use winit::event_loop::ActiveEventLoop;
 
-use glyptic::gem::HairStyle;
 use glyptic::kiosk::{Controls, KioskConfig, MOVING, Orbit, Presence};
 use glyptic::render::{Mesh, RenderParams};
 
-use super::gem_thread::{GemJob, GemWorker};
+use super::gem_thread::GemWorker;
+use super::portrait::Portrait;
 use super::run::{Continue, Fault, KioskArgs};
 use super::screen::{Screen, ScreenCopy};
 use super::staff::Staff;
@@ -45,8 +45,6 @@ pub(super) struct Running {
     pub(super) controls: Controls,
     pub(super) orbit: Orbit,
     pub(super) render_scale: f32,
-    pub(super) idle_seconds: f32,
-    pub(super) ease_seconds: f32,
     /// The gem thread, restarted when it dies.
     pub(super) gems: GemWorker,
     /// Why the kiosk cannot go on (set by a worker that cannot be restarted): the window
@@ -54,18 +52,8 @@ pub(super) struct Running {
     pub(super) fatal: Option<anyhow::Error>,
     #[cfg(feature = "face")]
     pub(super) live: super::face_thread::Live,
-    pub(super) default_face: Option<Arc<Vec<f32>>>,
-    /// The hair of the cameo's default face, and the visitor's as last read (the default's
-    /// until then).
-    pub(super) default_hair: HairStyle,
-    pub(super) visitor_hair: HairStyle,
-    /// Glasses found on a visitor are carved (config key `glasses`).
-    #[cfg_attr(not(feature = "face"), allow(dead_code))]
-    pub(super) carve_glasses: bool,
-    /// The last face seen and when.
-    pub(super) last_face: Option<(Vec<f32>, Instant)>,
-    /// The idle weight last sent to the gem thread.
-    pub(super) sent_weight: f32,
+    /// Which face the gem carves: the visitor's, the default, or a step of the ease between.
+    pub(super) portrait: Portrait,
     pub(super) gem: Option<Arc<Mesh>>,
     pub(super) status: String,
     pub(super) face_status: String,
@@ -133,18 +121,11 @@ impl Running {
             controls: Controls::from_config(config),
             orbit: Orbit::default(),
             render_scale: config.render_scale,
-            idle_seconds: config.idle_seconds,
-            ease_seconds: config.ease_seconds,
             gems,
             fatal: None,
             #[cfg(feature = "face")]
             live,
-            default_face: None,
-            default_hair: config.cameo().hair,
-            visitor_hair: config.cameo().hair,
-            carve_glasses: config.glasses,
-            last_face: None,
-            sent_weight: 1.0,
+            portrait: Portrait::new(config),
             gem: None,
             status: "loading the face model".into(),
             config: config.clone(),
@@ -388,12 +369,8 @@ impl Running {
         }
         if before.0.frozen && !self.controls.frozen {
             // Unfrozen: show the newest face again.
-            if let Some((face, _)) = &self.last_face {
-                self.gems.send(GemJob {
-                    face: face.clone(),
-                    hair: self.visitor_hair,
-                });
-                self.sent_weight = 0.0;
+            if let Some(job) = self.portrait.newest() {
+                self.gems.send(job);
             }
         }
         self.screen
