@@ -10,7 +10,7 @@ use crate::scene::Mesh;
 
 use super::detail::FaceDetail;
 use super::setting::add_setting;
-use super::shading::{cavity, light_transmission, smooth_121, soft_light_visibility};
+use super::shading::{cavity, light_transmission, light_visibility, penumbra, smooth_121};
 use super::tessellate::{add_relief_surface, plan_surface};
 use super::window::Window;
 use super::{
@@ -468,7 +468,8 @@ impl CameoBuilder {
         let mut transmit = vec![0f32; n];
         let box_height = shadow_box.crop(&height, cols, |h| h);
         let (bw, bh) = (shadow_box.width(), shadow_box.height());
-        let visible = soft_light_visibility(&box_height, bw, bh, cell, light);
+        let sharp = light_visibility(&box_height, bw, bh, cell, light);
+        let visible = penumbra(&sharp, bw, bh);
         let shadow: Vec<f32> = visible.iter().map(|v| 1.0 - v).collect();
         shadow_box.paste(&visible, &mut key_light, cols);
         shadow_box.paste(

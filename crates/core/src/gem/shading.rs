@@ -64,20 +64,13 @@ fn pass_121(values: &[f32], cols: usize, rows: usize, along_x: bool) -> Vec<f32>
 /// Softness of the cast shadows' edge, gem mm of height.
 const SHADOW_SOFTNESS_MM: f32 = 0.15;
 
-/// [`light_visibility`] with a penumbra: smoothed twice 1-2-1 each way (about a cell and a
-/// half, 0.3 mm), as a lamp of some size casts it. The sweep's edge is decided node by node,
-/// and the renderer interpolates it linearly across the grid's triangles: a sharp edge running
-/// slantwise across the grid shows every cell as a stair-step at large output sizes (seen at
-/// 1536x1920 along the hair's shadow on the face).
-pub(super) fn soft_light_visibility(
-    height: &[f32],
-    cols: usize,
-    rows: usize,
-    cell: f32,
-    light: [f32; 3],
-) -> Vec<f32> {
-    let vis = light_visibility(height, cols, rows, cell, light);
-    smooth_121(&smooth_121(&vis, cols, rows), cols, rows)
+/// A penumbra for [`light_visibility`]'s result: smoothed twice 1-2-1 each way (about a cell
+/// and a half, 0.3 mm), as a lamp of some size casts it. The sweep's edge is decided node by
+/// node, and the renderer interpolates it linearly across the grid's triangles: a sharp edge
+/// running slantwise across the grid shows every cell as a stair-step at large output sizes
+/// (seen at 1536x1920 along the hair's shadow on the face).
+pub(super) fn penumbra(visibility: &[f32], cols: usize, rows: usize) -> Vec<f32> {
+    smooth_121(&smooth_121(visibility, cols, rows), cols, rows)
 }
 
 /// How much of a directional light (unit vector `light` towards it) reaches each node of a
@@ -265,7 +258,7 @@ mod tests {
         let (height, cols, rows) = slanted_step();
         let (cell, light) = (0.2, crate::scene::key_light_dir());
         let sharp = light_visibility(&height, cols, rows, cell, light);
-        let soft = soft_light_visibility(&height, cols, rows, cell, light);
+        let soft = penumbra(&sharp, cols, rows);
         let (hard, smooth) = (
             largest_jump(&sharp, cols, rows),
             largest_jump(&soft, cols, rows),
