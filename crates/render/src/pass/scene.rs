@@ -469,17 +469,8 @@ pub(crate) struct ColorTarget {
     pub msaa: Option<wgpu::TextureView>,
 }
 
-/// A texture only drawn into (an MSAA image, the z-buffer).
-fn attachment_only(
-    device: &wgpu::Device,
-    label: &str,
-    format: wgpu::TextureFormat,
-    size: wgpu::Extent3d,
-    samples: u32,
-) -> wgpu::TextureView {
-    let usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
-    common::image(device, label, format, size, (samples, usage))
-}
+/// Usage of a texture only drawn into (an MSAA image, the z-buffer).
+const DRAWN_INTO: wgpu::TextureUsages = wgpu::TextureUsages::RENDER_ATTACHMENT;
 
 impl ColorTarget {
     fn new(
@@ -490,7 +481,8 @@ impl ColorTarget {
         samples: u32,
     ) -> Self {
         let view = common::pass_image(device, label, format, size, false);
-        let msaa = (samples > 1).then(|| attachment_only(device, label, format, size, samples));
+        let msaa = (samples > 1)
+            .then(|| common::image(device, label, format, size, (samples, DRAWN_INTO)));
         Self { view, msaa }
     }
 
@@ -539,7 +531,13 @@ impl SceneTargets {
             diffuse: target("glyptic diffuse", DIFFUSE_FORMAT),
             specular: target("glyptic specular", SPECULAR_FORMAT),
             depth_mask: target("glyptic depth+mask", DEPTH_MASK_FORMAT),
-            depth: attachment_only(device, "glyptic z-buffer", DEPTH_FORMAT, extent, samples),
+            depth: common::image(
+                device,
+                "glyptic z-buffer",
+                DEPTH_FORMAT,
+                extent,
+                (samples, DRAWN_INTO),
+            ),
         }
     }
 
