@@ -195,6 +195,8 @@ fn kiosk_shows_the_gem_and_follows_the_face_in_a_video() {
 struct Live {
     child: Child,
     lines: Arc<Mutex<Vec<serde_json::Value>>>,
+    /// The trace's reader has reached the end of the kiosk's stdout (it exited).
+    read_all: Arc<std::sync::atomic::AtomicBool>,
     /// What the kiosk logged (drained as it comes, so the pipe never fills).
     log: Arc<Mutex<String>>,
 }
@@ -212,6 +214,8 @@ impl Live {
         let lines = Arc::new(Mutex::new(Vec::new()));
         let log = Arc::new(Mutex::new(String::new()));
         let sink = Arc::clone(&lines);
+        let read_all = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let done = Arc::clone(&read_all);
         std::thread::spawn(move || {
             for line in std::io::BufReader::new(stdout)
                 .lines()
@@ -221,6 +225,7 @@ impl Live {
                     sink.lock().unwrap().push(v);
                 }
             }
+            done.store(true, std::sync::atomic::Ordering::SeqCst);
         });
         let sink = Arc::clone(&log);
         std::thread::spawn(move || {
@@ -233,7 +238,23 @@ impl Live {
                 log.push('\n');
             }
         });
-        Live { child, lines, log }
+        Live {
+            child,
+            lines,
+            read_all,
+            log,
+        }
+    }
+
+    /// The last trace line once the kiosk has exited and its stdout is read to the end.
+    fn last_line(&self) -> Option<serde_json::Value> {
+        let start = Instant::now();
+        while !self.read_all.load(std::sync::atomic::Ordering::SeqCst)
+            && start.elapsed() < Duration::from_secs(10)
+        {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        self.latest()
     }
 
     /// Waits up to `secs` for the kiosk to exit; its status.
@@ -595,11 +616,15 @@ fn the_build_without_the_face_pipeline_shows_the_default_gem() {
     let x = Xvfb::start();
     let dir = scratch("noface");
     let shot = dir.join("noface.png");
-    let lines = traced(
+    // Ended by `--seconds` (the frames' bound is out of reach): four seconds leave the
+    // full-size gem time on a loaded machine, where four frames once did not.
+    let mut live = Live::spawn(
         Command::new(&bin)
             .args([
                 "kiosk",
                 "--frames",
+                "100000",
+                "--seconds",
                 "4",
                 "--trace",
                 "--size",
@@ -610,7 +635,16 @@ fn the_build_without_the_face_pipeline_shows_the_default_gem() {
             .env("DISPLAY", &x.display)
             .env("XDG_RUNTIME_DIR", scratch("xdg")),
     );
-    let last = lines.last().unwrap();
+    let status = live.wait_exit(60);
+    if status.is_none() {
+        let _ = live.child.kill();
+    }
+    let log = live.log.lock().unwrap().clone();
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "the kiosk did not end after --seconds 4 ({status:?}): {log}"
+    );
+    let last = live.last_line().expect("a presented frame");
     assert!(
         last["status"]
             .as_str()

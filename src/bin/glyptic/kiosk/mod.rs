@@ -278,8 +278,13 @@ impl ApplicationHandler for App {
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
         if let Some(r) = self.running.as_mut() {
-            // Poll the gem and face threads about 60 times a second; draw when needed.
-            if r.poll() {
+            // Poll the gem and face threads about 60 times a second; draw when needed, and
+            // once the run's time is up: the frame quits, even if nothing else asked for one.
+            let out_of_time = self
+                .args
+                .seconds
+                .is_some_and(|s| r.timeline.started.elapsed().as_secs_f64() >= s);
+            if r.poll() || out_of_time {
                 r.screen.window.request_redraw();
             }
             // A worker that cannot be restarted: nothing more can be shown.
