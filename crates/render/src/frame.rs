@@ -10,7 +10,7 @@ use crate::camera::{self, Crop};
 use crate::mesh::{self, MeshBuffers};
 use crate::params::{RenderError, RenderParams};
 use crate::pass::Passes;
-use crate::pass::chain::{Chain, ChainTargets, gpu_style_count};
+use crate::pass::chain::{Chain, ChainTargets, composite_format, gpu_style_count};
 use crate::pass::common::{Draw, LampAt};
 use crate::pass::composite::CompositeTargets;
 use crate::pass::maps::SurfaceMaps;
@@ -35,7 +35,7 @@ pub(crate) struct Gpu<'a> {
     pub device: &'a wgpu::Device,
     pub queue: &'a wgpu::Queue,
     pub max_buffer_size: u64,
-    /// Timestamps for an image's frame (read back after it).
+    /// Timestamps, for an image's frame only (read back after it; `None` for a view's).
     pub timer: Option<&'a PassTimer>,
     /// Whether the passes with a compute form run as compute passes.
     pub compute_passes: bool,
@@ -198,7 +198,7 @@ impl Frames {
         };
         let image = matches!(output, Output::Image);
         let mut stamps = Stamps {
-            timer: gpu.timer.filter(|_| image),
+            timer: gpu.timer,
             passes: Vec::new(),
         };
         if let Some(bake) = &self.surface.pending_bake {
@@ -251,11 +251,7 @@ impl Frames {
             passes.composite.encode(
                 encoder,
                 &targets.composite,
-                if chain.is_some() {
-                    crate::pass::chain::STYLE_FORMAT
-                } else {
-                    format
-                },
+                composite_format(chain.is_some(), format),
                 view,
                 sss,
                 params.transparent,
@@ -305,11 +301,7 @@ impl Frames {
         }
         let edge_aa = samples == 1;
         let chained = !gpu_styles.is_empty() || edge_aa;
-        let composite_format = if chained {
-            crate::pass::chain::STYLE_FORMAT
-        } else {
-            format
-        };
+        let composite_format = composite_format(chained, format);
         self.passes
             .composite
             .ensure(device, composite_format, params.transparent);

@@ -17,6 +17,12 @@ use crate::timing::{Stamps, TimedPass};
 /// The ping-pong images of a chain (display values, like the output).
 pub(crate) const STYLE_FORMAT: wgpu::TextureFormat = OUTPUT_FORMAT;
 
+/// The format the composite writes: the chain's first image when passes follow it
+/// (`chained`), else the frame's own `format`.
+pub(crate) fn composite_format(chained: bool, format: wgpu::TextureFormat) -> wgpu::TextureFormat {
+    if chained { STYLE_FORMAT } else { format }
+}
+
 /// How many of `styles`, from the first, have a GPU pass (those before the first serial one).
 pub(crate) fn gpu_style_count(styles: &[Style]) -> usize {
     styles.iter().take_while(|s| !s.is_serial()).count()

@@ -188,19 +188,15 @@ impl Running {
         let ppp = output.pixels_per_point;
         self.fit_layer(gem_rect, ppp);
         self.screen.update_textures(&output.textures_delta);
-        let (frame, view) = match self.screen.acquire() {
-            Ok(Some(frame)) => frame,
-            Ok(None) => {
-                self.screen.free_textures(&output.textures_delta);
-                self.screen.window.request_redraw();
-                return Ok(Continue::Yes);
-            }
-            Err(problem) => {
-                self.note_problem(problem);
-                self.screen.free_textures(&output.textures_delta);
-                self.screen.window.request_redraw();
-                return Ok(Continue::Yes);
-            }
+        let acquired = self.screen.acquire().unwrap_or_else(|problem| {
+            self.note_problem(problem);
+            None
+        });
+        let Some((frame, view)) = acquired else {
+            // No texture this frame (the surface reconfigured, or a problem noted): try again.
+            self.screen.free_textures(&output.textures_delta);
+            self.screen.window.request_redraw();
+            return Ok(Continue::Yes);
         };
         let device = self.screen.renderer.device().clone();
         let queue = self.screen.renderer.queue().clone();
