@@ -27,3 +27,4 @@ pub mod shapemodel;
 mod simd;
 pub mod smooth;
 pub mod stone;
+pub mod warp;

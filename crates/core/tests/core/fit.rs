@@ -8,7 +8,7 @@ use glyptic_core::fit::{self, FitError, FitOptions};
 use glyptic_core::shapemodel::SurreyModel;
 use std::sync::OnceLock;
 
-fn model() -> &'static SurreyModel {
+pub(crate) fn model() -> &'static SurreyModel {
     static M: OnceLock<SurreyModel> = OnceLock::new();
     M.get_or_init(|| {
         SurreyModel::load_dir(&crate::common::sfm_dir()).expect("run scripts/setup.sh first")

@@ -9,3 +9,4 @@ mod fit;
 mod gem;
 mod landmarks;
 mod shapemodel;
+mod warp;
