@@ -128,6 +128,9 @@ fn main() -> Result<()> {
     let mut shading_band: Option<(f32, f32)> = None;
     let mut score: Option<PathBuf> = None;
     let mut maps: Option<PathBuf> = None;
+    let mut caricature: Option<(f32, f32)> = None;
+    let mut prior: Option<f64> = None;
+    let mut warp: Option<glyptic::warp::WarpParams> = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = || it.next().context("a value after the option");
@@ -168,6 +171,28 @@ fn main() -> Result<()> {
             }
             "--score" => score = Some(PathBuf::from(value()?)),
             "--detail-maps" => maps = Some(PathBuf::from(value()?)),
+            "--caricature" => {
+                let v = value()?;
+                let (g, d) = v.split_once(',').context("--caricature GAIN,DETAIL")?;
+                caricature = Some((g.parse()?, d.parse()?));
+            }
+            "--prior" => prior = Some(value()?.parse()?),
+            "--warp" => {
+                // STRENGTH,SIGMA_IOD,SMOOTHING,MAX_IOD,OUTLINE(0/1)
+                let v: Vec<f32> = value()?
+                    .split(',')
+                    .map(|x| x.parse())
+                    .collect::<Result<_, _>>()?;
+                let d = glyptic::warp::WarpParams::default();
+                warp = Some(glyptic::warp::WarpParams {
+                    strength: *v.first().unwrap_or(&d.strength),
+                    sigma_iod: *v.get(1).unwrap_or(&d.sigma_iod),
+                    smoothing: *v.get(2).unwrap_or(&d.smoothing),
+                    max_iod: *v.get(3).unwrap_or(&d.max_iod),
+                    outline_sigma_iod: *v.get(4).unwrap_or(&d.outline_sigma_iod),
+                    lips: *v.get(5).unwrap_or(&d.lips),
+                });
+            }
             other if dir.is_none() && !other.starts_with("--") => dir = Some(PathBuf::from(other)),
             other => bail!("unknown argument {other}"),
         }
@@ -190,6 +215,15 @@ fn main() -> Result<()> {
     }
     if !identity {
         pipeline.recogniser = Recogniser::Off;
+    }
+    if let Some((gain, detail)) = caricature {
+        pipeline.face.caricature = glyptic::shapemodel::Caricature { gain, detail };
+    }
+    if let Some(p) = prior {
+        pipeline.face.portrait_prior = p;
+    }
+    if warp.is_some() {
+        pipeline.warp = warp;
     }
     if let Some(n) = steps {
         pipeline.identity.steps = n;

@@ -7,7 +7,7 @@
 
 pub use glyptic_core::{
     files, fit, gem, identity, landmarks, person, photometric, pin, raster, scene, shapemodel,
-    smooth,
+    smooth, warp,
 };
 pub use glyptic_render as render;
 pub use glyptic_render::{sss, styles};

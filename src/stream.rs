@@ -363,7 +363,8 @@ impl PersonWorker {
 
 /// The identity search on one frame of a held track ([`crate::pipeline::gem::steer_identity`]),
 /// then the face's shape read from that frame's shading
-/// ([`crate::pipeline::gem::read_shading`]) as a model-frame displacement.
+/// ([`crate::pipeline::gem::read_shading`]) and its landmarks beyond the model's reach
+/// ([`crate::warp`]) as one model-frame displacement.
 fn steer(
     net: &mut crate::detect::FaceEmbedder,
     model: &crate::shapemodel::SurreyModel,
@@ -387,6 +388,22 @@ fn steer(
         &crate::photometric::ShadingParams::default(),
     )
     .map(|f| crate::photometric::displacement(&f.offsets, &job.fit.pose));
+    // The landmarks the model could not reach, as the photo path carves them (crate::warp).
+    let warp = crate::warp::landmark_warp(
+        model,
+        &mesh,
+        landmarks,
+        &job.fit.pose,
+        &crate::warp::WarpParams::default(),
+    )
+    .map(|w| w.displacement);
+    let relief = match (relief, warp) {
+        (Some(mut r), Some(w)) => {
+            crate::photometric::add(&mut r, &w);
+            Some(r)
+        }
+        (r, w) => r.or(w),
+    };
     Ok((shape, relief))
 }
 

@@ -97,6 +97,9 @@ pub struct GemPipeline {
     /// Read the face's shape from the photo's shading ([`crate::photometric`]); `None`: the
     /// shape model's face alone.
     pub shading: Option<crate::photometric::ShadingParams>,
+    /// Carry the landmarks the shape model could not reach onto the face
+    /// ([`crate::warp`]); `None`: the model's face.
+    pub warp: Option<crate::warp::WarpParams>,
 }
 
 #[cfg(feature = "face")]
@@ -138,6 +141,7 @@ impl GemPipeline {
             recogniser,
             identity: crate::identity::SearchOptions::default(),
             shading: Some(crate::photometric::ShadingParams::default()),
+            warp: Some(crate::warp::WarpParams::default()),
         })
     }
 
@@ -163,6 +167,7 @@ impl GemPipeline {
             },
             identity: self.identity,
             shading: self.shading,
+            warp: self.warp,
         })
     }
 
@@ -207,6 +212,35 @@ impl GemPipeline {
         if let (Some(fit), Some(_)) = (&shading, &self.shading) {
             crate::photometric::displace(&mut face.portrait, &fit.offsets, &face.fit.pose);
         }
+        // The fitted face as the photo's landmarks place it: the portrait's features, and
+        // where the detail is read for each vertex.
+        let mut seen_mesh = std::borrow::Cow::Borrowed(&face.mesh);
+        if let Some(params) = &self.warp {
+            let model = &self.face.model;
+            let warp = timed(
+                "warp",
+                || {
+                    crate::warp::landmark_warp(
+                        model,
+                        &face.mesh,
+                        &face.landmarks,
+                        &face.fit.pose,
+                        params,
+                    )
+                    .ok_or("no warp")
+                },
+                |w| {
+                    format!(
+                        "{} landmarks, residual {:.1} px, largest motion {:.1} mm",
+                        w.controls, w.residual_px, w.largest_mm
+                    )
+                },
+            );
+            if let Ok(w) = warp {
+                crate::photometric::add(&mut face.portrait, &w.displacement);
+                crate::photometric::add(seen_mesh.to_mut(), &w.displacement);
+            }
+        }
         let (cameo, person) =
             self.person_cameo(img, &face.landmarks, shading.as_ref().map(|f| &f.expected));
         let detail = self.detail.as_ref().and_then(|params| {
@@ -214,7 +248,7 @@ impl GemPipeline {
             timed(
                 "detail",
                 || {
-                    let seen = gem::detail::seen_vertices(&face.mesh, triangles, &face.fit.pose);
+                    let seen = gem::detail::seen_vertices(&seen_mesh, triangles, &face.fit.pose);
                     gem::FaceDetail::read(&grey, &face.landmarks, seen, params)
                 },
                 |_| "brows, irises, mouth, lines".into(),

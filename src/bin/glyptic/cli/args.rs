@@ -206,6 +206,11 @@ pub struct ChoiceArgs {
     /// model's shape alone, 1 as the shading says. About 20 ms.
     #[arg(long, value_parser = parse_shading, default_value = "1")]
     pub shading: f32,
+    /// How far the face follows the photo's landmarks where the face model cannot (the eyes'
+    /// and brows' own shape, the jaw's outline, the mouth's width), 0..3: 0 carves the face
+    /// model's fit alone, 1 brings its landmarks onto the photo's. Under a millisecond.
+    #[arg(long, value_parser = parse_warp, default_value = "1")]
+    pub warp: f32,
 }
 
 #[cfg(feature = "face")]
@@ -216,6 +221,11 @@ fn parse_detail(s: &str) -> Result<f32, String> {
 #[cfg(feature = "face")]
 fn parse_shading(s: &str) -> Result<f32, String> {
     strength_0_to_3(s, "shading")
+}
+
+#[cfg(feature = "face")]
+fn parse_warp(s: &str) -> Result<f32, String> {
+    strength_0_to_3(s, "warp")
 }
 
 /// A strength of 0..3 (0: off, 1: as read), named in the error.
@@ -292,6 +302,10 @@ impl ChoiceArgs {
             (self.detail > 0.0).then(|| glyptic::gem::DetailParams::default().scaled(self.detail));
         p.shading = (self.shading > 0.0).then(|| glyptic::photometric::ShadingParams {
             strength: self.shading,
+            ..Default::default()
+        });
+        p.warp = (self.warp > 0.0).then(|| glyptic::warp::WarpParams {
+            strength: self.warp,
             ..Default::default()
         });
         if self.likeness_search > 0 {

@@ -194,6 +194,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 detail: 1.0,
                 likeness_search: 0,
                 shading: 1.0,
+                warp: 1.0,
             },
             landmarks_out: None,
             obj: None,
