@@ -30,7 +30,11 @@
 //! `--shading-band SHORTEST,LONGEST` (inter-ocular distances): the shape read from the
 //! photo's shading off, or scaled, or over another band; `--face-yaw DEG`: the grey faces
 //! drawn turned by DEG (a three-quarter view at 20-35); `--detail-maps DIR`: each photo's detail map as
-//! carved, mid-grey 0, lighter raised, darker incised)
+//! carved, mid-grey 0, lighter raised, darker incised; `--warp S,SIGMA,RIDGE,MAX,OUTLINE,LIPS`:
+//! the landmark warp's parameters (`glyptic::warp::WarpParams`, in order, trailing ones at
+//! their defaults); `--caricature GAIN,DETAIL`, `--prior P` (the portrait's identity prior),
+//! `--detail-scale K` (the detail's depth times K), `--classical-hair` (the same classical
+//! hair for everyone, as `photo --hair classical`))
 
 use std::collections::HashMap;
 use std::io::Write;
@@ -130,6 +134,7 @@ fn main() -> Result<()> {
     let mut maps: Option<PathBuf> = None;
     let mut caricature: Option<(f32, f32)> = None;
     let mut prior: Option<f64> = None;
+    let mut detail_scale: Option<f32> = None;
     let mut warp: Option<glyptic::warp::WarpParams> = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -156,6 +161,8 @@ fn main() -> Result<()> {
             "--judge-threshold" => judge_threshold = value()?.parse()?,
             "--no-detail" => detail = false,
             "--no-identity" => identity = false,
+            "--classical-hair" => {}
+            "--detail-scale" => detail_scale = Some(value()?.parse::<f32>()?),
             "--identity-steps" => steps = Some(value()?.parse()?),
             "--identity-pairs" => pairs = Some(value()?.parse()?),
             "--identity-components" => components = Some(value()?.parse()?),
@@ -209,7 +216,12 @@ fn main() -> Result<()> {
     eprintln!("{} photos of {people} people", photos.len());
 
     let models = ModelPaths::locate();
-    let mut pipeline = GemPipeline::load(&models, CameoParams::default(), Hair::Photo)?;
+    let hair = if args.iter().any(|a| a == "--classical-hair") {
+        Hair::Classical
+    } else {
+        Hair::Photo
+    };
+    let mut pipeline = GemPipeline::load(&models, CameoParams::default(), hair)?;
     if !detail {
         pipeline.detail = None;
     }
@@ -221,6 +233,9 @@ fn main() -> Result<()> {
     }
     if let Some(p) = prior {
         pipeline.face.portrait_prior = p;
+    }
+    if let Some(k) = detail_scale {
+        pipeline.detail = Some(glyptic::gem::DetailParams::default().scaled(k));
     }
     if warp.is_some() {
         pipeline.warp = warp;
