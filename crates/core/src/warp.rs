@@ -93,7 +93,8 @@ pub struct Warp {
 
 /// The displacement that carries `mesh` (the fitted face, model mm, pose-free, `model`'s
 /// topology) onto the photo's `landmarks` (68, pixels) seen under `pose`. `None` when the
-/// landmarks are not 68 finite points, the mesh is not the model's, or nothing pulls.
+/// landmarks are not 68 finite points, the mesh is not the model's, the parameters are out of
+/// range (a width, cut or ridge not positive, a share not finite), or nothing pulls.
 pub fn landmark_warp(
     model: &SurreyModel,
     mesh: &[f32],
@@ -109,7 +110,9 @@ pub fn landmark_warp(
         || !(params.strength.is_finite()
             && params.sigma_iod > 0.0
             && params.smoothing >= 0.0
-            && params.outline_sigma_iod >= 0.0)
+            && params.max_iod > 0.0
+            && params.outline_sigma_iod >= 0.0
+            && params.lips.is_finite())
     {
         return None;
     }

@@ -89,9 +89,29 @@ fn no_warp_from_bad_landmarks_and_none_at_strength_zero() {
     assert!(landmark_warp(model(), &mesh[..300], &lm, &f.pose, &p).is_none());
     let bad_pose = Pose {
         scale: f64::NAN,
-        ..f.pose.clone()
+        ..f.pose
     };
     assert!(landmark_warp(model(), &mesh, &lm, &bad_pose, &p).is_none());
+    for bad in [
+        WarpParams { max_iod: -0.1, ..p },
+        WarpParams {
+            sigma_iod: 0.0,
+            ..p
+        },
+        WarpParams {
+            lips: f32::NAN,
+            ..p
+        },
+        WarpParams {
+            strength: f32::INFINITY,
+            ..p
+        },
+    ] {
+        assert!(
+            landmark_warp(model(), &mesh, &lm, &f.pose, &bad).is_none(),
+            "{bad:?}"
+        );
+    }
     let zero = WarpParams { strength: 0.0, ..p };
     let w = landmark_warp(model(), &mesh, &lm, &f.pose, &zero).unwrap();
     assert!(w.displacement.iter().all(|&d| d == 0.0));
