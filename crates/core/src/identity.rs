@@ -160,6 +160,13 @@ pub fn five_points(landmarks: &[[f32; 2]]) -> Option<[[f32; 2]; 5]> {
     ])
 }
 
+/// The distance between the eyes' centres of 68 landmarks ([`five_points`]), pixels: the
+/// scale the face's readings measure themselves in.
+pub fn eye_distance(landmarks: &[[f32; 2]]) -> Option<f32> {
+    let [re, le, ..] = five_points(landmarks)?;
+    Some((le[0] - re[0]).hypot(le[1] - re[1]))
+}
+
 /// The similarity transform (rotation, uniform scale, translation; no reflection) that best
 /// takes `src` to `dst` in least squares (Umeyama 1991): `[a, b, tx, ty]` for
 /// `dst ~ [a -b; b a] src + t`. `None` when `src` has no spread.

@@ -182,8 +182,7 @@ pub fn fit(
     if mesh.len() < 9 || !mesh.len().is_multiple_of(3) || mesh.iter().any(|v| !v.is_finite()) {
         return Err(ShadingError::Mesh);
     }
-    let [re, le, ..] = crate::identity::five_points(landmarks).ok_or(ShadingError::Landmarks)?;
-    let iod = (le[0] - re[0]).hypot(le[1] - re[1]);
+    let iod = crate::identity::eye_distance(landmarks).ok_or(ShadingError::Landmarks)?;
     if iod.is_nan() || iod < 20.0 {
         return Err(ShadingError::TooSmall(iod));
     }

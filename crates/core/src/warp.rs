@@ -116,8 +116,7 @@ pub fn landmark_warp(
     {
         return None;
     }
-    let [re, le, ..] = crate::identity::five_points(landmarks)?;
-    let iod_px = f64::from(((le[0] - re[0]).powi(2) + (le[1] - re[1]).powi(2)).sqrt());
+    let iod_px = f64::from(crate::identity::eye_distance(landmarks)?);
     if iod_px.is_nan() || iod_px <= 1.0 {
         return None;
     }

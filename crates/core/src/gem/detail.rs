@@ -119,8 +119,7 @@ impl FaceDetail {
         if photo.width() == 0 || photo.height() == 0 {
             return Err(DetailError::EmptyPhoto);
         }
-        let [re, le, ..] = crate::identity::five_points(landmarks).ok_or(DetailError::Landmarks)?;
-        let iod = (le[0] - re[0]).hypot(le[1] - re[1]);
+        let iod = crate::identity::eye_distance(landmarks).ok_or(DetailError::Landmarks)?;
         if iod < 8.0 {
             return Err(DetailError::TooSmall(iod));
         }
