@@ -84,6 +84,27 @@ pub fn record<T>(f: impl FnOnce() -> T) -> (T, Vec<Stage>) {
     (out, stages)
 }
 
+/// Runs `other` on a second thread while `here` runs on this one and returns both results:
+/// for independent work (models loading, a photo decoding) that would otherwise wait its
+/// turn. The stages `other` times go to this thread's recording after `here`'s; a panic in
+/// `other` resumes here, as it would have had both run on this thread.
+pub fn alongside<A: Send, B>(other: impl FnOnce() -> A + Send, here: impl FnOnce() -> B) -> (A, B) {
+    let (joined, b) = std::thread::scope(|s| {
+        let handle = s.spawn(|| record(other));
+        let b = here();
+        (handle.join(), b)
+    });
+    match joined {
+        Ok((a, stages)) => {
+            for stage in stages {
+                report(stage);
+            }
+            (a, b)
+        }
+        Err(panic) => std::panic::resume_unwind(panic),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -108,6 +129,26 @@ mod tests {
         assert_eq!(names, ["first", "second"]);
         assert_eq!(stages[0].detail, "value 7");
         assert!(stages.iter().all(|s| s.ms >= 0.0 && s.ms.is_finite()));
+    }
+
+    #[test]
+    fn alongside_runs_both_and_records_the_other_thread_s_stages_after_these() {
+        let here_thread = std::thread::current().id();
+        let ((a, b), stages) = record(|| {
+            alongside(
+                || {
+                    ok("other").ok();
+                    std::thread::current().id()
+                },
+                || ok("here"),
+            )
+        });
+        assert_ne!(a, here_thread, "`other` ran on this thread");
+        assert_eq!(b, Ok(7));
+        let names: Vec<_> = stages.iter().map(|s| s.name).collect();
+        assert_eq!(names, ["here", "other"]);
+        let caught = std::panic::catch_unwind(|| alongside(|| panic!("on purpose"), || 1));
+        assert!(caught.is_err(), "a panic on the other thread resumes here");
     }
 
     #[test]

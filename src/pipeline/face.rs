@@ -74,22 +74,47 @@ pub struct FaceLandmarks {
     pub points: Vec<[f32; 2]>,
 }
 
+fn load_detector(models: &ModelPaths) -> Result<FaceDetector, PipelineError> {
+    Ok(timed(
+        "load detector",
+        || FaceDetector::load(&models.detector, &models.onnxruntime),
+        |_| format!("{}", models.detector.display()),
+    )?)
+}
+
+fn load_predictor(models: &ModelPaths) -> Result<ShapePredictor, PipelineError> {
+    let (predictor, _) = timed(
+        "load landmarks",
+        || ShapePredictor::load_noting(&models.landmarks),
+        |(p, from)| format!("{} parts, {from}", p.num_parts()),
+    )?;
+    Ok(predictor)
+}
+
+fn load_face_model(models: &ModelPaths) -> Result<SurreyModel, PipelineError> {
+    Ok(timed(
+        "load face model",
+        || SurreyModel::load_dir(&models.sfm_dir),
+        |m| {
+            format!(
+                "{} vertices, {} shape + {} expression components",
+                m.shape.num_vertices(),
+                m.shape.num_components(),
+                m.blendshapes.offsets.ncols()
+            )
+        },
+    )?)
+}
+
 impl LandmarkPipeline {
-    /// Loads the detector and the landmark model, timing each.
+    /// Loads the detector and the landmark model, timing each: the landmark model (a plain
+    /// read) on a second thread while ONNX Runtime builds the detector's session here.
     pub fn load(models: &ModelPaths) -> Result<Self, PipelineError> {
-        let detector = timed(
-            "load detector",
-            || FaceDetector::load(&models.detector, &models.onnxruntime),
-            |_| format!("{}", models.detector.display()),
-        )?;
-        let (predictor, _) = timed(
-            "load landmarks",
-            || ShapePredictor::load_noting(&models.landmarks),
-            |(p, from)| format!("{} parts, {from}", p.num_parts()),
-        )?;
+        let (predictor, detector) =
+            crate::stage::alongside(|| load_predictor(models), || load_detector(models));
         Ok(LandmarkPipeline {
-            detector,
-            predictor: Arc::new(predictor),
+            detector: detector?,
+            predictor: Arc::new(predictor?),
             detect_options: DetectOptions::default(),
             mirror_average: true,
         })
@@ -188,24 +213,21 @@ pub const PORTRAIT_PRIOR: f64 = 2.0;
 pub const PORTRAIT_EXPRESSION: f32 = 0.5;
 
 impl FacePipeline {
-    /// Loads the three models, timing each.
+    /// Loads the three models, timing each: the landmark and face models (plain reads) on a
+    /// second thread while ONNX Runtime builds the detector's session here.
     pub fn load(models: &ModelPaths) -> Result<Self, PipelineError> {
-        let faces = LandmarkPipeline::load(models)?;
-        let model = timed(
-            "load face model",
-            || SurreyModel::load_dir(&models.sfm_dir),
-            |m| {
-                format!(
-                    "{} vertices, {} shape + {} expression components",
-                    m.shape.num_vertices(),
-                    m.shape.num_components(),
-                    m.blendshapes.offsets.ncols()
-                )
-            },
-        )?;
+        let ((predictor, model), detector) = crate::stage::alongside(
+            || (load_predictor(models), load_face_model(models)),
+            || load_detector(models),
+        );
         Ok(FacePipeline {
-            faces,
-            model: Arc::new(model),
+            faces: LandmarkPipeline {
+                detector: detector?,
+                predictor: Arc::new(predictor?),
+                detect_options: DetectOptions::default(),
+                mirror_average: true,
+            },
+            model: Arc::new(model?),
             fit_options: FitOptions::default(),
             caricature: Caricature::default(),
             portrait_prior: PORTRAIT_PRIOR,

@@ -18,6 +18,13 @@ pub const MAX_TEXT_BYTES: u64 = 16 << 20;
 /// The whole of the regular file at `path`, at most `max` bytes; a refused file is an
 /// `InvalidInput` error saying why (its kind stays `NotFound` for a missing file).
 pub fn read_limited(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
+    let capacity = usize::try_from(regular_file_len(path, max)?).unwrap_or(0);
+    read_all_limited(std::fs::File::open(path)?, max, capacity)
+}
+
+/// The size of the regular file at `path`, refused past `max` bytes (a folder, a device or a
+/// pipe refused too): what [`read_limited`] checks before it reads.
+pub fn regular_file_len(path: &Path, max: u64) -> std::io::Result<u64> {
     let meta = std::fs::metadata(path)?;
     if !meta.is_file() {
         return Err(std::io::Error::new(
@@ -28,8 +35,7 @@ pub fn read_limited(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
     if meta.len() > max {
         return Err(too_large(meta.len(), max));
     }
-    let capacity = usize::try_from(meta.len()).unwrap_or(0);
-    read_all_limited(std::fs::File::open(path)?, max, capacity)
+    Ok(meta.len())
 }
 
 /// Everything `reader` holds, refused past `max` bytes without reading more than one byte

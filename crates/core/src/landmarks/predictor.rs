@@ -40,9 +40,34 @@ struct Parts {
     levels: Vec<Level>,
     depth: u32,
     splits: Vec<Split>,
-    leaves: Vec<f32>,
+    leaves: Leaves,
     anchors: Vec<u32>,
     deltas: Vec<[f32; 2]>,
+}
+
+/// The leaf increments (two thirds of a model's bytes): an array of their own (a parsed
+/// model) or a span of the compact copy's words as they were read from disk, so that the
+/// 66 MB are not copied a second time on every start (BENCHMARKS.md, issue #42).
+#[derive(Clone, Debug)]
+struct Leaves {
+    words: Vec<f32>,
+    start: usize,
+    len: usize,
+}
+
+impl Leaves {
+    fn owned(values: Vec<f32>) -> Self {
+        let len = values.len();
+        Leaves {
+            words: values,
+            start: 0,
+            len,
+        }
+    }
+
+    fn as_slice(&self) -> &[f32] {
+        &self.words[self.start..self.start + self.len]
+    }
 }
 
 /// Where one cascade level's trees and feature pixels sit in the flat arrays.
@@ -82,7 +107,7 @@ pub struct ShapePredictor {
     leaves_per_tree: usize,
     splits: Vec<Split>,
     /// Leaf increments, `leaves_per_tree * 2 * num_parts` floats per tree.
-    leaves: Vec<f32>,
+    leaves: Leaves,
     /// Index of the mean-shape point each feature pixel is attached to.
     anchors: Vec<u32>,
     /// Offset of each feature pixel from its anchor, in the mean shape's frame.
@@ -244,6 +269,7 @@ impl ShapePredictor {
         let shape_len = 2 * self.num_parts();
         let leaf_stride = shape_len;
         let tree_stride = self.leaves_per_tree * leaf_stride;
+        let leaves = self.leaves.as_slice();
         let (bl, bt, bw, bh) = (
             f64::from(rect.left),
             f64::from(rect.top),
@@ -297,9 +323,9 @@ impl ShapePredictor {
                 // The model's leaves (tens of MB) do not stay in cache from one frame to the
                 // next: ask for the leaf a few trees ahead while this one is added.
                 if let Some(&ahead) = starts.get(k + PREFETCH_AHEAD) {
-                    prefetch(&self.leaves[ahead..ahead + leaf_stride]);
+                    prefetch(&leaves[ahead..ahead + leaf_stride]);
                 }
-                let values = &self.leaves[start..start + leaf_stride];
+                let values = &leaves[start..start + leaf_stride];
                 for (s, v) in flat.iter_mut().zip(values) {
                     *s += *v;
                 }

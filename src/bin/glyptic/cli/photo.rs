@@ -346,13 +346,20 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     // The GPU device and pipelines are independent of the face: start them now.
     let renderer_thread = spawn_renderer();
     let (made, stages) = glyptic::stage::record(|| -> Result<_> {
-        // The photo first: a file that is no photo is said before a second of model loading.
-        let img = if crate::values::is_stdio(image_path) {
-            decode_stdin()?
-        } else {
-            glyptic::pipeline::gem::decode(image_path)?
-        };
-        let mut pipeline = args.choice.gem_pipeline(&args.view)?;
+        // The photo decodes on a second thread while the models load here; a file that is
+        // no photo is still said first, whatever the models did.
+        let (img, pipeline) = glyptic::stage::alongside(
+            || -> Result<_> {
+                if crate::values::is_stdio(image_path) {
+                    decode_stdin()
+                } else {
+                    Ok(glyptic::pipeline::gem::decode(image_path)?)
+                }
+            },
+            || args.choice.gem_pipeline(&args.view),
+        );
+        let img = img?;
+        let mut pipeline = pipeline?;
         let gem = pipeline
             .image(&img)
             .with_context(|| image_path.display().to_string())?;

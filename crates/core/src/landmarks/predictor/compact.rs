@@ -32,7 +32,7 @@
 
 use xxhash_rust::xxh3::xxh3_128;
 
-use super::{LandmarkError, Level, Parts, ShapePredictor, Split};
+use super::{LandmarkError, Leaves, Level, Parts, ShapePredictor, Split};
 
 /// The file's first eight bytes.
 const MAGIC: &[u8; 8] = b"GLYPTERT";
@@ -99,16 +99,18 @@ impl<'a> Cursor<'a> {
         Ok(self.take(n, what)?.chunks_exact(size).map(f).collect())
     }
 
-    /// `count` floats: on a little-endian machine one copy of the bytes as they lie.
-    fn f32s(&mut self, count: usize, what: &str) -> Result<Vec<f32>, LandmarkError> {
-        if cfg!(target_endian = "little") {
-            let n = count
-                .checked_mul(4)
-                .ok_or_else(|| compact_err(format!("{what}: size overflows")))?;
-            Ok(bytemuck::pod_collect_to_vec(self.take(n, what)?))
-        } else {
-            self.records(count, 4, what, le_f32)
-        }
+    /// Skips `count` floats, saying where they lie (bytes from the cursor's start).
+    fn skip_f32s(
+        &mut self,
+        count: usize,
+        what: &str,
+    ) -> Result<std::ops::Range<usize>, LandmarkError> {
+        let n = count
+            .checked_mul(4)
+            .ok_or_else(|| compact_err(format!("{what}: size overflows")))?;
+        let start = self.pos;
+        self.take(n, what)?;
+        Ok(start..self.pos)
     }
 }
 
@@ -138,7 +140,7 @@ impl ShapePredictor {
             16 + 8 * self.levels.len()
                 + 8 * self.mean.len()
                 + 12 * self.splits.len()
-                + 4 * self.leaves.len()
+                + 4 * self.leaves.len
                 + 12 * self.anchors.len(),
         );
         put_u32(&mut p, self.mean.len() as u32);
@@ -158,7 +160,7 @@ impl ShapePredictor {
             put_u32(&mut p, s.idx2);
             put_f32(&mut p, s.thresh);
         }
-        for &v in &self.leaves {
+        for &v in self.leaves.as_slice() {
             put_f32(&mut p, v);
         }
         for &a in &self.anchors {
@@ -182,6 +184,21 @@ impl ShapePredictor {
     /// Reads a compact copy made from the dlib file whose SHA-256 is `source_sha256`, its
     /// payload checked against its checksum before anything is read from it.
     pub fn from_compact(bytes: &[u8], source_sha256: &[u8; 32]) -> Result<Self, LandmarkError> {
+        let mut words = vec![0.0f32; bytes.len().div_ceil(4)];
+        bytemuck::cast_slice_mut::<f32, u8>(&mut words)[..bytes.len()].copy_from_slice(bytes);
+        Self::from_compact_words(words, bytes.len(), source_sha256)
+    }
+
+    /// As [`ShapePredictor::from_compact`], on a file's `len` bytes held in `words` (4-byte
+    /// aligned, as [`read_compact`] reads them): the leaves stay where they lie.
+    pub(super) fn from_compact_words(
+        words: Vec<f32>,
+        len: usize,
+        source_sha256: &[u8; 32],
+    ) -> Result<Self, LandmarkError> {
+        let bytes = bytemuck::cast_slice::<f32, u8>(&words)
+            .get(..len)
+            .ok_or_else(|| compact_err("shorter than its stated length"))?;
         if bytes.len() < HEADER || &bytes[..8] != MAGIC {
             return Err(compact_err("not a glyptic compact landmark model"));
         }
@@ -200,13 +217,47 @@ impl ShapePredictor {
                 "damaged (its payload does not match its checksum)",
             ));
         }
-        let parts = read_parts(payload);
-        Self::assemble(parts?)
+        let (parts, at) = read_parts(payload)?;
+        // Every record before the leaves is a whole number of 4-byte words, and so is the
+        // header: the leaves start on a word.
+        let (start, end) = (HEADER + at.start, HEADER + at.end);
+        if start % 4 != 0 {
+            return Err(compact_err("its leaves do not start on a 4-byte word"));
+        }
+        let mut leaves = Leaves {
+            words,
+            start: start / 4,
+            len: (end - start) / 4,
+        };
+        if cfg!(target_endian = "big") {
+            let span = leaves.start..leaves.start + leaves.len;
+            for w in &mut leaves.words[span] {
+                *w = f32::from_bits(u32::from_le(w.to_bits()));
+            }
+        }
+        if !all_finite(leaves.as_slice()) {
+            return Err(compact_err("a value is not finite"));
+        }
+        Self::assemble(Parts { leaves, ..parts })
     }
 }
 
-/// The arrays of a compact payload, sized from its counts and checked to fill it exactly.
-fn read_parts(payload: &[u8]) -> Result<Parts, LandmarkError> {
+/// Reads a compact copy's bytes into 4-byte words (zeroed pages the read fills once: no
+/// second copy), refusing a file over `max` bytes or one that is not a regular file.
+pub(super) fn read_compact(path: &std::path::Path, max: u64) -> std::io::Result<(Vec<f32>, usize)> {
+    use std::io::Read as _;
+    let len = usize::try_from(crate::files::regular_file_len(path, max)?)
+        .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidInput, "too large"))?;
+    let mut words = vec![0.0f32; len.div_ceil(4)];
+    let mut file = std::fs::File::open(path)?;
+    file.read_exact(&mut bytemuck::cast_slice_mut::<f32, u8>(&mut words)[..len])?;
+    Ok((words, len))
+}
+
+/// The arrays of a compact payload, sized from its counts and checked to fill it exactly;
+/// the leaves are left where they lie (their byte range in `payload` is returned with an
+/// empty array in their place).
+fn read_parts(payload: &[u8]) -> Result<(Parts, std::ops::Range<usize>), LandmarkError> {
     let mut c = Cursor {
         bytes: payload,
         pos: 0,
@@ -253,7 +304,7 @@ fn read_parts(payload: &[u8]) -> Result<Parts, LandmarkError> {
             thresh: le_f32(&b[8..]),
         },
     )?;
-    let leaves = c.f32s(leaf_values, "leaves")?;
+    let leaves = c.skip_f32s(leaf_values, "leaves")?;
     let anchors = c.records(features, 4, "anchors", le_u32)?;
     let deltas = c.records(features, 8, "deltas", |b| [le_f32(b), le_f32(&b[4..])])?;
     if c.pos != payload.len() {
@@ -266,18 +317,20 @@ fn read_parts(payload: &[u8]) -> Result<Parts, LandmarkError> {
         .iter()
         .chain(&deltas)
         .all(|p| p[0].is_finite() && p[1].is_finite())
-        && splits.iter().all(|s| s.thresh.is_finite())
-        && all_finite(&leaves);
+        && splits.iter().all(|s| s.thresh.is_finite());
     if !finite {
         return Err(compact_err("a value is not finite"));
     }
-    Ok(Parts {
-        mean,
-        levels,
-        depth,
-        splits,
+    Ok((
+        Parts {
+            mean,
+            levels,
+            depth,
+            splits,
+            leaves: Leaves::owned(Vec::new()),
+            anchors,
+            deltas,
+        },
         leaves,
-        anchors,
-        deltas,
-    })
+    ))
 }

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::super::LandmarkError;
 use super::super::dlib_format::{MIN_FLOAT_BYTES, MIN_INT_BYTES, Reader};
-use super::{Level, Parts, ShapePredictor, Split, centre, compact};
+use super::{Leaves, Level, Parts, ShapePredictor, Split, centre, compact};
 
 /// The only serialization version of `dlib::shape_predictor` that exists.
 const SERIALIZATION_VERSION: i32 = 1;
@@ -175,7 +175,7 @@ impl ShapePredictor {
             levels,
             depth: depth.0,
             splits,
-            leaves,
+            leaves: Leaves::owned(leaves),
             anchors,
             deltas,
         })
@@ -200,7 +200,7 @@ impl ShapePredictor {
             .last()
             .map_or(0, |l| l.first_feature + l.num_features);
         if splits.len() != trees * splits_per_tree
-            || leaves.len() != trees * leaves_per_tree * 2 * num_parts
+            || leaves.len != trees * leaves_per_tree * 2 * num_parts
             || anchors.len() != features
             || deltas.len() != features
         {
@@ -276,8 +276,8 @@ impl ShapePredictor {
         let mut name = path.file_name().unwrap_or_default().to_os_string();
         name.push(compact::COMPACT_SUFFIX);
         let copy = path.with_file_name(name);
-        let remade = match crate::files::read_limited(&copy, crate::files::MAX_MODEL_BYTES) {
-            Ok(bytes) => match Self::from_compact(&bytes, &sha) {
+        let remade = match compact::read_compact(&copy, crate::files::MAX_MODEL_BYTES) {
+            Ok((words, len)) => match Self::from_compact_words(words, len, &sha) {
                 Ok(model) => return Ok((model, ModelSource::Compact(copy))),
                 Err(e) => Some(e.to_string()),
             },
