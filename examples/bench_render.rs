@@ -197,6 +197,47 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
+    // Where the scene pass's time goes at the sizes added for a GPU: the four stones with
+    // and without MSAA, the lamp's shadowed light, and the gem at half its size (a quarter
+    // of the fragments, every triangle still drawn).
+    if sizes.len() > 2 {
+        println!(
+            "\n# The scene pass by what it draws (SSS 21 taps)\n\n| size | material | MSAA | lamp | zoom | scene ms | frame ms |\n|---|---|---|---|---|---|---|"
+        );
+    }
+    for &(w, h) in &sizes[2..] {
+        let mut rows = Vec::new();
+        for material in [
+            Material::Marble,
+            Material::Agate,
+            Material::Shell,
+            Material::Jasperware,
+        ] {
+            for antialias in [true, false] {
+                rows.push((material, antialias, false, 1.0));
+            }
+        }
+        rows.push((Material::Marble, true, true, 1.0));
+        rows.push((Material::Marble, true, false, 0.5));
+        rows.push((Material::Marble, false, false, 0.5));
+        for (material, antialias, lamp, zoom) in rows {
+            let p = RenderParams {
+                width: w,
+                height: h,
+                material,
+                antialias,
+                lamp: lamp.then(glyptic::render::Lamp::default),
+                zoom,
+                ..RenderParams::default()
+            };
+            let [scene, _, _, _, wall] = pass_medians(&mut renderer, &mesh, &p, frames)?;
+            println!(
+                "| {w}x{h} | {material:?} | {} | {} | {zoom} | {scene:.2} | {wall:.1} |",
+                if antialias { "4x" } else { "off" },
+                if lamp { "on" } else { "off" },
+            );
+        }
+    }
     // The full-screen passes (the SSS blur, the composite) as fragment passes against compute
     // passes, frame by frame in turn at each size (marble, 21 taps).
     // Where the device has compute at all (on a CPU rasteriser too, though it is not the

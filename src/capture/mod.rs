@@ -1,6 +1,7 @@
 //! Frames in: photos decoded with checks (a hostile or broken file gives a clear error instead
 //! of a panic or a huge allocation), frame sources behind one interface ([`source`]: photo,
-//! folder, memory; [`video`] files with the `video` feature; [`camera`] with `webcam`), and the
+//! folder, memory; [`video`] files with the `video` feature, read in a helper process
+//! ([`video_process`]); [`camera`] with `webcam`), and the
 //! capture thread ([`live`]) that hands the newest frame on through a [`latest`] channel.
 //!
 //! Units: pixels. Frames are 8-bit RGB, top-left origin.
@@ -12,6 +13,7 @@ pub mod live;
 pub mod source;
 #[cfg(feature = "video")]
 pub mod video;
+pub mod video_process;
 
 use std::path::{Path, PathBuf};
 

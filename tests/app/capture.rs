@@ -37,6 +37,7 @@ fn clip_frame(i: usize) -> RgbImage {
 mod video {
     use super::*;
     use glyptic::capture::video::{VideoSource, write_mjpeg_avi};
+    use glyptic::capture::video_process::VideoProcess;
 
     fn write_clip(dir: &std::path::Path, n: usize) -> PathBuf {
         let path = dir.join("clip.avi");
@@ -49,23 +50,51 @@ mod video {
         std::iter::from_fn(|| src.next_frame().expect("no error mid-video")).collect()
     }
 
+    /// The helper process `glyptic` itself reads videos with (built with this test binary).
+    const HELPER: &str = env!("CARGO_BIN_EXE_glyptic-video");
+
+    /// Both readers of a video: OpenCV in this process, and through the helper process.
+    fn readers(path: &std::path::Path, looping: bool) -> [(&'static str, Box<dyn FrameSource>); 2] {
+        [
+            ("in process", Box::new(VideoSource::new(path, looping))),
+            (
+                "helper",
+                Box::new(VideoProcess::with_helper(HELPER, path, looping)),
+            ),
+        ]
+    }
+
     #[test]
     fn video_reads_back_every_frame_with_its_time() {
         let dir = scratch("whole");
         let path = write_clip(&dir, 30);
-        let mut src = VideoSource::new(&path, false);
-        let frames = read_all(&mut src);
-        assert_eq!(frames.len(), 30);
-        assert_eq!(src.frame_rate(), Some(25.0));
-        assert!(src.end_note().is_none(), "{:?}", src.end_note());
-        for (i, f) in frames.iter().enumerate() {
-            assert_eq!(f.image.dimensions(), (96, 64));
-            let t = f.time_s.unwrap();
-            assert!((t - i as f64 / 25.0).abs() < 1e-3, "frame {i} at {t} s");
-            // JPEG-compressed grey level.
-            let v = f.image.get_pixel(80, 5)[0] as i32;
-            assert!((v - (8 * i) as i32).abs() <= 4, "frame {i}: grey {v}");
+        let mut seen = Vec::new();
+        for (how, mut src) in readers(&path, false) {
+            let frames = read_all(&mut *src);
+            assert_eq!(frames.len(), 30, "{how}");
+            assert_eq!(src.frame_rate(), Some(25.0), "{how}");
+            assert!(src.end_note().is_none(), "{how}: {:?}", src.end_note());
+            for (i, f) in frames.iter().enumerate() {
+                assert_eq!(f.image.dimensions(), (96, 64));
+                let t = f.time_s.unwrap();
+                assert!(
+                    (t - i as f64 / 25.0).abs() < 1e-3,
+                    "{how}: frame {i} at {t} s"
+                );
+                // JPEG-compressed grey level.
+                let v = f.image.get_pixel(80, 5)[0] as i32;
+                assert!(
+                    (v - (8 * i) as i32).abs() <= 4,
+                    "{how}: frame {i}: grey {v}"
+                );
+            }
+            seen.push(frames);
         }
+        let same = seen[0]
+            .iter()
+            .zip(&seen[1])
+            .all(|(a, b)| a.image == b.image && a.time_s == b.time_s);
+        assert!(same, "the helper's frames differ from OpenCV's own");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -77,22 +106,27 @@ mod video {
         let cut = dir.join("cut.avi");
         std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
 
-        let mut src = VideoSource::new(&cut, false);
-        let frames = read_all(&mut src);
-        assert!(
-            (10..30).contains(&frames.len()),
-            "{} frames from 60 % of the file",
-            frames.len()
-        );
-        let note = src.end_note().expect("says it ended early");
-        assert!(
-            note.contains(&format!("after {} of 30", frames.len())),
-            "{note}"
-        );
+        let mut counts = Vec::new();
+        for (how, mut src) in readers(&cut, false) {
+            let frames = read_all(&mut *src);
+            assert!(
+                (10..30).contains(&frames.len()),
+                "{how}: {} frames from 60 % of the file",
+                frames.len()
+            );
+            let note = src.end_note().expect("says it ended early");
+            assert!(
+                note.contains(&format!("after {} of 30", frames.len())),
+                "{how}: {note}"
+            );
+            counts.push(frames.len());
+        }
+        assert_eq!(counts[0], counts[1]);
 
-        // Through the capture thread: frames, then an end event with the note.
+        // Through the capture thread, as the kiosk reads it: frames, then an end event with
+        // the note.
         let capture = Capture::spawn(
-            move || Box::new(VideoSource::new(cut, false)),
+            move || Box::new(VideoProcess::with_helper(HELPER, cut, false)),
             CaptureOptions {
                 pace: false,
                 ..CaptureOptions::default()
@@ -105,7 +139,7 @@ mod video {
             "{events:?}"
         );
         let summary = capture.stop();
-        assert_eq!(summary.frames, frames.len() as u64);
+        assert_eq!(summary.frames, counts[0] as u64);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -113,15 +147,16 @@ mod video {
     fn looping_video_restarts_with_times_that_keep_rising() {
         let dir = scratch("loop");
         let path = write_clip(&dir, 10);
-        let mut src = VideoSource::new(&path, true);
-        let times: Vec<f64> = (0..25)
-            .map(|_| src.next_frame().unwrap().unwrap().time_s.unwrap())
-            .collect();
-        assert!(times.windows(2).all(|w| w[1] > w[0]), "{times:?}");
-        assert!(
-            (times[10] - 0.4).abs() < 1e-3,
-            "second pass starts at 0.4 s: {times:?}"
-        );
+        for (how, mut src) in readers(&path, true) {
+            let times: Vec<f64> = (0..25)
+                .map(|_| src.next_frame().unwrap().unwrap().time_s.unwrap())
+                .collect();
+            assert!(times.windows(2).all(|w| w[1] > w[0]), "{how}: {times:?}");
+            assert!(
+                (times[10] - 0.4).abs() < 1e-3,
+                "{how}: second pass starts at 0.4 s: {times:?}"
+            );
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -131,11 +166,48 @@ mod video {
         let path = dir.join("notes.avi");
         std::fs::write(&path, b"this is not a video file").unwrap();
         for p in [path.clone(), dir.join("missing.avi")] {
-            let e = VideoSource::new(&p, false).next_frame().unwrap_err();
-            assert!(matches!(e, SourceError::Fatal { .. }), "{e}");
-            assert!(e.to_string().contains(&*p.to_string_lossy()), "{e}");
+            for (how, mut src) in readers(&p, false) {
+                let e = src.next_frame().unwrap_err();
+                assert!(matches!(e, SourceError::Fatal { .. }), "{how}: {e}");
+                assert!(e.to_string().contains(&*p.to_string_lossy()), "{how}: {e}");
+                // Ended: the next call says so, and starts nothing again.
+                if how == "helper" {
+                    assert!(matches!(src.next_frame(), Ok(None)), "{how}");
+                }
+            }
         }
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_reader_that_dies_is_a_fatal_error_not_a_hang() {
+        // A helper that is no video reader: exits at once without a word (as a crashed one).
+        let mut src = VideoProcess::with_helper("/bin/true", "clip.avi", false);
+        let e = src.next_frame().unwrap_err();
+        assert!(matches!(e, SourceError::Fatal { .. }), "{e}");
+        assert!(e.to_string().contains("video reader stopped"), "{e}");
+    }
+
+    #[test]
+    fn glyptic_itself_links_no_video_reader() {
+        // The point of the helper: `glyptic` starts without OpenCV's video reader and the
+        // couple of hundred libraries behind it (GStreamer, GDAL, codecs).
+        let libs = |exe: &str| {
+            let out = std::process::Command::new("ldd").arg(exe).output().unwrap();
+            assert!(out.status.success(), "ldd {exe}");
+            String::from_utf8_lossy(&out.stdout).into_owned()
+        };
+        let (ours, helper) = (libs(env!("CARGO_BIN_EXE_glyptic")), libs(HELPER));
+        for heavy in ["opencv_videoio", "gstreamer", "gdal", "avcodec"] {
+            assert!(!ours.contains(heavy), "glyptic links {heavy}:\n{ours}");
+        }
+        assert!(helper.contains("opencv_videoio"), "{helper}");
+        assert!(
+            ours.lines().count() * 4 < helper.lines().count(),
+            "glyptic {} libraries, the helper {}",
+            ours.lines().count(),
+            helper.lines().count()
+        );
     }
 }
 

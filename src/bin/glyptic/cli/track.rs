@@ -75,10 +75,9 @@ fn open_source(args: &TrackArgs) -> Result<Box<dyn FrameSource>> {
         return Ok(Box::new(glyptic::capture::ImageFileSource::new(path)));
     }
     #[cfg(feature = "video")]
-    return Ok(Box::new(glyptic::capture::video::VideoSource::new(
-        path,
-        args.looping,
-    )));
+    return Ok(Box::new(
+        glyptic::capture::video_process::VideoProcess::new(path, args.looping),
+    ));
     #[cfg(not(feature = "video"))]
     bail!(
         "{}: this build reads no video files (cargo feature `video`)",

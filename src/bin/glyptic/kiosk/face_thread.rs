@@ -74,7 +74,7 @@ pub(super) fn open_source(config: &KioskConfig) -> Box<dyn FrameSource> {
             Box::new(glyptic::capture::StillSource::new(path.clone(), 10.0))
         }
         #[cfg(feature = "video")]
-        Some(path) => Box::new(glyptic::capture::video::VideoSource::new(
+        Some(path) => Box::new(glyptic::capture::video_process::VideoProcess::new(
             path.clone(),
             true,
         )),
