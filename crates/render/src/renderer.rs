@@ -167,6 +167,32 @@ impl Renderer {
         })
     }
 
+    /// Draws one small triangle with `params`' stone, light, passes and styles at 16 x 16 and
+    /// throws the frame away, so that whatever the real frame will need is built first: the
+    /// pipelines, and the shaders a CPU rasteriser (lavapipe) compiles only at their first
+    /// draw (about 150 ms there). A caller that has a thread waiting anyway (the photo's
+    /// renderer while the face is fitted) takes that off the real frame. The engraving is
+    /// left out: its maps follow the gem's outline. The time goes to [`InitTimes`].
+    pub fn warm_up(&mut self, params: &RenderParams) -> Result<(), RenderError> {
+        use glyptic_core::scene::{Region, Vertex};
+        let t = std::time::Instant::now();
+        let corner =
+            |x: f32, y: f32| Vertex::open([x, y, 1.0], [0.0, 0.0, 1.0], 1.0, Region::Relief);
+        let mesh = Mesh {
+            vertices: vec![corner(-10.0, -10.0), corner(10.0, -10.0), corner(0.0, 10.0)],
+            indices: vec![0, 1, 2],
+        };
+        let tiny = RenderParams {
+            width: 16,
+            height: 16,
+            engraving: None,
+            ..params.clone()
+        };
+        let drawn = self.render(&mesh, &tiny).map(|_| ());
+        self.init.warm_up_ms += t.elapsed().as_secs_f64() * 1e3;
+        drawn
+    }
+
     /// Where this renderer's start went.
     pub fn init_times(&self) -> InitTimes {
         self.init

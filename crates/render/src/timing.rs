@@ -31,6 +31,8 @@ pub struct InitTimes {
     pub device_ms: f64,
     pub pipelines_ms: f64,
     pub rest_ms: f64,
+    /// [`crate::Renderer::warm_up`]'s frame, where the caller asked for one.
+    pub warm_up_ms: f64,
 }
 
 impl std::fmt::Display for InitTimes {
@@ -39,7 +41,11 @@ impl std::fmt::Display for InitTimes {
             f,
             "instance {:.0} ms, adapter {:.0} ms, device {:.0} ms, pipelines {:.0} ms, maps {:.0} ms",
             self.instance_ms, self.adapter_ms, self.device_ms, self.pipelines_ms, self.rest_ms
-        )
+        )?;
+        if self.warm_up_ms > 0.0 {
+            write!(f, ", warm-up frame {:.0} ms", self.warm_up_ms)?;
+        }
+        Ok(())
     }
 }
 

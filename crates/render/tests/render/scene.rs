@@ -1006,3 +1006,25 @@ fn a_transparent_backdrop_leaves_only_the_gem() {
         Err(RenderError::InvalidParams(_))
     ));
 }
+
+#[test]
+fn a_warm_up_frame_leaves_the_real_frame_as_it_was() {
+    let mut renderer = crate::renderer();
+    // The noise bake (a mesh drawn twice) would change the second frame: off for the test.
+    renderer.set_noise_baking(false);
+    let mesh = cameo(48, 80);
+    let p = RenderParams {
+        lamp: Some(glyptic_render::Lamp::default()),
+        ..params(96, 120, Material::Shell)
+    };
+    let before = renderer.render(&mesh, &p).expect("frame");
+    let warmed = renderer.init_times().warm_up_ms;
+    renderer.warm_up(&p).expect("warm-up frame");
+    let after = renderer.render(&mesh, &p).expect("frame after the warm-up");
+    renderer.set_noise_baking(true);
+    assert!(
+        renderer.init_times().warm_up_ms > warmed,
+        "the warm-up's time is reported"
+    );
+    assert!(before == after, "the warm-up changed the frame");
+}
