@@ -148,6 +148,7 @@ pub(super) fn doctor(_: &DoctorArgs) -> Result<()> {
         assets::SFM_ENV,
         assets::DETECTOR_ENV,
         assets::ORT_ENV,
+        glyptic::capture::video_process::HELPER_ENV,
     ] {
         match std::env::var_os(var) {
             Some(value) if value.is_empty() => say!("{var:<12} set but empty: ignored"),
@@ -174,6 +175,16 @@ pub(super) fn doctor(_: &DoctorArgs) -> Result<()> {
             "absent"
         };
         say!("{state:<8} {}  ({what})", path.display());
+    }
+    // Video files are read by a helper program beside this one (or where the variable says).
+    #[cfg(feature = "video")]
+    match glyptic::capture::video_process::helper_path() {
+        Ok(helper) => say!(
+            "{:<8} {}  (video reader, for the kiosk's and track's video files)",
+            if helper.is_file() { "ok" } else { "absent" },
+            helper.display()
+        ),
+        Err(e) => say!("absent   video reader: {e}"),
     }
     if missing > 0 {
         bail!("{missing} needed files missing: {HOW}");
