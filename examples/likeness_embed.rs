@@ -33,7 +33,8 @@
 //! carved, mid-grey 0, lighter raised, darker incised; `--warp S,SIGMA,RIDGE,MAX,OUTLINE,LIPS`:
 //! the landmark warp's parameters (`glyptic::warp::WarpParams`, in order, trailing ones at
 //! their defaults); `--caricature GAIN,DETAIL`, `--prior P` (the portrait's identity prior),
-//! `--detail-scale K` (the detail's depth times K), `--classical-hair` (the same classical
+//! `--detail-scale K` (the detail's depth times K), `--detail-depths BROW,IRIS,MOUTH,LINE`
+//! (each region's depth, mm), `--classical-hair` (the same classical
 //! hair for everyone, as `photo --hair classical`))
 
 use std::collections::HashMap;
@@ -135,6 +136,7 @@ fn main() -> Result<()> {
     let mut caricature: Option<(f32, f32)> = None;
     let mut prior: Option<f64> = None;
     let mut detail_scale: Option<f32> = None;
+    let mut detail_depths: Option<glyptic::gem::DetailParams> = None;
     let mut warp: Option<glyptic::warp::WarpParams> = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -163,6 +165,22 @@ fn main() -> Result<()> {
             "--no-identity" => identity = false,
             "--classical-hair" => {}
             "--detail-scale" => detail_scale = Some(value()?.parse::<f32>()?),
+            "--detail-depths" => {
+                let v: Vec<f32> = value()?
+                    .split(',')
+                    .map(str::parse)
+                    .collect::<Result<_, _>>()
+                    .context("--detail-depths BROW,IRIS,MOUTH,LINE (mm)")?;
+                let [brow_mm, iris_mm, mouth_mm, line_mm] = v[..] else {
+                    bail!("--detail-depths takes four depths, mm");
+                };
+                detail_depths = Some(glyptic::gem::DetailParams {
+                    brow_mm,
+                    iris_mm,
+                    mouth_mm,
+                    line_mm,
+                });
+            }
             "--identity-steps" => steps = Some(value()?.parse()?),
             "--identity-pairs" => pairs = Some(value()?.parse()?),
             "--identity-components" => components = Some(value()?.parse()?),
@@ -236,6 +254,9 @@ fn main() -> Result<()> {
     }
     if let Some(k) = detail_scale {
         pipeline.detail = Some(glyptic::gem::DetailParams::default().scaled(k));
+    }
+    if detail_depths.is_some() {
+        pipeline.detail = detail_depths;
     }
     if warp.is_some() {
         pipeline.warp = warp;

@@ -51,15 +51,16 @@ pub struct DetailParams {
 }
 
 impl Default for DetailParams {
-    /// About the carved eye's lids (3 mm, [`super::face::Eye::carve`]): brows and iris as
-    /// deep, lines half of it. Twice what was first chosen (half the lids): carved this deep
-    /// the gems are ranked their own person's more often by two recognition networks on three
-    /// photo sets, and age lines and brows read at a gem's size (BENCHMARKS.md, issue #37).
+    /// Brows and irises half as deep again as the carved eye's lids (3 mm,
+    /// [`super::face::Eye::carve`]), the line between the lips 3 mm, folds and lines 1.6 mm.
+    /// Chosen by two recognition networks on three photo sets, and by eye: deeper brows, eyes
+    /// and mouth rank the gems nearer their own person's other photos; deeper lines did too,
+    /// a little, but aged and hardened young faces, so they stay (BENCHMARKS.md, issue #37).
     fn default() -> Self {
         DetailParams {
-            brow_mm: 3.2,
-            iris_mm: 3.2,
-            mouth_mm: 2.0,
+            brow_mm: 4.8,
+            iris_mm: 4.8,
+            mouth_mm: 3.0,
             line_mm: 1.6,
         }
     }
