@@ -7,9 +7,10 @@
 //! video. The reader now starts when a video is opened, and only then. A crash in a decoder
 //! ends the video with an error instead of the kiosk.
 //!
-//! The helper answers requests: each byte `n` on its standard input asks for the reader's next
-//! `next_frame`, whose result it writes to its standard output (little-endian), a tag byte and
-//! its body:
+//! The helper first says who it is: the eight bytes `GLYPTVID` and the stream's version (u32),
+//! so that a helper from another build is refused by name instead of misread. Then it answers
+//! requests: each byte `n` on its standard input asks for the reader's next `next_frame`,
+//! whose result it writes to its standard output (little-endian), a tag byte and its body:
 //!
 //! | tag | body | meaning |
 //! |---|---|---|
@@ -45,6 +46,11 @@ pub fn helper_path() -> Result<PathBuf, String> {
     let exe = std::env::current_exe().map_err(|e| format!("where this program is: {e}"))?;
     Ok(exe.with_file_name(HELPER_NAME))
 }
+
+/// The helper's first eight bytes, then [`VERSION`].
+const GREETING: &[u8; 8] = b"GLYPTVID";
+/// The stream's version: bumped whenever a message changes.
+const VERSION: u32 = 1;
 
 /// Error kinds on the wire.
 const UNAVAILABLE: u8 = 0;
@@ -128,12 +134,35 @@ impl VideoProcess {
             let _ = child.wait();
             return Err(self.fatal("the video reader has no pipes".into()));
         };
-        self.child = Some(Helper {
+        let mut helper = Helper {
             child,
             requests,
             out: BufReader::with_capacity(1 << 20, out),
             asked: false,
-        });
+        };
+        let mut hello = [0u8; 12];
+        let greeted = helper.out.read_exact(&mut hello);
+        self.child = Some(helper);
+        if let Err(e) = greeted {
+            return Err(self.broken(e));
+        }
+        let version = u32::from_le_bytes([hello[8], hello[9], hello[10], hello[11]]);
+        if &hello[..8] != GREETING || version != VERSION {
+            if let Some(mut h) = self.child.take() {
+                let _ = h.child.kill();
+                let _ = h.child.wait();
+            }
+            self.done = true;
+            return Err(self.fatal(format!(
+                "{} is not glyptic's video reader of this build (its stream version {}, this glyptic reads {VERSION}): install glyptic and glyptic-video from the same build",
+                self.helper.display(),
+                if &hello[..8] == GREETING {
+                    version.to_string()
+                } else {
+                    "unknown".into()
+                }
+            )));
+        }
         Ok(())
     }
 
@@ -351,6 +380,9 @@ pub fn serve(
     requests: &mut impl Read,
     out: &mut impl Write,
 ) -> std::io::Result<()> {
+    out.write_all(GREETING)?;
+    out.write_all(&VERSION.to_le_bytes())?;
+    out.flush()?;
     let mut rate_sent = None;
     let mut request = [0u8; 1];
     loop {
@@ -417,13 +449,20 @@ mod tests {
             .collect()
     }
 
+    /// The stream after its greeting, which must be there.
+    fn greeted(bytes: &[u8]) -> &[u8] {
+        assert_eq!(&bytes[..8], GREETING);
+        assert_eq!(bytes[8..12], VERSION.to_le_bytes());
+        &bytes[12..]
+    }
+
     #[test]
     fn frames_errors_and_the_end_cross_the_stream_unchanged() {
         let mut bytes = Vec::new();
         let mut src = MemorySource::new("memory", frames(), 10.0);
         // More requests than results: it stops at the end.
         serve(&mut src, &mut [b'n'; 10].as_slice(), &mut bytes).unwrap();
-        let mut r = bytes.as_slice();
+        let mut r = greeted(&bytes);
         let mut got = Vec::new();
         loop {
             match read_message(&mut r).unwrap() {
@@ -459,7 +498,7 @@ mod tests {
     fn an_absent_source_is_looked_for_once_per_request_not_queued() {
         let mut bytes = Vec::new();
         serve(&mut Gone, &mut [b'n'; 3].as_slice(), &mut bytes).unwrap();
-        let mut r = bytes.as_slice();
+        let mut r = greeted(&bytes);
         for _ in 0..3 {
             assert!(matches!(
                 read_message(&mut r),

@@ -189,6 +189,21 @@ mod video {
     }
 
     #[test]
+    fn another_program_as_the_reader_is_refused_by_name() {
+        // /bin/echo says its arguments: more than a greeting's twelve bytes, and not one.
+        let clip = "a-video-file-with-a-long-name.avi";
+        let mut src = VideoProcess::with_helper("/bin/echo", clip, false);
+        let e = src.next_frame().unwrap_err();
+        assert!(matches!(e, SourceError::Fatal { .. }), "{e}");
+        assert!(
+            e.to_string()
+                .contains("/bin/echo is not glyptic's video reader"),
+            "{e}"
+        );
+        assert!(matches!(src.next_frame(), Ok(None)), "ended, not retried");
+    }
+
+    #[test]
     fn glyptic_itself_links_no_video_reader() {
         // The point of the helper: `glyptic` starts without OpenCV's video reader and the
         // couple of hundred libraries behind it (GStreamer, GDAL, codecs).
