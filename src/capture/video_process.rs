@@ -148,11 +148,7 @@ impl VideoProcess {
         }
         let version = u32::from_le_bytes([hello[8], hello[9], hello[10], hello[11]]);
         if &hello[..8] != GREETING || version != VERSION {
-            if let Some(mut h) = self.child.take() {
-                let _ = h.child.kill();
-                let _ = h.child.wait();
-            }
-            self.done = true;
+            self.stop();
             return Err(self.fatal(format!(
                 "{} is not glyptic's video reader of this build (its stream version {}, this glyptic reads {VERSION}): install glyptic and glyptic-video from the same build",
                 self.helper.display(),
@@ -166,14 +162,23 @@ impl VideoProcess {
         Ok(())
     }
 
-    /// The helper ended without saying so: its exit status says why.
-    fn broken(&mut self, what: std::io::Error) -> SourceError {
-        let status = self.child.take().map(|mut h| {
+    /// Ends the helper (killed if it still runs) and the video; its exit status, if any.
+    fn stop(&mut self) -> Option<std::io::Result<std::process::ExitStatus>> {
+        self.done = true;
+        self.child.take().map(|mut h| {
             let _ = h.child.kill();
             h.child.wait()
-        });
-        self.done = true;
+        })
+    }
+
+    /// The helper's stream ended or went wrong without its saying so: a garbled stream is
+    /// named as such; one that stopped, by the helper's exit status.
+    fn broken(&mut self, what: std::io::Error) -> SourceError {
+        let status = self.stop();
         let why = match status {
+            _ if what.kind() == std::io::ErrorKind::InvalidData => {
+                format!("the video reader's stream is garbled: {what}")
+            }
             Some(Ok(s)) => format!("the video reader stopped ({s})"),
             _ => format!("the video reader's output broke off: {what}"),
         };
@@ -350,25 +355,17 @@ impl VideoProcess {
     /// The helper has said its last: wait for it (it exits by itself).
     fn finish(&mut self) {
         self.done = true;
-        if let Some(h) = self.child.take() {
-            // Its standard input closes with `h.requests`: it exits if it has not.
-            let Helper {
-                mut child,
-                requests,
-                ..
-            } = h;
-            drop(requests);
-            let _ = child.wait();
+        if let Some(mut h) = self.child.take() {
+            // Its standard input closed, it exits if it has not.
+            drop(h.requests);
+            let _ = h.child.wait();
         }
     }
 }
 
 impl Drop for VideoProcess {
     fn drop(&mut self) {
-        if let Some(mut h) = self.child.take() {
-            let _ = h.child.kill();
-            let _ = h.child.wait();
-        }
+        self.stop();
     }
 }
 

@@ -112,12 +112,17 @@ impl LandmarkPipeline {
     pub fn load(models: &ModelPaths) -> Result<Self, PipelineError> {
         let (predictor, detector) =
             crate::stage::alongside(|| load_predictor(models), || load_detector(models));
-        Ok(LandmarkPipeline {
-            detector: detector?,
-            predictor: Arc::new(predictor?),
+        Ok(Self::with(detector?, predictor?))
+    }
+
+    /// The two loaded models with the default options.
+    fn with(detector: FaceDetector, predictor: ShapePredictor) -> Self {
+        LandmarkPipeline {
+            detector,
+            predictor: Arc::new(predictor),
             detect_options: DetectOptions::default(),
             mirror_average: true,
-        })
+        }
     }
 
     /// Every face the detector finds, subject first (largest or most central, as
@@ -221,12 +226,7 @@ impl FacePipeline {
             || load_detector(models),
         );
         Ok(FacePipeline {
-            faces: LandmarkPipeline {
-                detector: detector?,
-                predictor: Arc::new(predictor?),
-                detect_options: DetectOptions::default(),
-                mirror_average: true,
-            },
+            faces: LandmarkPipeline::with(detector?, predictor?),
             model: Arc::new(model?),
             fit_options: FitOptions::default(),
             caricature: Caricature::default(),

@@ -340,7 +340,7 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
         .clamp(1, cores.min(files.len()));
 
     // The GPU comes up while the models load.
-    let renderer_thread = super::photo::spawn_renderer(Some(view.clone()));
+    let renderer_thread = super::photo::spawn_renderer(view.clone());
     let models = glyptic::assets::ModelPaths::locate();
     // One detector and segmentation session per worker, sharing the landmark and face models;
     // a missing segmentation model is reported once.

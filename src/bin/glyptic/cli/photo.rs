@@ -143,19 +143,17 @@ impl Drop for RendererStart {
 }
 
 /// Starts the GPU device and pipelines on another thread: they do not depend on the face, so
-/// they come up while the photo is decoded and fitted; with `params`, a warm-up frame of
-/// their stone and passes follows there ([`Renderer::warm_up`]: lavapipe compiles its shaders
-/// at their first draw), its failure left for the real frame to report.
-pub(super) fn spawn_renderer(params: Option<RenderParams>) -> RendererStart {
+/// they come up while the photo is decoded and fitted; a warm-up frame with `params`' stone
+/// and passes follows there ([`Renderer::warm_up`]: lavapipe compiles its shaders at their
+/// first draw), its failure left for the real frame to report.
+pub(super) fn spawn_renderer(params: RenderParams) -> RendererStart {
     RendererStart(Some(std::thread::spawn(move || {
         let t = Instant::now();
         Renderer::new_headless().map(|mut r| {
             // Images for files: each one what its input gives alone (batch's order and
             // repeats change nothing).
             r.set_noise_baking(false);
-            if let Some(p) = &params {
-                let _ = r.warm_up(p);
-            }
+            let _ = r.warm_up(&params);
             (r, t.elapsed().as_secs_f64() * 1e3)
         })
     })))
@@ -214,7 +212,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
         std::iter::once(args.output.as_path()).chain(args.make.outputs()),
     )?;
     output_kind(&args.output, &params)?;
-    let renderer_thread = spawn_renderer(Some(params.clone()));
+    let renderer_thread = spawn_renderer(params.clone());
     let (mesh, stages) = glyptic::stage::record(|| -> Result<_> {
         let (face, triangles) = match &args.face {
             Some(path) => timed(
@@ -349,7 +347,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
     let image_path = &args.image;
 
     // The GPU device and pipelines are independent of the face: start them now.
-    let renderer_thread = spawn_renderer(Some(params.clone()));
+    let renderer_thread = spawn_renderer(params.clone());
     let (made, stages) = glyptic::stage::record(|| -> Result<_> {
         // The photo decodes on a second thread while the models load here; a file that is
         // no photo is still said first, whatever the models did.
