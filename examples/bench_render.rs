@@ -265,6 +265,52 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     renderer.set_compute_passes(default_compute);
+    // The scene pass's two forms, frame by frame in turn at each size: drawn and shaded by
+    // the fragment stage into three multisampled targets, or a visibility image drawn and its
+    // pixels shaded in a compute pass. Where the device has the compute form (the primitive
+    // index); the defaults are restored after.
+    let default_scene = renderer.compute_scene();
+    if renderer.set_compute_scene(true) {
+        println!(
+            "\n# The scene pass: fragment form against compute form (21-tap SSS)\n\nThe same picture within the goldens' tolerance (`cameo` test). Scene ms from timestamp queries: in the compute form the visibility image's draw plus its shading (shading alone in brackets); lavapipe stamps a compute pass before its work is done, so compare the frames there.\n\n| size | material | MSAA | scene ms, fragment | scene ms, compute (shading) | frame ms, fragment | frame ms, compute |\n|---|---|---|---|---|---|---|"
+        );
+        for &(w, h) in &sizes {
+            for (material, antialias) in [
+                (Material::Marble, true),
+                (Material::Marble, false),
+                (Material::Agate, true),
+            ] {
+                let p = RenderParams {
+                    width: w,
+                    height: h,
+                    material,
+                    antialias,
+                    ..RenderParams::default()
+                };
+                let mut out = [[0.0; 5]; 2];
+                let mut shading = 0.0;
+                for (k, compute) in [false, true].into_iter().enumerate() {
+                    renderer.set_compute_scene(compute);
+                    out[k] = pass_medians(&mut renderer, &mesh, &p, frames)?;
+                    if compute {
+                        shading = renderer
+                            .last_pass_times()
+                            .and_then(|t| t.scene_shade_ms)
+                            .unwrap_or(0.0);
+                    }
+                }
+                println!(
+                    "| {w}x{h} | {material:?} | {} | {:.2} | {:.2} ({shading:.2}) | {:.1} | {:.1} |",
+                    if antialias { "4x" } else { "off" },
+                    out[0][0],
+                    out[1][0],
+                    out[0][4],
+                    out[1][4]
+                );
+            }
+        }
+    }
+    renderer.set_compute_scene(default_scene);
     // Antialiasing and size: 4x MSAA against one sample a pixel, and the kiosk's frames (the
     // still gem at 800x1000 with MSAA; while it moves, half the size per side without MSAA,
     // egui scaling the layer up). Frames per second from the frame's wall time.

@@ -46,6 +46,10 @@ struct Frame {
     // veil thickness (mm), top rgb + bands, veil tint rgb + grain, polish (Phong exponent,
     // highlight, reflection, scattering share).
     layers: array<vec4<f32>, 5>,
+    // The pass's compute form (`scene_shade.wgsl`): the inverse of `view_proj` (a pixel's
+    // view ray), and x the engraved band's first triangle, yz the images' size (pixels).
+    inv_view_proj: mat4x4<f32>,
+    shade: vec4<u32>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -304,6 +308,15 @@ const FILL_LIGHT: f32 = 0.2;
 
 @fragment
 fn fs_main(in: VsOut) -> FsOut {
+    // The screen derivatives, taken here in uniform control flow; the pipeline with the
+    // engraving draws the band's triangles alone.
+    return shade(in, dpdx(in.world), dpdy(in.world), true);
+}
+
+// The light leaving the surface point `in` (its varyings at a pixel's centre), whose position
+// changes by `world_dx`, `world_dy` (mm) to the next pixel right and down; `band`: whether it
+// lies on the engraved band's triangles.
+fn shade(in: VsOut, world_dx: vec3<f32>, world_dy: vec3<f32>, band: bool) -> FsOut {
     // With MSAA a pixel on a triangle's edge is shaded once, at its centre, which may lie
     // outside the triangle: the varyings are extrapolated there, past the vertices' range.
     // A negative occlusion or key light made the light negative, and the pixel black once
@@ -317,8 +330,6 @@ fn fs_main(in: VsOut) -> FsOut {
     let v = normalize(frame.eye.xyz - in.world);
     // The mesh normal, or the facet normal where the data gives none; flipped towards the
     // viewer, so the lighting does not depend on the triangles' winding.
-    let world_dx = dpdx(in.world);
-    let world_dy = dpdy(in.world);
     let facet = cross(world_dx, world_dy);
     var n = in.normal;
     if dot(n, n) < 1e-12 {
@@ -330,8 +341,8 @@ fn fs_main(in: VsOut) -> FsOut {
         n = -n;
         flipped = true;
     }
-    // The planar texture coordinates and their screen derivatives (taken here, in uniform
-    // control flow, for the mip level of the engraving's maps).
+    // The planar texture coordinates and their screen derivatives (for the mip level of the
+    // engraving's maps).
     let uv_scale = vec2<f32>(0.5, -0.5) / frame.planar.zw;
     let uv = (in.world.xy - frame.planar.xy) * uv_scale + vec2<f32>(0.5);
     let uv_dx = world_dx.xy * uv_scale;
@@ -343,7 +354,7 @@ fn fs_main(in: VsOut) -> FsOut {
     var occlusion = 1.0;
     let ground_w = 1.0 - smoothstep(0.02, 0.08, relief);
     let inset = inset_mm(in.world);
-    if ENGRAVING && frame.engraving.x > 0.5 && gold < 0.5 && ground_w > 0.0 && !flipped
+    if ENGRAVING && band && frame.engraving.x > 0.5 && gold < 0.5 && ground_w > 0.0 && !flipped
         && abs(in.tangent.w) > 0.5 && inset > frame.engraving.z && inset < frame.engraving.w {
         let t_raw = in.tangent.xyz - n * dot(n, in.tangent.xyz);
         if dot(t_raw, t_raw) > 1e-8 {

@@ -15,7 +15,8 @@ use crate::pass::common::{Draw, LampAt};
 use crate::pass::composite::CompositeTargets;
 use crate::pass::maps::SurfaceMaps;
 use crate::pass::output::{OUTPUT_FORMAT, OutputImage};
-use crate::pass::scene::{Detail, SceneTargets, SceneVariant};
+use crate::pass::scene::{Detail, SceneInput, SceneTargets, SceneVariant};
+use crate::pass::scene_compute;
 use crate::pass::sss::SssTargets;
 use crate::surface;
 use crate::timing::{PassTimer, Stamps, TimedPass};
@@ -39,6 +40,11 @@ pub(crate) struct Gpu<'a> {
     pub timer: Option<&'a PassTimer>,
     /// Whether the passes with a compute form run as compute passes.
     pub compute_passes: bool,
+    /// Whether the scene pass runs in its compute form (where the device has it and the mesh
+    /// suits it).
+    pub compute_scene: bool,
+    /// The device's largest storage-buffer binding (bytes): the compute form reads the mesh so.
+    pub max_storage_binding: u64,
     /// Whether the slowly varying noise may be baked once a mesh is drawn a second time.
     pub noise_baking: bool,
 }
@@ -73,8 +79,9 @@ impl Targets {
         (width, height): (u32, u32),
         scene: [u32; 2],
         samples: u32,
+        compute_scene: bool,
     ) -> Self {
-        let scene = SceneTargets::new(device, scene, samples);
+        let scene = SceneTargets::new(device, scene, samples, compute_scene);
         let sss = SssTargets::new(device, &passes.sss, &scene);
         let output = OutputImage::new(device, width, height, passes.composite.has_compute());
         let composite =
@@ -211,14 +218,15 @@ impl Frames {
                 .encode(encoder, faces, buffers, detail.draw, &mut stamps);
         }
         let surface = &self.surface.bind_group;
-        passes.scene.encode(
-            encoder,
-            &targets.scene,
+        let input = SceneInput {
+            targets: &targets.scene,
             buffers,
             surface,
-            &detail,
-            &mut stamps,
-        )?;
+            detail: &detail,
+        };
+        passes
+            .scene
+            .encode(gpu.device, encoder, &input, &mut stamps)?;
         if sss {
             passes
                 .sss
@@ -310,6 +318,12 @@ impl Frames {
                 .composite
                 .ensure_compute(device, params.transparent);
         }
+        let vb = std::mem::size_of_val(mesh.vertices.as_slice()) as u64;
+        let ib = std::mem::size_of_val(mesh.indices.as_slice()) as u64;
+        let compute_scene = gpu.compute_scene
+            && self.passes.scene.compute.is_some()
+            && (mesh.indices.len() / 3) as u64 <= scene_compute::MAX_TRIANGLES
+            && vb.max(ib) <= gpu.max_storage_binding;
         let scene = Crop::size_for(mesh_box, w, h);
         // The scene images are kept while the mesh's box fits them and they are no more than
         // a step larger than it needs (a turning gem's box changes size every frame).
@@ -324,10 +338,9 @@ impl Frames {
             .as_ref()
             .is_none_or(|t| t.width != w || t.height != h);
         if resized
-            || self
-                .targets
-                .as_ref()
-                .is_some_and(|t| t.scene.samples != samples || !fits(t))
+            || self.targets.as_ref().is_some_and(|t| {
+                t.scene.samples != samples || t.scene.visible.is_some() != compute_scene || !fits(t)
+            })
         {
             // Drop the old targets first so both sets are never alive at once; the chain's
             // images have the frame's size and outlive a new crop or sample count.
@@ -335,13 +348,26 @@ impl Frames {
             if resized {
                 self.chain = None;
             }
-            self.targets = Some(Targets::new(device, &self.passes, (w, h), scene, samples));
+            self.targets = Some(Targets::new(
+                device,
+                &self.passes,
+                (w, h),
+                scene,
+                samples,
+                compute_scene,
+            ));
         }
-        let vb = std::mem::size_of_val(mesh.vertices.as_slice()) as u64;
-        let ib = std::mem::size_of_val(mesh.indices.as_slice()) as u64;
         if self.mesh_buffers.as_ref().is_none_or(|b| !b.fits(vb, ib)) {
             self.mesh_buffers = None;
-            self.mesh_buffers = Some(MeshBuffers::new(device, vb, ib, gpu.max_buffer_size));
+            // Readable by the compute form wherever the device has it.
+            let storage = self.passes.scene.compute.is_some();
+            self.mesh_buffers = Some(MeshBuffers::new(
+                device,
+                vb,
+                ib,
+                gpu.max_buffer_size,
+                storage,
+            ));
         }
         self.passes.chain.prepare(
             device,
@@ -416,9 +442,21 @@ impl Frames {
             engraving: true,
             ..plain
         };
-        self.passes.scene.ensure(device, plain);
-        if band_mm.is_some() {
-            self.passes.scene.ensure(device, engraved);
+        let compute_form = self
+            .targets
+            .as_ref()
+            .is_some_and(|t| t.scene.visible.is_some());
+        match &mut self.passes.scene.compute {
+            Some(compute) if compute_form => {
+                let variant = if band_mm.is_some() { engraved } else { plain };
+                compute.ensure(device, variant);
+            }
+            _ => {
+                self.passes.scene.ensure(device, plain);
+                if band_mm.is_some() {
+                    self.passes.scene.ensure(device, engraved);
+                }
+            }
         }
         let Some(buffers) = &self.mesh_buffers else {
             return Err(RenderError::Gpu("frame resources missing".into()));

@@ -31,7 +31,12 @@
 //!    subsurface-scattering mask, 4x MSAA where the device allows and the frame asks for it
 //!    ([`RenderParams::antialias`]), resolved. Its images (and the SSS pass's) cover only the
 //!    crop of the frame that holds the mesh's projection: the backdrop round the gem is never
-//!    drawn or blurred;
+//!    drawn or blurred. On a GPU whose device has the primitive index the pass runs in its
+//!    **compute form** ([`Renderer::set_compute_scene`]): the mesh drawn into a visibility
+//!    image (the triangle each MSAA sample sees), then each pixel's triangles shaded once at
+//!    its centre in a compute pass and weighted by their samples, the same images within the
+//!    goldens' tolerance; four times faster on an H200 (BENCHMARKS.md), no faster on lavapipe,
+//!    which keeps the fragment form;
 //! 2. **subsurface scattering** (when [`RenderParams::sss`] is set): the resolved diffuse alone is
 //!    blurred horizontally, then vertically, with the kernel of [`crate::sss`] (the 2021 system
 //!    found that blurring the highlights too made the stone look hazy);

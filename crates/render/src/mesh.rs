@@ -135,13 +135,25 @@ fn grown(needed: u64, max: u64) -> u64 {
 }
 
 impl MeshBuffers {
-    /// Buffers holding at least the given byte counts (both no larger than `max`).
-    pub fn new(device: &wgpu::Device, vertex_bytes: u64, index_bytes: u64, max: u64) -> Self {
+    /// Buffers holding at least the given byte counts (both no larger than `max`); `storage`:
+    /// also read as storage buffers (the scene pass's compute form).
+    pub fn new(
+        device: &wgpu::Device,
+        vertex_bytes: u64,
+        index_bytes: u64,
+        max: u64,
+        storage: bool,
+    ) -> Self {
+        let also = if storage {
+            wgpu::BufferUsages::STORAGE
+        } else {
+            wgpu::BufferUsages::empty()
+        };
         let buffer = |label, size, usage| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
                 size: grown(size, max),
-                usage: usage | wgpu::BufferUsages::COPY_DST,
+                usage: usage | also | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             })
         };

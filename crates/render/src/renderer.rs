@@ -32,6 +32,8 @@ pub struct Renderer {
     /// Whether the full-screen passes that have a compute form (the SSS blur; the composite
     /// into an image) run as compute passes, where the device has them.
     compute_passes: bool,
+    /// Whether the scene pass runs in its compute form ([`Renderer::set_compute_scene`]).
+    compute_scene: bool,
     /// Whether the slowly varying noise may be baked once a mesh is drawn a second time
     /// ([`Renderer::set_noise_baking`]).
     noise_baking: bool,
@@ -100,8 +102,10 @@ impl Renderer {
         let info = adapter.get_info();
         // Ask for what the adapter has: bigger images and meshes than WebGPU's defaults.
         let limits = adapter.limits();
-        // Timestamps time each pass for benchmarks, where the device offers them (lavapipe does).
-        let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
+        // Timestamps time each pass for benchmarks, where the device offers them (lavapipe
+        // does); the primitive index lets the scene pass run in its compute form.
+        let features = adapter.features()
+            & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::PRIMITIVE_INDEX);
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("glyptic renderer"),
             required_features: features,
@@ -136,7 +140,8 @@ impl Renderer {
                 .allowed_usages
                 .contains(wgpu::TextureUsages::STORAGE_BINDING);
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let passes = Passes::new(&device, samples, compute);
+        let on_gpu = info.device_type != wgpu::DeviceType::Cpu;
+        let passes = Passes::new(&device, samples, compute, on_gpu);
         init.pipelines_ms = ms(t);
         let t = std::time::Instant::now();
         let frames = Frames::new(&device, &queue, passes);
@@ -146,7 +151,8 @@ impl Renderer {
         let timer = features
             .contains(wgpu::Features::TIMESTAMP_QUERY)
             .then(|| PassTimer::new(&device, &queue));
-        let compute_passes = compute && info.device_type != wgpu::DeviceType::Cpu;
+        let compute_passes = compute && on_gpu;
+        let compute_scene = compute_passes && frames.passes.scene.compute.is_some();
         init.rest_ms = ms(t);
         Ok(Self {
             adapter,
@@ -162,6 +168,7 @@ impl Renderer {
             // (BENCHMARKS.md) and stamps compute passes before their work is done, so its
             // pass times stay truthful with the fragment passes.
             compute_passes,
+            compute_scene,
             noise_baking: true,
             init,
         })
@@ -205,6 +212,21 @@ impl Renderer {
     pub fn set_compute_passes(&mut self, on: bool) -> bool {
         self.compute_passes = on && self.frames.passes.sss.has_compute();
         self.compute_passes
+    }
+
+    /// Whether the scene pass runs in its compute form (a visibility image drawn, its pixels
+    /// shaded in a compute pass: the default on a GPU whose device has the primitive index) or
+    /// as a fragment pass (the default on a CPU rasteriser). The images agree within the
+    /// goldens' tolerance (the screen derivatives are exact in the compute form, a quad's
+    /// differences in the fragment one). Returns what is now used.
+    pub fn set_compute_scene(&mut self, on: bool) -> bool {
+        self.compute_scene = on && self.frames.passes.scene.compute.is_some();
+        self.compute_scene
+    }
+
+    /// Whether the scene pass runs in its compute form.
+    pub fn compute_scene(&self) -> bool {
+        self.compute_scene
     }
 
     /// Whether the slowly varying noise is baked into a volume from a mesh's second frame
@@ -417,6 +439,8 @@ impl Renderer {
             max_buffer_size: self.limits.max_buffer_size,
             timer: self.timer.as_ref().filter(|_| image),
             compute_passes: self.compute_passes,
+            compute_scene: self.compute_scene,
+            max_storage_binding: self.limits.max_storage_buffer_binding_size,
             noise_baking: self.noise_baking,
         };
         (gpu, &mut self.frames)

@@ -29,6 +29,20 @@ const SCENE_FILES: &str = concat!(
 pub static SCENE: std::sync::LazyLock<String> =
     std::sync::LazyLock::new(|| format!("{}\n{SCENE_FILES}", stones()));
 
+/// The scene pass's compute form, its visibility image (`vs_vis`, `fs_vis`; needs the
+/// device's `PRIMITIVE_INDEX`).
+pub const SCENE_VIS: &str = include_str!("../shaders/scene_vis.wgsl");
+
+/// The scene pass's compute form, its shading (`cs_shade_msaa`, `cs_shade`): the scene
+/// module with `scene_shade.wgsl` after it.
+pub static SCENE_SHADE: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+    format!(
+        "{}\n{}",
+        SCENE.as_str(),
+        include_str!("../shaders/scene_shade.wgsl")
+    )
+});
+
 /// Marble's and gold's constants for the scene shader (`stones.wgsl` in a `// requires:`
 /// line), from [`glyptic_core::stone`], the table the GLB export reads too. (The layered
 /// stones reach the shader as uniforms from the same table.)
@@ -106,7 +120,7 @@ pub const CHROMATIC: &str = style_module!("chromatic.wgsl");
 pub const PAINTERLY: &str = style_module!("painterly.wgsl");
 
 /// Every module the renderer compiles, by name, exactly as it hands them to wgpu.
-pub fn modules() -> [(&'static str, &'static str); 14] {
+pub fn modules() -> [(&'static str, &'static str); 16] {
     [
         ("shadow", SHADOW),
         ("noise", NOISE),
@@ -114,6 +128,8 @@ pub fn modules() -> [(&'static str, &'static str); 14] {
         ("noise_volume", NOISE_VOLUME),
         ("fullscreen", FULLSCREEN),
         ("scene", SCENE.as_str()),
+        ("scene_vis", SCENE_VIS),
+        ("scene_shade", SCENE_SHADE.as_str()),
         ("composite", COMPOSITE),
         ("sss", SSS),
         ("edge_aa", EDGE_AA),
@@ -137,9 +153,11 @@ mod tests {
     fn validate(name: &str, source: &str) -> Result<(), String> {
         let module = naga::front::wgsl::parse_str(source)
             .map_err(|e| format!("{name}: {}", e.emit_to_string(source)))?;
+        // The visibility image's fragment stage reads the primitive index (a device feature
+        // the renderer asks for where the adapter has it).
         naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::default(),
+            naga::valid::Capabilities::default() | naga::valid::Capabilities::PRIMITIVE_INDEX,
         )
         .validate(&module)
         .map_err(|e| format!("{name}: {}", e.emit_to_string(source)))?;

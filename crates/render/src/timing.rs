@@ -8,7 +8,10 @@ use crate::styles::Style;
 /// GPU time of each pass of the last frame, from timestamp queries (where the device has them).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PassTimes {
+    /// The scene pass; in its compute form, the visibility image's draw and the shading.
     pub scene_ms: f64,
+    /// Of `scene_ms`, the compute form's shading; `None` in the fragment form.
+    pub scene_shade_ms: Option<f64>,
     /// Both blur directions; `None` with SSS off.
     pub sss_ms: Option<f64>,
     pub composite_ms: f64,
@@ -54,6 +57,7 @@ impl std::fmt::Display for InitTimes {
 pub(crate) enum TimedPass {
     Shadow,
     Scene,
+    SceneShade,
     Sss,
     Composite,
     Style(Style),
@@ -69,9 +73,9 @@ pub(crate) struct PassTimer {
     period_ns: f64,
 }
 
-/// The most passes a frame times: six shadow faces, scene, two SSS, composite and the GPU
-/// styles.
-const TIMED_PASSES: u32 = 11 + MAX_GPU_STYLES as u32;
+/// The most passes a frame times: six shadow faces, scene (two in its compute form), two SSS,
+/// composite, the edge antialiasing and the GPU styles.
+const TIMED_PASSES: u32 = 12 + MAX_GPU_STYLES as u32;
 
 impl PassTimer {
     pub(crate) fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
@@ -172,6 +176,10 @@ impl PassTimer {
             match *pass {
                 TimedPass::Shadow => *times.shadow_ms.get_or_insert(0.0) += ms,
                 TimedPass::Scene => times.scene_ms += ms,
+                TimedPass::SceneShade => {
+                    times.scene_ms += ms;
+                    *times.scene_shade_ms.get_or_insert(0.0) += ms;
+                }
                 TimedPass::Sss => *times.sss_ms.get_or_insert(0.0) += ms,
                 TimedPass::Composite => times.composite_ms += ms,
                 TimedPass::Style(style) => times.styles_ms.push((style, ms)),

@@ -5,8 +5,8 @@
 //! targets.
 //!
 //! The order of a frame ([`crate::frame`] runs them): [`noise`] (a mesh's second frame, once),
-//! [`shadow`] (with a lamp), [`scene`], [`sss`] (with subsurface scattering), [`composite`],
-//! then [`chain`] (the GPU gallery styles and the edge antialiasing of one-sample frames).
+//! [`shadow`] (with a lamp), [`scene`] (or its compute form, [`scene_compute`]), [`sss`]
+//! (with subsurface scattering), [`composite`], then [`chain`] (the GPU gallery styles and the edge antialiasing of one-sample frames).
 //! [`maps`] holds the scene pass's second bind group (the engraving's maps, the shadow cube,
 //! the baked noise), [`output`] the frame's image and its readback, [`common`] what they all
 //! share.
@@ -18,6 +18,7 @@ pub(crate) mod maps;
 pub(crate) mod noise;
 pub(crate) mod output;
 pub(crate) mod scene;
+pub(crate) mod scene_compute;
 pub(crate) mod shadow;
 pub(crate) mod sss;
 
@@ -33,10 +34,12 @@ pub(crate) struct Passes {
 
 impl Passes {
     /// `samples`: the scene's MSAA samples of an antialiased frame; `compute`: whether the
-    /// passes with a compute form get one (the device has compute shaders and storage images).
-    pub fn new(device: &wgpu::Device, samples: u32, compute: bool) -> Self {
+    /// passes with a compute form get one (the device has compute shaders and storage images);
+    /// `gpu`: the device is not a CPU rasteriser (where the compute forms are the default).
+    pub fn new(device: &wgpu::Device, samples: u32, compute: bool, gpu: bool) -> Self {
+        let scene_compute = scene_compute::available(device, compute);
         Self {
-            scene: scene::ScenePass::new(device, samples),
+            scene: scene::ScenePass::new(device, samples, scene_compute, scene_compute && gpu),
             shadow: shadow::ShadowPass::new(device),
             noise: noise::NoisePass::default(),
             sss: sss::SssPass::new(device, compute),

@@ -21,6 +21,7 @@ use bytemuck::{Pod, Zeroable};
 use wgpu::util::DeviceExt;
 
 use super::common::{self, Built, Draw, LampAt, texture_entry, uniform_entry};
+use super::scene_compute::{self, SceneCompute};
 use crate::camera::{Camera, Crop};
 use crate::mesh::MeshBuffers;
 use crate::params::{RenderError, RenderParams};
@@ -79,6 +80,10 @@ pub(crate) struct FrameUniform {
     pub volume_texel: [f32; 4],
     /// A layered stone's colours and polish ([`glyptic_core::stone::Layers::uniforms`]).
     pub layers: [[f32; 4]; 5],
+    /// The compute form's view rays: the inverse of `view_proj`.
+    pub inv_view_proj: [[f32; 4]; 4],
+    /// The compute form: x the engraved band's first triangle, y-z the images' size (pixels).
+    pub shade: [u32; 4],
 }
 
 /// Which surface effects a scene pipeline has compiled in (the shader's `ENGRAVING` and
@@ -106,12 +111,25 @@ pub(crate) struct Detail {
     pub draw: Draw,
 }
 
+/// What a frame's scene pass draws into and with: its images, the mesh's buffers, the surface
+/// maps' bind group (group 1) and the frame's decisions.
+#[derive(Clone, Copy)]
+pub(crate) struct SceneInput<'a> {
+    pub targets: &'a SceneTargets,
+    pub buffers: &'a MeshBuffers,
+    pub surface: &'a wgpu::BindGroup,
+    pub detail: &'a Detail,
+}
+
 /// The scene pass's pipelines by variant (the plain one built at start, the others on first
-/// use), its uniform, and the layout and samplers of its surface maps.
+/// use), its uniform, and the layout and samplers of its surface maps; its compute form where
+/// the device has one.
 pub(crate) struct ScenePass {
     /// MSAA samples of an antialiased frame (4, or 1 where the device cannot resolve them).
     pub samples: u32,
     variants: Built<SceneVariant, wgpu::RenderPipeline>,
+    /// The visibility image and its shading in a compute pass ([`super::scene_compute`]).
+    pub compute: Option<SceneCompute>,
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
     uniform: wgpu::Buffer,
@@ -125,7 +143,22 @@ pub(crate) struct ScenePass {
 }
 
 impl ScenePass {
-    pub fn new(device: &wgpu::Device, samples: u32) -> Self {
+    /// `compute`: whether to build the pass's compute form (the device has compute shaders,
+    /// storage images and the primitive index); `first_compute`: which form's plain pipeline to build
+    /// now (the one a first frame will use: the compute form on a GPU that has it).
+    pub fn new(device: &wgpu::Device, samples: u32, compute: bool, first_compute: bool) -> Self {
+        // The compute form's shading reads the uniform and the surface maps too.
+        let stages = |s: wgpu::ShaderStages| {
+            if compute {
+                s | wgpu::ShaderStages::COMPUTE
+            } else {
+                s
+            }
+        };
+        let seen_by = |e: wgpu::BindGroupLayoutEntry| wgpu::BindGroupLayoutEntry {
+            visibility: stages(e.visibility),
+            ..e
+        };
         let module = common::module(device, "glyptic scene", shaders::SCENE.as_str());
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("glyptic frame uniform"),
@@ -135,7 +168,10 @@ impl ScenePass {
         let scene_layout = common::layout(
             device,
             "glyptic scene layout",
-            &[uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+            &[uniform_entry(
+                0,
+                stages(wgpu::ShaderStages::VERTEX_FRAGMENT),
+            )],
         );
         let bind_group = common::bind_group(
             device,
@@ -167,7 +203,8 @@ impl ScenePass {
                     wgpu::TextureSampleType::Float { filterable: true },
                     wgpu::TextureViewDimension::D3,
                 ),
-            ],
+            ]
+            .map(seen_by),
         );
         let linear_mipmap = common::linear_clamp(device, "glyptic linear mipmap", true);
         let shadow_sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -182,9 +219,11 @@ impl ScenePass {
             bind_group_layouts: &[Some(&scene_layout), Some(&surface_layout)],
             immediate_size: 0,
         });
+        let compute = compute.then(|| SceneCompute::new(device, &scene_layout, &surface_layout));
         let mut pass = Self {
             samples,
             variants: Built::default(),
+            compute,
             module,
             pipeline_layout,
             uniform,
@@ -193,15 +232,16 @@ impl ScenePass {
             linear_mipmap,
             shadow_sampler,
         };
-        pass.ensure(
-            device,
-            SceneVariant {
-                engraving: false,
-                lamp: false,
-                samples,
-                baked_noise: false,
-            },
-        );
+        let plain = SceneVariant {
+            engraving: false,
+            lamp: false,
+            samples,
+            baked_noise: false,
+        };
+        match &mut pass.compute {
+            Some(form) if first_compute => form.ensure(device, plain),
+            _ => pass.ensure(device, plain),
+        }
         pass
     }
 
@@ -294,6 +334,10 @@ impl ScenePass {
                 [v.dims[0], v.dims[1], v.dims[2], 1].map(|d| 1.0 / d as f32)
             }),
             layers: layers.map_or([[0.0; 4]; 5], |l| l.uniforms()),
+            inv_view_proj: (crop.clip_matrix(w, h) * cam.view_proj)
+                .inverse()
+                .to_cols_array_2d(),
+            shade: [detail.draw.band_start / 3, crop.width, crop.height, 0],
         };
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&frame));
     }
@@ -302,13 +346,23 @@ impl ScenePass {
     /// engraved) with `detail.engraved`; `surface` is group 1.
     pub fn encode(
         &self,
+        device: &wgpu::Device,
         encoder: &mut wgpu::CommandEncoder,
-        targets: &SceneTargets,
-        buffers: &MeshBuffers,
-        surface: &wgpu::BindGroup,
-        detail: &Detail,
+        input: &SceneInput<'_>,
         stamps: &mut Stamps<'_>,
     ) -> Result<(), RenderError> {
+        let SceneInput {
+            targets,
+            buffers,
+            surface,
+            detail,
+        } = *input;
+        if targets.visible.is_some() {
+            let compute = self.compute.as_ref().ok_or_else(|| {
+                RenderError::Gpu("scene images of the compute form without the form".into())
+            })?;
+            return compute.encode(device, encoder, input, &self.bind_group, stamps);
+        }
         let plain = self.pipeline(detail.plain)?;
         let engraved = match detail.band_mm {
             Some(_) => Some(self.pipeline(detail.engraved)?),
@@ -514,23 +568,49 @@ pub(crate) struct SceneTargets {
     pub specular: ColorTarget,
     pub depth_mask: ColorTarget,
     pub depth: wgpu::TextureView,
+    /// The compute form's visibility image (`samples` a pixel); `None` in the fragment form.
+    pub visible: Option<wgpu::TextureView>,
 }
 
 impl SceneTargets {
-    /// Sizes must have been checked against the device limits by the caller.
-    pub fn new(device: &wgpu::Device, size: [u32; 2], samples: u32) -> Self {
+    /// Sizes must have been checked against the device limits by the caller. `compute`: the
+    /// pass's compute form (a visibility image drawn, the three images written as storage).
+    pub fn new(device: &wgpu::Device, size: [u32; 2], samples: u32, compute: bool) -> Self {
         let extent = wgpu::Extent3d {
             width: size[0],
             height: size[1],
             depth_or_array_layers: 1,
         };
-        let target = |label, format| ColorTarget::new(device, label, format, extent, samples);
+        let target = |label, format| {
+            if compute {
+                ColorTarget {
+                    view: common::pass_image(device, label, format, extent, true),
+                    msaa: None,
+                }
+            } else {
+                ColorTarget::new(device, label, format, extent, samples)
+            }
+        };
+        let depth_mask_format = if compute {
+            scene_compute::DEPTH_MASK_FORMAT
+        } else {
+            DEPTH_MASK_FORMAT
+        };
         Self {
             size,
             samples,
             diffuse: target("glyptic diffuse", DIFFUSE_FORMAT),
             specular: target("glyptic specular", SPECULAR_FORMAT),
-            depth_mask: target("glyptic depth+mask", DEPTH_MASK_FORMAT),
+            depth_mask: target("glyptic depth+mask", depth_mask_format),
+            visible: compute.then(|| {
+                common::image(
+                    device,
+                    "glyptic visibility",
+                    scene_compute::VISIBLE_FORMAT,
+                    extent,
+                    (samples, DRAWN_INTO | wgpu::TextureUsages::TEXTURE_BINDING),
+                )
+            }),
             depth: common::image(
                 device,
                 "glyptic z-buffer",

@@ -12,7 +12,7 @@ use glyptic_core::gem::{self, CameoBuilder, CameoParams};
 use glyptic_core::shapemodel::SurreyModel;
 use glyptic_render::{Material, Mesh, Region, RenderParams};
 
-use crate::golden::{GOLDEN_MEAN, check_golden, flip_mean};
+use crate::golden::{GOLDEN_MEAN, GOLDEN_P99, check_golden, flip_mean};
 
 /// A backdrop no stone or gold colour comes near: hue magenta.
 const BACKDROP: [f32; 3] = [0.9, 0.0, 0.9];
@@ -302,6 +302,69 @@ fn cameo_has_no_holes_and_matches_its_golden_images() {
         );
     }
     renderer.set_compute_passes(default_compute);
+    // The scene pass in its compute form (a visibility image, its pixels shaded in a compute
+    // pass) and as a fragment pass: the same picture within the goldens' tolerance, with MSAA
+    // and without, on a layered stone with its hair layer, with the engraving and the lamp.
+    let default_scene = renderer.compute_scene();
+    let scene_cases = [
+        ("marble, SSS, 4x MSAA", opaque.clone()),
+        (
+            "one sample a pixel",
+            RenderParams {
+                antialias: false,
+                ..opaque.clone()
+            },
+        ),
+        (
+            "agate with its hair layer",
+            RenderParams {
+                material: Material::Agate,
+                hair_layer: true,
+                ..opaque.clone()
+            },
+        ),
+        (
+            "engraving and lamp",
+            RenderParams {
+                width: 320,
+                height: 400,
+                engraving: Some(glyptic_render::surface::EngravingParams::default()),
+                lamp: Some(glyptic_render::Lamp::default()),
+                ..opaque.clone()
+            },
+        ),
+    ];
+    for (what, p) in &scene_cases {
+        if !renderer.set_compute_scene(true) {
+            println!("scene pass: no compute form on this device (it lacks the primitive index)");
+            break;
+        }
+        let compute = renderer.render(&mean, p).expect("compute scene render");
+        assert!(!renderer.set_compute_scene(false));
+        let fragment = renderer.render(&mean, p).expect("fragment scene render");
+        let (flip, p99) = flip_mean(&fragment, &compute);
+        let differing = compute
+            .as_raw()
+            .iter()
+            .zip(fragment.as_raw())
+            .filter(|(x, y)| x.abs_diff(**y) > 2)
+            .count();
+        println!(
+            "scene pass, compute vs fragment form, {what}: FLIP mean {flip:.5}, p99 {p99:.4}, \
+             {differing} channels off by more than 2 of 255"
+        );
+        let dead = glyptic_render::inspect::dead_pixels(&compute);
+        assert!(
+            dead.is_empty(),
+            "{what}: the compute form left dead pixels at {dead:?}"
+        );
+        assert!(
+            flip <= GOLDEN_MEAN && p99 <= GOLDEN_P99,
+            "{what}: the scene pass's compute form differs from its fragment form \
+             (FLIP mean {flip}, p99 {p99})"
+        );
+    }
+    renderer.set_compute_scene(default_scene);
     // The surface effects (engraved border, lamp with shadows) at twice the size: the border's
     // grooves are a fraction of a millimetre.
     let surface = RenderParams {
