@@ -55,6 +55,23 @@ const T_RANGE: (f32, f32) = (-3.4, 6.0);
 const CLOTHES_NOT_HAIR: f32 = 9.0;
 /// Canvas pixel, IOD.
 const RES: f32 = 0.04;
+/// How unlike the face's skin (squared Mahalanobis distance) a colour of the crown must be to
+/// seed the hair's model; in a black-and-white photo, where only brightness tells them apart,
+/// less (a grey or fair head otherwise read bald: on black-and-white copies of the labelled
+/// photos, 48 of 175 heads with hair were; BENCHMARKS.md, issue #38).
+const HAIR_SEED_D2: f32 = 14.0;
+const GREY_HAIR_SEED_D2: f32 = 6.0;
+
+/// Whether the photo's pixels on the canvas (`valid`) carry no colour: its chroma axes under
+/// half a grey level in 99 % of them.
+fn black_and_white(col: &[Colour], valid: &[bool]) -> bool {
+    let (mut seen, mut grey) = (0usize, 0usize);
+    for (c, _) in col.iter().zip(valid).filter(|(_, v)| **v) {
+        seen += 1;
+        grey += usize::from(c[1].abs() < 0.002 && c[2].abs() < 0.002);
+    }
+    seen > 0 && grey * 100 >= seen * 99
+}
 
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum PersonError {
@@ -470,6 +487,14 @@ pub fn analyse_shaded(
         border[i] = x < m || y < m || x > iw - 1.0 - m || y > ih - 1.0 - m;
     }
     let col: Vec<Colour> = rgb.iter().map(|p| colour(*p)).collect();
+    // A black-and-white photo (no chroma wherever the canvas sees it): only brightness tells
+    // grey, fair or white hair from lit skin, so hair is learnt from what is less unlike the
+    // skin there.
+    let seed_d2 = if black_and_white(&col, &valid) {
+        GREY_HAIR_SEED_D2
+    } else {
+        HAIR_SEED_D2
+    };
     // The segmentation's probability of the person per canvas pixel (NaN: not known).
     let person: Vec<f32> = (0..w * h)
         .map(|i| {
@@ -532,7 +557,7 @@ pub fn analyse_shaded(
     let enough = (crown_pixels / 12).max(30);
     // A person's pixel whose colour is not the face's skin.
     let person_not_skin = |i: usize| {
-        valid[i] && maybe_person(i) && skin0.as_ref().is_none_or(|g| g.d2(col[i]) > 14.0)
+        valid[i] && maybe_person(i) && skin0.as_ref().is_none_or(|g| g.d2(col[i]) > seed_d2)
     };
     let unlike_skin = |i: usize| person_not_skin(i) && crown_band(pos(i));
     // Hair is what is neither skin nor background there; when that leaves too little, hair

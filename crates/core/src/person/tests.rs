@@ -308,6 +308,40 @@ fn grey_hair_is_hair_and_a_beard_is_found_only_when_there() {
     );
 }
 
+/// `img` in black and white (the mean of its channels).
+fn black_and_white(img: &RgbImage) -> RgbImage {
+    RgbImage::from_fn(img.width(), img.height(), |x, y| {
+        let [r, g, b] = img.get_pixel(x, y).0;
+        let l = ((u16::from(r) + u16::from(g) + u16::from(b)) / 3) as u8;
+        image::Rgb([l, l, l])
+    })
+}
+
+/// In a black-and-white photo only brightness tells hair from skin: grey hair a little darker
+/// than the face (about four times the noise) is still read as a head of hair all round the
+/// skull, not a bald head, and a bald head stays bald.
+#[test]
+fn grey_hair_in_a_black_and_white_photo_is_hair() {
+    let lm = landmarks();
+    let skin_grey = (u16::from(SKIN[0]) + u16::from(SKIN[1]) + u16::from(SKIN[2])) / 3;
+    let grey = (skin_grey - 14) as u8;
+    let photo_bw = black_and_white(&photo(hair_to(14.0, 0.0), [grey; 3], false));
+    let read = analyse(&photo_bw, &lm).unwrap();
+    let h = read
+        .hair
+        .expect("grey hair in black and white read as bald");
+    assert!(h.crown > 0.6 && h.length < 0.6, "{h:?}");
+    let bald = analyse(&black_and_white(&photo(|_, _| false, BROWN, false)), &lm).unwrap();
+    assert!(
+        bald.hair.is_none(),
+        "a bald head in black and white: {:?}",
+        bald.hair
+    );
+    // The same photo in colour is read as before: colour keeps its full weight.
+    let colour = analyse(&photo(hair_to(14.0, 0.0), BROWN, false), &lm).unwrap();
+    assert!(colour.hair.is_some_and(|h| h.crown > 0.6));
+}
+
 /// Glasses: a dark frame's bridge across the nose between the eyes is found; the same
 /// face without it is not taken for glasses, nor is a face in shadow all over.
 #[test]
