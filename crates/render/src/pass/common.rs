@@ -253,6 +253,86 @@ pub(crate) fn compute_pipeline(
     })
 }
 
+/// What a pass that draws the mesh asks of its pipeline; the rest is the same for every such
+/// pass: triangles, both faces (the gem module's winding is not part of the contract: the
+/// shaders turn the normal towards the viewer), a written depth buffer, nearer wins.
+pub(crate) struct MeshPipeline<'a> {
+    pub label: &'a str,
+    pub layout: &'a wgpu::PipelineLayout,
+    pub module: &'a wgpu::ShaderModule,
+    /// The vertex and fragment entry points.
+    pub entries: [&'a str; 2],
+    pub constants: &'a [(&'a str, f64)],
+    pub buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
+    pub depth: wgpu::TextureFormat,
+    pub samples: u32,
+    pub targets: &'a [Option<wgpu::ColorTargetState>],
+}
+
+/// The mesh's positions alone (location 0, the vertices' first field), for the passes that
+/// need nothing else of them (the shadow cube, the visibility image).
+pub(crate) const POSITIONS: [wgpu::VertexAttribute; 1] = wgpu::vertex_attr_array![0 => Float32x3];
+
+/// The vertex buffer of [`glyptic_core::scene::Vertex`]es, read as `attributes`.
+pub(crate) fn vertices(attributes: &[wgpu::VertexAttribute]) -> wgpu::VertexBufferLayout<'_> {
+    wgpu::VertexBufferLayout {
+        array_stride: size_of::<glyptic_core::scene::Vertex>() as wgpu::BufferAddress,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes,
+    }
+}
+
+pub(crate) fn mesh_pipeline(device: &wgpu::Device, p: &MeshPipeline<'_>) -> wgpu::RenderPipeline {
+    let options = wgpu::PipelineCompilationOptions {
+        constants: p.constants,
+        ..Default::default()
+    };
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(p.label),
+        layout: Some(p.layout),
+        vertex: wgpu::VertexState {
+            module: p.module,
+            entry_point: Some(p.entries[0]),
+            compilation_options: options.clone(),
+            buffers: p.buffers,
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(depth_less(p.depth)),
+        multisample: wgpu::MultisampleState {
+            count: p.samples,
+            ..Default::default()
+        },
+        fragment: Some(wgpu::FragmentState {
+            module: p.module,
+            entry_point: Some(p.entries[1]),
+            compilation_options: options,
+            targets: p.targets,
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// A depth attachment cleared to the far plane; `store`: kept after the pass (a shadow cube)
+/// or not (a z-buffer only drawn against).
+pub(crate) fn cleared_depth(
+    view: &wgpu::TextureView,
+    store: wgpu::StoreOp,
+) -> wgpu::RenderPassDepthStencilAttachment<'_> {
+    wgpu::RenderPassDepthStencilAttachment {
+        view,
+        depth_ops: Some(wgpu::Operations {
+            load: wgpu::LoadOp::Clear(1.0),
+            store,
+        }),
+        stencil_ops: None,
+    }
+}
+
 /// A written depth buffer, nearer wins.
 pub(crate) fn depth_less(format: wgpu::TextureFormat) -> wgpu::DepthStencilState {
     wgpu::DepthStencilState {

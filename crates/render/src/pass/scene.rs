@@ -28,7 +28,6 @@ use crate::params::{RenderError, RenderParams};
 use crate::shaders;
 use crate::surface::{NoiseVolume, PlanarFrame};
 use crate::timing::{Stamps, TimedPass};
-use glyptic_core::scene::Vertex;
 
 pub(crate) const DIFFUSE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub(crate) const SPECULAR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -97,6 +96,17 @@ pub(crate) struct SceneVariant {
     pub lamp: bool,
     pub samples: u32,
     pub baked_noise: bool,
+}
+
+impl SceneVariant {
+    /// The scene shader's override constants for this variant (its compute form's too).
+    pub fn constants(&self) -> [(&'static str, f64); 3] {
+        [
+            ("ENGRAVING", f64::from(u8::from(self.engraving))),
+            ("LAMP", f64::from(u8::from(self.lamp))),
+            ("BAKED_NOISE", f64::from(u8::from(self.baked_noise))),
+        ]
+    }
 }
 
 /// What the frame's steps decided about the surface and the draw.
@@ -376,14 +386,10 @@ impl ScenePass {
                 Some(targets.specular.attachment()),
                 Some(targets.depth_mask.attachment()),
             ],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &targets.depth,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Discard,
-                }),
-                stencil_ops: None,
-            }),
+            depth_stencil_attachment: Some(common::cleared_depth(
+                &targets.depth,
+                wgpu::StoreOp::Discard,
+            )),
             timestamp_writes: stamps.writes(TimedPass::Scene),
             ..Default::default()
         });
@@ -423,28 +429,16 @@ fn pipeline(
         7 => Float32,   // key light
         8 => Float32,   // transmitted key light
     ];
-    let constants = [
-        ("ENGRAVING", f64::from(u8::from(variant.engraving))),
-        ("LAMP", f64::from(u8::from(variant.lamp))),
-        ("BAKED_NOISE", f64::from(u8::from(variant.baked_noise))),
-    ];
-    let options = wgpu::PipelineCompilationOptions {
-        constants: &constants,
-        ..Default::default()
-    };
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("glyptic scene pipeline"),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
+    common::mesh_pipeline(
+        device,
+        &common::MeshPipeline {
+            label: "glyptic scene pipeline",
+            layout,
             module,
-            entry_point: Some("vs_main"),
-            compilation_options: options.clone(),
+            entries: ["vs_main", "fs_main"],
+            constants: &variant.constants(),
             buffers: &[
-                Some(wgpu::VertexBufferLayout {
-                    array_stride: size_of::<Vertex>() as wgpu::BufferAddress,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &attributes,
-                }),
+                Some(common::vertices(&attributes)),
                 // Tangent frames (surface::tangents), a buffer of their own: only frames with
                 // the engraving compute them.
                 Some(wgpu::VertexBufferLayout {
@@ -453,32 +447,15 @@ fn pipeline(
                     attributes: &wgpu::vertex_attr_array![5 => Float32x4],
                 }),
             ],
-        },
-        primitive: wgpu::PrimitiveState {
-            topology: wgpu::PrimitiveTopology::TriangleList,
-            // The gem module's winding is not part of the contract: draw both faces and let
-            // the shader turn the normal towards the viewer.
-            cull_mode: None,
-            ..Default::default()
-        },
-        depth_stencil: Some(common::depth_less(DEPTH_FORMAT)),
-        multisample: wgpu::MultisampleState {
-            count: variant.samples,
-            ..Default::default()
-        },
-        fragment: Some(wgpu::FragmentState {
-            module,
-            entry_point: Some("fs_main"),
-            compilation_options: options,
+            depth: DEPTH_FORMAT,
+            samples: variant.samples,
             targets: &[
                 common::color_target(DIFFUSE_FORMAT),
                 common::color_target(SPECULAR_FORMAT),
                 common::color_target(DEPTH_MASK_FORMAT),
             ],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
+        },
+    )
 }
 
 /// Chooses 4x MSAA if every scene target format supports it with resolve on this adapter, else 1.

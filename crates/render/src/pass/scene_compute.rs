@@ -191,14 +191,10 @@ impl SceneCompute {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("glyptic scene visibility"),
                 color_attachments: &[common::overwrite(visible, wgpu::Color::TRANSPARENT)],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &targets.depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
+                depth_stencil_attachment: Some(common::cleared_depth(
+                    &targets.depth,
+                    wgpu::StoreOp::Discard,
+                )),
                 timestamp_writes: stamps.writes(TimedPass::Scene),
                 ..Default::default()
             });
@@ -262,43 +258,20 @@ fn vis_pipeline(
     layout: &wgpu::PipelineLayout,
     samples: u32,
 ) -> wgpu::RenderPipeline {
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("glyptic scene visibility pipeline"),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
+    common::mesh_pipeline(
+        device,
+        &common::MeshPipeline {
+            label: "glyptic scene visibility pipeline",
+            layout,
             module,
-            entry_point: Some("vs_vis"),
-            compilation_options: Default::default(),
-            buffers: &[Some(wgpu::VertexBufferLayout {
-                array_stride: size_of::<Vertex>() as wgpu::BufferAddress,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &wgpu::vertex_attr_array![0 => Float32x3],
-            })],
+            entries: ["vs_vis", "fs_vis"],
+            constants: &[],
+            buffers: &[Some(common::vertices(&common::POSITIONS))],
+            depth: super::scene::DEPTH_FORMAT,
+            samples,
+            targets: &[common::color_target(VISIBLE_FORMAT)],
         },
-        // Both faces, as the fragment form draws them.
-        primitive: wgpu::PrimitiveState {
-            topology: wgpu::PrimitiveTopology::TriangleList,
-            cull_mode: None,
-            ..Default::default()
-        },
-        depth_stencil: Some(common::depth_less(super::scene::DEPTH_FORMAT)),
-        multisample: wgpu::MultisampleState {
-            count: samples,
-            ..Default::default()
-        },
-        fragment: Some(wgpu::FragmentState {
-            module,
-            entry_point: Some("fs_vis"),
-            compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: VISIBLE_FORMAT,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
+    )
 }
 
 fn shade_pipeline(
@@ -307,11 +280,7 @@ fn shade_pipeline(
     layout: &wgpu::PipelineLayout,
     variant: SceneVariant,
 ) -> wgpu::ComputePipeline {
-    let constants = [
-        ("ENGRAVING", f64::from(u8::from(variant.engraving))),
-        ("LAMP", f64::from(u8::from(variant.lamp))),
-        ("BAKED_NOISE", f64::from(u8::from(variant.baked_noise))),
-    ];
+    let constants = variant.constants();
     device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some("glyptic scene shading pipeline"),
         layout: Some(layout),

@@ -10,7 +10,6 @@ use crate::camera;
 use crate::mesh::MeshBuffers;
 use crate::shaders;
 use crate::timing::{Stamps, TimedPass};
-use glyptic_core::scene::Vertex;
 
 /// Side of each face of the lamp's shadow cube, texels.
 pub(crate) const SHADOW_SIZE: u32 = 1024;
@@ -67,35 +66,20 @@ impl ShadowPass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("glyptic shadow pipeline"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
+        let pipeline = common::mesh_pipeline(
+            device,
+            &common::MeshPipeline {
+                label: "glyptic shadow pipeline",
+                layout: &pipeline_layout,
                 module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: size_of::<Vertex>() as wgpu::BufferAddress,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &wgpu::vertex_attr_array![0 => Float32x3],
-                })],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(common::depth_less(SHADOW_FORMAT)),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
+                entries: ["vs_main", "fs_main"],
+                constants: &[],
+                buffers: &[Some(common::vertices(&common::POSITIONS))],
+                depth: SHADOW_FORMAT,
+                samples: 1,
                 targets: &[],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+            },
+        );
         Self {
             pipeline,
             uniforms,
@@ -129,14 +113,7 @@ impl ShadowPass {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("glyptic shadow pass"),
                 color_attachments: &[],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
+                depth_stencil_attachment: Some(common::cleared_depth(view, wgpu::StoreOp::Store)),
                 timestamp_writes: stamps.writes(TimedPass::Shadow),
                 ..Default::default()
             });
