@@ -47,7 +47,8 @@ struct Frame {
     // highlight, reflection, scattering share).
     layers: array<vec4<f32>, 5>,
     // The pass's compute form (`scene_shade.wgsl`): the inverse of `view_proj` (a pixel's
-    // view ray), and x the engraved band's first triangle, yz the images' size (pixels).
+    // view ray), and x the engraved band's first triangle, yz the images' size (pixels), w the
+    // most triangles a pixel is shaded with.
     inv_view_proj: mat4x4<f32>,
     shade: vec4<u32>,
 }

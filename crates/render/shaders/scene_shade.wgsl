@@ -101,32 +101,46 @@ fn shade_triangle(triangle: u32, pos: vec2<f32>) -> FsOut {
 }
 
 // The pixel's result from the triangles its `n` samples see (`seen[k]`: triangle + 1, 0 none):
-// each distinct triangle shaded once and weighted by its share of the samples.
+// each distinct triangle shaded once and weighted by its share of the samples. The shading is
+// called from one place, in a loop whose count the compiler cannot bound (capped by the
+// uniform's `shade.w`): called inside the loop over the samples, it may be unrolled four
+// times, and a machine's first start compiled the pipeline some 175 ms longer (BENCHMARKS.md,
+// issue #42); the image is the same to the bit.
 fn resolve_pixel(id: vec2<u32>, samples: array<f32, 4>, n: u32) {
     var seen = samples;
+    // The distinct triangles and their sample counts.
+    var triangles = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
+    var counts = array<u32, 4>(0u, 0u, 0u, 0u);
+    var m = 0u;
+    for (var k = 0u; k < n; k = k + 1u) {
+        let t = seen[k];
+        if t <= 0.0 {
+            continue;
+        }
+        var found = false;
+        for (var j = 0u; j < m; j = j + 1u) {
+            if triangles[j] == t {
+                counts[j] = counts[j] + 1u;
+                found = true;
+            }
+        }
+        if !found {
+            triangles[m] = t;
+            counts[m] = 1u;
+            m = m + 1u;
+        }
+    }
     let pos = vec2<f32>(id) + 0.5;
     var diffuse = vec4<f32>(0.0);
     var specular = vec4<f32>(0.0);
     var depth_mask = vec2<f32>(0.0);
-    for (var k = 0u; k < n; k = k + 1u) {
-        let t = seen[k];
-        var first = t > 0.0;
-        var count = 0u;
-        for (var j = 0u; j < n; j = j + 1u) {
-            if seen[j] == t {
-                count = count + 1u;
-                if j < k {
-                    first = false;
-                }
-            }
-        }
-        if first {
-            let w = f32(count) / f32(n);
-            let out = shade_triangle(u32(t) - 1u, pos);
-            diffuse += w * out.diffuse;
-            specular += w * out.specular;
-            depth_mask += w * out.depth_mask;
-        }
+    let shaded = min(m, frame.shade.w);
+    for (var k = 0u; k < shaded; k = k + 1u) {
+        let w = f32(counts[k]) / f32(n);
+        let out = shade_triangle(u32(triangles[k]) - 1u, pos);
+        diffuse += w * out.diffuse;
+        specular += w * out.specular;
+        depth_mask += w * out.depth_mask;
     }
     let texel = vec2<i32>(id);
     textureStore(out_diffuse, texel, diffuse);

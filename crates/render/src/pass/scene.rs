@@ -81,7 +81,8 @@ pub(crate) struct FrameUniform {
     pub layers: [[f32; 4]; 5],
     /// The compute form's view rays: the inverse of `view_proj`.
     pub inv_view_proj: [[f32; 4]; 4],
-    /// The compute form: x the engraved band's first triangle, y-z the images' size (pixels).
+    /// The compute form: x the engraved band's first triangle, y-z the images' size (pixels),
+    /// w the most triangles a pixel is shaded with.
     pub shade: [u32; 4],
 }
 
@@ -347,7 +348,8 @@ impl ScenePass {
             inv_view_proj: (crop.clip_matrix(w, h) * cam.view_proj)
                 .inverse()
                 .to_cols_array_2d(),
-            shade: [detail.draw.band_start / 3, crop.width, crop.height, 0],
+            // w: the most triangles a pixel is shaded with (its samples).
+            shade: [detail.draw.band_start / 3, crop.width, crop.height, 4],
         };
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&frame));
     }
