@@ -61,6 +61,11 @@ const RES: f32 = 0.04;
 /// photos, 48 of 175 heads with hair were; BENCHMARKS.md, issue #38).
 const HAIR_SEED_D2: f32 = 14.0;
 const GREY_HAIR_SEED_D2: f32 = 6.0;
+/// In a black-and-white photo, how far (IOD) skin beside the face may lie inside the head's
+/// hair to be taken for its inner part, and from where beside the face (times the face's
+/// half-width).
+const GREY_FILL_REACH: f32 = 0.8;
+const GREY_FILL_BESIDE: f32 = 0.9;
 
 /// Whether the photo's pixels on the canvas (`valid`) carry no colour: its chroma axes under
 /// half a grey level in 99 % of them.
@@ -490,7 +495,8 @@ pub fn analyse_shaded(
     // A black-and-white photo (no chroma wherever the canvas sees it): only brightness tells
     // grey, fair or white hair from lit skin, so hair is learnt from what is less unlike the
     // skin there.
-    let seed_d2 = if black_and_white(&col, &valid) {
+    let grey_photo = black_and_white(&col, &valid);
+    let seed_d2 = if grey_photo {
         GREY_HAIR_SEED_D2
     } else {
         HAIR_SEED_D2
@@ -724,6 +730,45 @@ pub fn analyse_shaded(
     for i in 0..w * h {
         if labels[i] == Label::Hair && !keep[i] && !in_face[i] {
             labels[i] = Label::Background;
+        }
+    }
+    // In black and white, grey hair as bright as the lit skin is labelled skin, and the head's
+    // hair floats off it (the bundled Einstein). Beside the face and above the ears (the band
+    // where an ear's bare skin is read, below, is left alone), skin with the head's hair further
+    // out along the ray from the head's centre, within GREY_FILL_REACH, is that hair's inner
+    // part; a bald temple has nothing beyond it.
+    if grey_photo {
+        let centre = [0.0, 0.02 * chin];
+        let mut fill = Vec::new();
+        for i in 0..w * h {
+            let p = pos(i);
+            if labels[i] != Label::Skin
+                || in_face[i]
+                || p[1] > 0.05 * chin
+                || p[0].abs() < GREY_FILL_BESIDE * half
+            {
+                continue;
+            }
+            let d = [p[0] - centre[0], p[1] - centre[1]];
+            let len = d[0].hypot(d[1]).max(1e-6);
+            let step = [d[0] / len * RES, d[1] / len * RES];
+            for k in 1..=(GREY_FILL_REACH / RES) as usize {
+                let q = [p[0] + step[0] * k as f32, p[1] + step[1] * k as f32];
+                let Some(j) = canvas_index(w, h, q) else {
+                    break;
+                };
+                if keep[j] {
+                    fill.push(i);
+                    break;
+                }
+                if matches!(labels[j], Label::Background | Label::Outside) {
+                    break;
+                }
+            }
+        }
+        for i in fill {
+            labels[i] = Label::Hair;
+            keep[i] = true;
         }
     }
 

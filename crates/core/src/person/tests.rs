@@ -342,6 +342,34 @@ fn grey_hair_in_a_black_and_white_photo_is_hair() {
     assert!(colour.hair.is_some_and(|h| h.crown > 0.6));
 }
 
+/// Einstein's case: in a black-and-white photo the hair beside the head is white outside and,
+/// next to the temples, as grey as the lit skin. That inner part is read as the hair's (beside
+/// the face, above the ears), so the hair does not float off the head; an ear's bare skin is
+/// left alone.
+#[test]
+fn grey_hair_beside_the_temples_joins_the_white_hair_in_black_and_white() {
+    let lm = landmarks();
+    let skin_grey = ((u16::from(SKIN[0]) + u16::from(SKIN[1]) + u16::from(SKIN[2])) / 3) as u8;
+    let white = photo(hair_to(18.0, 0.0), [240; 3], false);
+    // The inner 9 px of the hair beside the head, above the eyes, as grey as the skin.
+    let inner = |x: f32, y: f32| {
+        let head = ((x - 200.0) / 72.0).powi(2) + ((y - 205.0) / 125.0).powi(2);
+        let band = ((x - 200.0) / 81.0).powi(2) + ((y - 205.0) / 134.0).powi(2);
+        head >= 1.0 && band < 1.0 && (x - 200.0).abs() > 60.0 && y > 120.0 && y < 195.0
+    };
+    let two_tone = black_and_white(&paint(&white, [skin_grey; 3], inner));
+    let read = analyse(&two_tone, &lm).unwrap();
+    for x in [125.0, 275.0] {
+        assert_eq!(
+            read.labels.at_pixel(x, 175.0),
+            Label::Hair,
+            "the grey hair beside the temple at x = {x} is not the hair's"
+        );
+    }
+    // An ear's height beside the face keeps its skin.
+    assert_ne!(read.labels.at_pixel(126.0, 240.0), Label::Hair);
+}
+
 /// Glasses: a dark frame's bridge across the nose between the eyes is found; the same
 /// face without it is not taken for glasses, nor is a face in shadow all over.
 #[test]
