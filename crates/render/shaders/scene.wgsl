@@ -112,6 +112,11 @@ const GLOW_TINT: vec3<f32> = vec3<f32>(1.0, 0.82, 0.66);
 
 @vertex
 fn vs_main(in: VsIn) -> VsOut {
+    return vertex_out(in);
+}
+
+// A vertex's varyings (the compute form interpolates the same).
+fn vertex_out(in: VsIn) -> VsOut {
     var out: VsOut;
     out.clip = frame.view_proj * vec4<f32>(in.position, 1.0);
     out.world = in.position;

@@ -51,6 +51,21 @@ fn on_plane(pos: vec2<f32>, p0: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return a + dot(n, p0 - a) / safe * d;
 }
 
+// The vertex as the fragment form's vertex stage receives it.
+fn vertex_in(v: StoredVertex, tangent: vec4<f32>) -> VsIn {
+    var in: VsIn;
+    in.position = position_of(v);
+    in.normal = vec3<f32>(v.nx, v.ny, v.nz);
+    in.relief = v.relief;
+    in.region = v.region;
+    in.hair = v.hair;
+    in.tangent = tangent;
+    in.occlusion = v.occlusion;
+    in.key_light = v.key_light;
+    in.transmit = v.transmit;
+    return in;
+}
+
 fn tangent_of(i: u32) -> vec4<f32> {
     if i < arrayLength(&tangents) {
         return tangents[i];
@@ -58,8 +73,8 @@ fn tangent_of(i: u32) -> vec4<f32> {
     return vec4<f32>(0.0);
 }
 
-// Triangle `triangle`'s varyings at the pixel centre `pos`, as `vs_main` and the rasteriser
-// give them, shaded.
+// Triangle `triangle`'s varyings at the pixel centre `pos`, as `vs_main` (`vertex_out`) and the
+// rasteriser give them, shaded.
 fn shade_triangle(triangle: u32, pos: vec2<f32>) -> FsOut {
     let i = vec3<u32>(indices[3u * triangle], indices[3u * triangle + 1u], indices[3u * triangle + 2u]);
     let v0 = vertices[i.x];
@@ -80,23 +95,20 @@ fn shade_triangle(triangle: u32, pos: vec2<f32>) -> FsOut {
         let b2 = dot(cross(e1, p - p0), n) / nn;
         b = vec3<f32>(1.0 - b1 - b2, b1, b2);
     }
-    let gold = vec3<f32>(
-        select(0.0, 1.0, v0.region == REGION_GOLD),
-        select(0.0, 1.0, v1.region == REGION_GOLD),
-        select(0.0, 1.0, v2.region == REGION_GOLD),
-    );
+    let a = vertex_out(vertex_in(v0, tangent_of(i.x)));
+    let c = vertex_out(vertex_in(v1, tangent_of(i.y)));
+    let e = vertex_out(vertex_in(v2, tangent_of(i.z)));
     var s: VsOut;
     s.clip = vec4<f32>(0.0);
     s.world = p;
-    s.normal = b.x * vec3<f32>(v0.nx, v0.ny, v0.nz) + b.y * vec3<f32>(v1.nx, v1.ny, v1.nz)
-        + b.z * vec3<f32>(v2.nx, v2.ny, v2.nz);
-    s.relief = dot(b, vec3<f32>(v0.relief, v1.relief, v2.relief));
-    s.hair = dot(b, clamp(vec3<f32>(v0.hair, v1.hair, v2.hair), vec3<f32>(0.0), vec3<f32>(1.0)));
-    s.gold = dot(b, gold);
-    s.tangent = b.x * tangent_of(i.x) + b.y * tangent_of(i.y) + b.z * tangent_of(i.z);
-    s.occlusion = dot(b, clamp(vec3<f32>(v0.occlusion, v1.occlusion, v2.occlusion), vec3<f32>(0.0), vec3<f32>(1.0)));
-    s.key_light = dot(b, clamp(vec3<f32>(v0.key_light, v1.key_light, v2.key_light), vec3<f32>(0.0), vec3<f32>(1.0)));
-    s.transmit = dot(b, clamp(vec3<f32>(v0.transmit, v1.transmit, v2.transmit), vec3<f32>(0.0), vec3<f32>(1.0)));
+    s.normal = b.x * a.normal + b.y * c.normal + b.z * e.normal;
+    s.relief = dot(b, vec3<f32>(a.relief, c.relief, e.relief));
+    s.hair = dot(b, vec3<f32>(a.hair, c.hair, e.hair));
+    s.gold = dot(b, vec3<f32>(a.gold, c.gold, e.gold));
+    s.tangent = b.x * a.tangent + b.y * c.tangent + b.z * e.tangent;
+    s.occlusion = dot(b, vec3<f32>(a.occlusion, c.occlusion, e.occlusion));
+    s.key_light = dot(b, vec3<f32>(a.key_light, c.key_light, e.key_light));
+    s.transmit = dot(b, vec3<f32>(a.transmit, c.transmit, e.transmit));
     return shade(s, p_dx, p_dy, triangle >= frame.shade.x);
 }
 

@@ -442,22 +442,6 @@ impl Frames {
             engraving: true,
             ..plain
         };
-        let compute_form = self
-            .targets
-            .as_ref()
-            .is_some_and(|t| t.scene.visible.is_some());
-        match &mut self.passes.scene.compute {
-            Some(compute) if compute_form => {
-                let variant = if band_mm.is_some() { engraved } else { plain };
-                compute.ensure(device, variant);
-            }
-            _ => {
-                self.passes.scene.ensure(device, plain);
-                if band_mm.is_some() {
-                    self.passes.scene.ensure(device, engraved);
-                }
-            }
-        }
         let Some(buffers) = &self.mesh_buffers else {
             return Err(RenderError::Gpu("frame resources missing".into()));
         };
@@ -493,7 +477,7 @@ impl Frames {
         // validate() has checked that the count fits in u32.
         let count = u32::try_from(mesh.indices.len()).unwrap_or(0);
         let vb = vertex_bytes.len() as u64;
-        Ok(Detail {
+        let detail = Detail {
             planar,
             lamp,
             band_mm,
@@ -506,6 +490,12 @@ impl Frames {
                 count,
                 band_start: u32::try_from(band_start).unwrap_or(count),
             },
-        })
+        };
+        let compute_form = self
+            .targets
+            .as_ref()
+            .is_some_and(|t| t.scene.visible.is_some());
+        self.passes.scene.ensure_for(device, &detail, compute_form);
+        Ok(detail)
     }
 }

@@ -155,8 +155,8 @@ pub(crate) struct ScenePass {
 
 impl ScenePass {
     /// `compute`: whether to build the pass's compute form (the device has compute shaders,
-    /// storage images and the primitive index); `first_compute`: which form's plain pipeline to build
-    /// now (the one a first frame will use: the compute form on a GPU that has it).
+    /// storage images and the primitive index); `first_compute`: whether the plain pipeline
+    /// built now is the compute form's (what a first frame on a GPU that has it will use).
     pub fn new(device: &wgpu::Device, samples: u32, compute: bool, first_compute: bool) -> Self {
         // The compute form's shading reads the uniform and the surface maps too.
         let stages = |s: wgpu::ShaderStages| {
@@ -256,6 +256,20 @@ impl ScenePass {
         pass
     }
 
+    /// Builds the pipelines `detail`'s frame draws with, in the compute form (`compute_form`,
+    /// where the pass has it) or the fragment form.
+    pub fn ensure_for(&mut self, device: &wgpu::Device, detail: &Detail, compute_form: bool) {
+        match &mut self.compute {
+            Some(compute) if compute_form => compute.ensure(device, SceneCompute::variant(detail)),
+            _ => {
+                self.ensure(device, detail.plain);
+                if detail.band_mm.is_some() {
+                    self.ensure(device, detail.engraved);
+                }
+            }
+        }
+    }
+
     /// Builds the pipeline of `variant` if there is none yet.
     pub fn ensure(&mut self, device: &wgpu::Device, variant: SceneVariant) {
         let (module, layout) = (&self.module, &self.pipeline_layout);
@@ -284,9 +298,11 @@ impl ScenePass {
         let planar = &detail.planar;
         let (w, h) = (params.width, params.height);
         let layers = params.material.layers();
+        // Onto the crop's images.
+        let view_proj = crop.clip_matrix(w, h) * cam.view_proj;
         let frame = FrameUniform {
-            // Column-major, as WGSL expects; onto the crop's images.
-            view_proj: (crop.clip_matrix(w, h) * cam.view_proj).to_cols_array_2d(),
+            // Column-major, as WGSL expects.
+            view_proj: view_proj.to_cols_array_2d(),
             eye: v4(cam.eye, 1.0),
             light_dir: v4(
                 cam.light,
@@ -345,9 +361,7 @@ impl ScenePass {
                 [v.dims[0], v.dims[1], v.dims[2], 1].map(|d| 1.0 / d as f32)
             }),
             layers: layers.map_or([[0.0; 4]; 5], |l| l.uniforms()),
-            inv_view_proj: (crop.clip_matrix(w, h) * cam.view_proj)
-                .inverse()
-                .to_cols_array_2d(),
+            inv_view_proj: view_proj.inverse().to_cols_array_2d(),
             // w: the most triangles a pixel is shaded with (its samples).
             shade: [detail.draw.band_start / 3, crop.width, crop.height, 4],
         };
