@@ -249,9 +249,16 @@ impl GemPipeline {
                 "detail",
                 || {
                     let seen = gem::detail::seen_vertices(&seen_mesh, triangles, &face.fit.pose);
-                    gem::FaceDetail::read(&grey, &face.landmarks, seen, params)
+                    let light = tone_light(&seen_mesh, &face.fit.pose);
+                    gem::FaceDetail::read(&grey, &face.landmarks, seen, params, light)
                 },
-                |_| "brows, irises, mouth, lines".into(),
+                |d| {
+                    if d.tone_map().is_empty() {
+                        "brows, irises, mouth, lines".into()
+                    } else {
+                        "brows, irises, mouth, lines, light and dark".into()
+                    }
+                },
             )
             .map_err(|e| tracing::warn!("cannot read the face's detail ({e}); the shape alone"))
             .ok()
@@ -551,6 +558,23 @@ fn load_segmenter(models: &ModelPaths, hair: Hair) -> Option<PersonSegmenter> {
     PersonSegmenter::load(&models.segmenter, &models.onnxruntime)
         .map_err(|e| tracing::warn!("{e}; the hair is read by colour alone (run scripts/setup.sh)"))
         .ok()
+}
+
+/// The stone's key light as the photo sees the face, for the detail's tone: the frontal
+/// portrait's (the model's frame is its stone's); the builder carves the tone into frontal
+/// portraits only (a profile shows the face's side, which the photo does not).
+fn tone_light(mesh: &[f32], pose: &glyptic_core::fit::Pose) -> Option<gem::detail::ToneLight> {
+    if mesh.len() < 3 {
+        return None;
+    }
+    let n = (mesh.len() / 3) as f32;
+    let mut at = [0f32; 3];
+    for v in mesh.chunks_exact(3) {
+        for k in 0..3 {
+            at[k] += v[k] / n;
+        }
+    }
+    gem::detail::ToneLight::seen(pose, at, glyptic_core::scene::key_light_dir())
 }
 
 /// Reads and decodes a photo (stage `decode`, its size as the detail).

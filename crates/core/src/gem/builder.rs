@@ -232,7 +232,7 @@ impl CameoBuilder {
             .collect();
         let photo = detail
             .filter(|d| d.seen().len() == points.len())
-            .map(|d| photo_detail(d, &points, triangles, &face, cols, rows));
+            .map(|d| photo_detail(d, view, &points, triangles, &face, cols, rows));
         let face_box = Window::of(cols, rows, |i| face[i]).map(|w| w.grow(2, cols, rows));
         let face_cover = relief::coverage(&points, triangles, &raw, cols, rows);
         // Smooth the face within its footprint (1-2-1 each way, about 0.7 cells: the Surrey
@@ -717,9 +717,12 @@ fn extrapolate(
 
 /// The photo's detail per face node (canonical mm): the photo point each node shows, from its
 /// vertices' photo positions interpolated over the face, faded where the photo sees the face
-/// edge-on; 0 off the face.
+/// edge-on; 0 off the face. A frontal portrait adds the tone (the photo's light and dark
+/// modelled for the key light, which only a face looking out of the stone shows as the photo
+/// does).
 fn photo_detail(
     detail: &FaceDetail,
+    view: View,
     points: &[Option<[f32; 3]>],
     triangles: &[[u32; 3]],
     face: &[bool],
@@ -737,7 +740,13 @@ fn photo_detail(
     (0..cols * rows)
         .map(|i| {
             if face[i] && w[i] > 0.05 {
-                template::smoothstep(0.2, 0.8, w[i]) * detail.at(x[i] / w[i], y[i] / w[i])
+                let (px, py) = (x[i] / w[i], y[i] / w[i]);
+                let tone = if view == View::Frontal {
+                    detail.tone_at(px, py)
+                } else {
+                    0.0
+                };
+                template::smoothstep(0.2, 0.8, w[i]) * (detail.at(px, py) + tone)
             } else {
                 0.0
             }

@@ -17,6 +17,11 @@
 //!   an incision; round dark spots (moles, pores, nostrils' shadows) have two equal curvatures
 //!   and are left out, and so is everything brighter than its surroundings.
 //!
+//! Besides the regions, for a frontal portrait, the **tone** ([`super::tone`]): the photo's
+//! fine light and dark, everywhere on the face, modelled as slopes towards or away from the
+//! stone's key light, so the stone under its own light shows the pattern a face is known by
+//! (kept apart from the regions' heights: a profile does not carve it).
+//!
 //! Every response is a band-pass of the brightness (what changes over a few hundredths of the
 //! eyes' distance, not the light across the face) scaled by the face's own contrast (its
 //! median absolute deviation), so a dim or low-contrast photo carves as deep as a bright one.
@@ -30,12 +35,24 @@ use image::GrayImage;
 
 use super::blur::blur;
 use super::template::smoothstep;
+pub use super::tone::ToneLight;
 use crate::fit::Pose;
 use crate::person::{inside, median};
 use crate::photo_grid::{bilinear_grey, polyline_distance};
 
 /// Map cells per inter-ocular distance (eye centre to eye centre).
 pub const CELLS_PER_IOD: f32 = 64.0;
+
+/// The tone's steepest slope by default (see [`DetailParams::tone`]).
+pub const TONE: f32 = 1.5;
+/// The tone's band: brightness against its surroundings over this share of the eyes'
+/// distance (a Gaussian's sigma).
+const TONE_BAND: f32 = 0.16;
+/// The tone's weight over the eyes and their lids against the rest of the face's 1.
+const TONE_EYES: f32 = 0.6;
+/// The ridge off the face that holds the tone's heights at 0 there (per cell squared, against
+/// the slope's 1; [`super::tone::fit_slopes`]).
+const TONE_HOLD: f32 = 1.0;
 
 /// How deep each region is carved at full strength (canonical mm).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -48,6 +65,9 @@ pub struct DetailParams {
     pub mouth_mm: f32,
     /// Folds and lines incised.
     pub line_mm: f32,
+    /// The steepest slope (canonical mm per mm) with which the photo's fine light and dark is
+    /// modelled for the stone's key light ([`super::tone`]); 0: none.
+    pub tone: f32,
 }
 
 impl Default for DetailParams {
@@ -62,6 +82,7 @@ impl Default for DetailParams {
             iris_mm: 4.8,
             mouth_mm: 3.0,
             line_mm: 1.6,
+            tone: TONE,
         }
     }
 }
@@ -74,6 +95,7 @@ impl DetailParams {
             iris_mm: self.iris_mm * k,
             mouth_mm: self.mouth_mm * k,
             line_mm: self.line_mm * k,
+            tone: self.tone * k,
         }
     }
 }
@@ -89,6 +111,9 @@ pub struct FaceDetail {
     rows: usize,
     /// Canonical mm per cell, row-major.
     height: Vec<f32>,
+    /// The photo's light and dark modelled for the key light of a frontal portrait
+    /// (canonical mm per cell, row-major; empty: none read).
+    tone: Vec<f32>,
     /// Per vertex of the face mesh: photo x, y (pixels) and how squarely the photo sees it
     /// (0: turned away or hidden, 1: facing the camera).
     seen: Vec<[f32; 3]>,
@@ -107,12 +132,14 @@ pub enum DetailError {
 
 impl FaceDetail {
     /// Reads the detail of the face with these 68 landmarks from `photo` (brightness), with
-    /// `seen` from [`seen_vertices`].
+    /// `seen` from [`seen_vertices`]; with `light` (the stone's key light as the photo sees the
+    /// face) the photo's fine light and dark is modelled too ([`DetailParams::tone`]).
     pub fn read(
         photo: &GrayImage,
         landmarks: &[[f32; 2]],
         seen: Vec<[f32; 3]>,
         params: &DetailParams,
+        light: Option<ToneLight>,
     ) -> Result<Self, DetailError> {
         if landmarks.len() != 68 || landmarks.iter().flatten().any(|v| !v.is_finite()) {
             return Err(DetailError::Landmarks);
@@ -179,6 +206,12 @@ impl FaceDetail {
             grow(&lm[42..48], 0.03 * iod_c),
         ];
         let mouth = grow(&lm[48..60], 0.04 * iod_c);
+        // The eyes with their lids, where the tone is weaker: the carved eye and iris are
+        // there, and spectacles' rims and dark lenses carved as light and dark cross them.
+        let eyes_wide = [
+            grow(&lm[36..42], 0.12 * iod_c),
+            grow(&lm[42..48], 0.12 * iod_c),
+        ];
         let brows = [&lm[17..22], &lm[22..27]];
 
         // Contrast scales over the face: the median absolute band-pass and valley.
@@ -235,6 +268,28 @@ impl FaceDetail {
             };
             height[i] = h;
         }
+        let tone = match light.filter(|_| params.tone > 0.0) {
+            Some(light) => {
+                let eye_cells: Vec<bool> = (0..cols * rows)
+                    .map(|i| {
+                        let p = [(i % cols) as f32, (i / cols) as f32];
+                        eyes_wide.iter().any(|e| inside(e, p))
+                    })
+                    .collect();
+                tone_heights(
+                    &lum,
+                    &fine,
+                    &face_cells,
+                    &eye_cells,
+                    cols,
+                    rows,
+                    step,
+                    light,
+                    params,
+                )
+            }
+            None => Vec::new(),
+        };
         // Soften the regions' borders by a cell.
         let height = blur(&height, cols, rows, 0.7);
         Ok(FaceDetail {
@@ -243,12 +298,26 @@ impl FaceDetail {
             cols,
             rows,
             height,
+            tone,
             seen,
         })
     }
 
     /// The carved height (canonical mm) at photo point (x, y): bilinear, 0 outside the map.
     pub fn at(&self, x: f32, y: f32) -> f32 {
+        self.sample(&self.height, x, y)
+    }
+
+    /// The tone's height (canonical mm) at photo point (x, y), for a frontal portrait: 0
+    /// outside the map or when none was read.
+    pub fn tone_at(&self, x: f32, y: f32) -> f32 {
+        self.sample(&self.tone, x, y)
+    }
+
+    fn sample(&self, map: &[f32], x: f32, y: f32) -> f32 {
+        if map.len() != self.cols * self.rows {
+            return 0.0;
+        }
         let (u, v) = (
             (x - self.origin[0]) / self.step,
             (y - self.origin[1]) / self.step,
@@ -259,7 +328,7 @@ impl FaceDetail {
         let (c0, r0) = (u as usize, v as usize);
         let (c1, r1) = ((c0 + 1).min(self.cols - 1), (r0 + 1).min(self.rows - 1));
         let (fx, fy) = (u - c0 as f32, v - r0 as f32);
-        let h = |c: usize, r: usize| self.height[r * self.cols + c];
+        let h = |c: usize, r: usize| map[r * self.cols + c];
         (h(c0, r0) * (1.0 - fx) + h(c1, r0) * fx) * (1.0 - fy)
             + (h(c0, r1) * (1.0 - fx) + h(c1, r1) * fx) * fy
     }
@@ -273,6 +342,67 @@ impl FaceDetail {
     pub fn map(&self) -> (usize, usize, &[f32]) {
         (self.cols, self.rows, &self.height)
     }
+
+    /// The tone's heights, as [`Self::map`]'s (empty when none was read).
+    pub fn tone_map(&self) -> &[f32] {
+        &self.tone
+    }
+}
+
+/// The photo's fine light and dark as heights (canonical mm) whose slope along the key light
+/// gives it back ([`super::tone`]): the log brightness against its surroundings over
+/// [`TONE_BAND`] of the eyes' distance, in units of the face's own spread (its median absolute
+/// value), to at most [`DetailParams::tone`]; fitted over the face, faded at its outline.
+#[allow(clippy::too_many_arguments)]
+fn tone_heights(
+    lum: &[f32],
+    fine: &[f32],
+    face_cells: &[usize],
+    eye_cells: &[bool],
+    cols: usize,
+    rows: usize,
+    step: f32,
+    light: ToneLight,
+    params: &DetailParams,
+) -> Vec<f32> {
+    const EPS: f32 = 0.02;
+    let around = blur(lum, cols, rows, TONE_BAND * CELLS_PER_IOD);
+    let rel: Vec<f32> = fine
+        .iter()
+        .zip(&around)
+        .map(|(f, a)| (f + EPS).ln() - (a + EPS).ln())
+        .collect();
+    let spread = 1.4826
+        * median(face_cells.iter().map(|&i| rel[i].abs()).collect())
+            .unwrap_or(0.0)
+            .max(0.01);
+    let mut inside_face = vec![0f32; cols * rows];
+    for &i in face_cells {
+        inside_face[i] = 1.0;
+    }
+    let inside_face = blur(&inside_face, cols, rows, 2.0);
+    let weight: Vec<f32> = inside_face
+        .iter()
+        .zip(eye_cells)
+        .map(|(w, &eye)| if eye { w * TONE_EYES } else { *w })
+        .collect();
+    // Off the face the heights are held at 0 (the tone starts from the outline).
+    let hold: Vec<f32> = inside_face.iter().map(|w| TONE_HOLD * (1.0 - w)).collect();
+    let mm_per_cell = step * light.mm_per_px;
+    let slope: Vec<f32> = rel
+        .iter()
+        .map(|r| -params.tone * mm_per_cell * (r / (3.0 * spread)).clamp(-1.0, 1.0))
+        .collect();
+    let h = super::tone::fit_slopes_halved(
+        &slope,
+        &weight,
+        &hold,
+        cols,
+        rows,
+        light.toward,
+        &super::tone::ToneSolve::default(),
+    );
+    h.iter().zip(&inside_face).map(|(h, w)| h * w).collect()
 }
 
 /// Where each vertex of `mesh` (model mm, the fitted face with its expression) lies in the
@@ -438,7 +568,8 @@ pub(crate) mod tests {
             let mole = (x - 560.0).hypot(y - 450.0) < 6.0;
             (brow || iris || fold || mole).then_some(60)
         });
-        let d = FaceDetail::read(&img, &lm, Vec::new(), &DetailParams::default()).expect("detail");
+        let d = FaceDetail::read(&img, &lm, Vec::new(), &DetailParams::default(), None)
+            .expect("detail");
         let brow = d.at(290.0, 298.0);
         let iris = d.at(300.0, 360.0);
         let fold = d.at(280.0, 457.0);
@@ -455,6 +586,82 @@ pub(crate) mod tests {
         assert_eq!(d.at(-500.0, 10.0), 0.0);
     }
 
+    /// The tone's heights lit by the key light give back the photo's fine light and dark: the
+    /// slope away from the light (what brightens a surface under it) follows the photo's
+    /// band-passed brightness over the face; without the light or at strength 0 there is none.
+    #[test]
+    fn the_tone_lit_by_the_key_light_shows_the_photos_light_and_dark() {
+        let lm = face();
+        let mut img = GrayImage::from_pixel(800, 800, image::Luma([170]));
+        // Texture over the face: blotches and lines of several sizes.
+        draw(&mut img, |x, y| {
+            let v = 170.0
+                + 35.0 * ((x * 0.045).sin() * (y * 0.06).cos())
+                + 25.0 * ((x * 0.11 + y * 0.07).sin());
+            Some(v.clamp(0.0, 255.0) as u8)
+        });
+        let light = ToneLight {
+            toward: [-0.8, -0.6],
+            mm_per_px: 0.3,
+        };
+        let p = DetailParams::default();
+        let d = FaceDetail::read(&img, &lm, Vec::new(), &p, Some(light)).expect("detail");
+        let (cols, rows, _) = d.map();
+        let tone = d.tone_map();
+        assert_eq!(tone.len(), cols * rows);
+        let largest = tone.iter().fold(0f32, |m, v| m.max(v.abs()));
+        assert!(largest > 0.05 && largest < 6.0, "largest tone {largest} mm");
+        // Over the cheeks and nose (inside the face, away from its outline): the key light's
+        // shading of the tone, -(slope towards the light), against the photo's brightness
+        // about its own local mean.
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        for y in (380..500).step_by(4) {
+            for x in (260..540).step_by(4) {
+                let (x, y) = (x as f32, y as f32);
+                let e = 3.0;
+                let slope = (d.tone_at(x + e * light.toward[0], y + e * light.toward[1])
+                    - d.tone_at(x - e * light.toward[0], y - e * light.toward[1]))
+                    / (2.0 * e);
+                let local = {
+                    let mut s = 0.0;
+                    for k in -4i32..=4 {
+                        for l in -4i32..=4 {
+                            s += f32::from(
+                                img.get_pixel((x as i32 + 6 * k) as u32, (y as i32 + 6 * l) as u32)
+                                    .0[0],
+                            );
+                        }
+                    }
+                    s / 81.0
+                };
+                a.push(-slope);
+                b.push(f32::from(img.get_pixel(x as u32, y as u32).0[0]) - local);
+            }
+        }
+        let corr = correlation(&a, &b);
+        assert!(corr > 0.5, "shading against the photo: correlation {corr}");
+        let none = FaceDetail::read(&img, &lm, Vec::new(), &p, None).expect("detail");
+        assert!(none.tone_map().is_empty());
+        assert_eq!(none.tone_at(400.0, 450.0), 0.0);
+        let off = DetailParams { tone: 0.0, ..p };
+        let off = FaceDetail::read(&img, &lm, Vec::new(), &off, Some(light)).expect("detail");
+        assert!(off.tone_map().is_empty());
+        // The regions' carving is the same with or without the tone.
+        assert_eq!(none.map().2, d.map().2);
+    }
+
+    fn correlation(a: &[f32], b: &[f32]) -> f32 {
+        let n = a.len() as f32;
+        let (ma, mb) = (a.iter().sum::<f32>() / n, b.iter().sum::<f32>() / n);
+        let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+        for (x, y) in a.iter().zip(b) {
+            ab += (x - ma) * (y - mb);
+            aa += (x - ma) * (x - ma);
+            bb += (y - mb) * (y - mb);
+        }
+        ab / (aa * bb).sqrt().max(1e-12)
+    }
+
     #[test]
     fn a_dim_photo_carves_as_deep_as_a_bright_one() {
         let lm = face();
@@ -467,7 +674,7 @@ pub(crate) mod tests {
             draw(&mut img, |x, y| {
                 (((x * 0.37).sin() * (y * 0.29).cos()) > 0.95).then_some(bg.saturating_sub(bg / 8))
             });
-            FaceDetail::read(&img, &lm, Vec::new(), &DetailParams::default()).expect("detail")
+            FaceDetail::read(&img, &lm, Vec::new(), &DetailParams::default(), None).expect("detail")
         };
         let (bright, dim) = (make(200, 80), make(60, 24));
         let (b, d) = (bright.at(290.0, 298.0), dim.at(290.0, 298.0));
@@ -481,17 +688,17 @@ pub(crate) mod tests {
         lm[5][0] = f32::NAN;
         let p = DetailParams::default();
         assert_eq!(
-            FaceDetail::read(&img, &lm, Vec::new(), &p),
+            FaceDetail::read(&img, &lm, Vec::new(), &p, None),
             Err(DetailError::Landmarks)
         );
         let tiny: Vec<[f32; 2]> = face().iter().map(|q| [q[0] * 0.01, q[1] * 0.01]).collect();
         assert!(matches!(
-            FaceDetail::read(&img, &tiny, Vec::new(), &p),
+            FaceDetail::read(&img, &tiny, Vec::new(), &p, None),
             Err(DetailError::TooSmall(_))
         ));
         let empty = GrayImage::new(0, 0);
         assert_eq!(
-            FaceDetail::read(&empty, &face(), Vec::new(), &p),
+            FaceDetail::read(&empty, &face(), Vec::new(), &p, None),
             Err(DetailError::EmptyPhoto)
         );
     }

@@ -35,6 +35,7 @@ pub mod silhouette;
 pub mod solid;
 pub mod template;
 mod tessellate;
+pub mod tone;
 mod window;
 
 use crate::scene::Mesh;

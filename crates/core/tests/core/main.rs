@@ -9,4 +9,5 @@ mod fit;
 mod gem;
 mod landmarks;
 mod shapemodel;
+mod tone;
 mod warp;

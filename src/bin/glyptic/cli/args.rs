@@ -189,7 +189,8 @@ pub struct ChoiceArgs {
     #[arg(long, value_enum, default_value_t = GlassesArg::Carve)]
     pub glasses: GlassesArg,
     /// How strongly the photo's own detail is carved into the face (the brows raised, the
-    /// irises drilled, the mouth's line and the face's folds cut), 0..3: 0 carves the fitted
+    /// irises drilled, the mouth's line and the face's folds cut; in a frontal portrait the
+    /// photo's fine light and dark modelled for the stone's light), 0..3: 0 carves the fitted
     /// shape alone, 1 as a cutter would.
     #[arg(long, value_parser = parse_detail, default_value = "1")]
     pub detail: f32,

