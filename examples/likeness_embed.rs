@@ -34,7 +34,8 @@
 //! the landmark warp's parameters (`glyptic::warp::WarpParams`, in order, trailing ones at
 //! their defaults); `--caricature GAIN,DETAIL`, `--prior P` (the portrait's identity prior),
 //! `--detail-scale K` (the detail's depth times K), `--detail-depths BROW,IRIS,MOUTH,LINE`
-//! (each region's depth, mm), `--classical-hair` (the same classical
+//! (each region's depth, mm), `--tone K` (the photo's light and dark modelled for the key
+//! light, steepest slope K; 0 off), `--classical-hair` (the same classical
 //! hair for everyone, as `photo --hair classical`))
 
 use std::collections::HashMap;
@@ -137,6 +138,7 @@ fn main() -> Result<()> {
     let mut prior: Option<f64> = None;
     let mut detail_scale: Option<f32> = None;
     let mut detail_depths: Option<glyptic::gem::DetailParams> = None;
+    let mut tone: Option<f32> = None;
     let mut warp: Option<glyptic::warp::WarpParams> = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -165,6 +167,7 @@ fn main() -> Result<()> {
             "--no-identity" => identity = false,
             "--classical-hair" => {}
             "--detail-scale" => detail_scale = Some(value()?.parse::<f32>()?),
+            "--tone" => tone = Some(value()?.parse::<f32>()?),
             "--detail-depths" => {
                 let v: Vec<f32> = value()?
                     .split(',')
@@ -179,6 +182,7 @@ fn main() -> Result<()> {
                     iris_mm,
                     mouth_mm,
                     line_mm,
+                    ..Default::default()
                 });
             }
             "--identity-steps" => steps = Some(value()?.parse()?),
@@ -257,6 +261,9 @@ fn main() -> Result<()> {
     }
     if detail_depths.is_some() {
         pipeline.detail = detail_depths;
+    }
+    if let (Some(t), Some(d)) = (tone, pipeline.detail.as_mut()) {
+        d.tone = t;
     }
     if warp.is_some() {
         pipeline.warp = warp;

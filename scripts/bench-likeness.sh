@@ -58,3 +58,9 @@ cat "$OUT/sface.md"
 echo
 echo "dlib's ResNet (held out; Euclidean, same person under 0.6):"
 cat "$OUT/dlib.md"
+# The frontal gems' light and dark against their photos' (no network; bench/light_and_dark.py),
+# with the bench virtualenv's numpy and Pillow when scripts/bench-fit.sh has made it.
+if [ -x .deps/bench-venv/bin/python ] && [ -d "$OUT/frontal" ]; then
+  echo
+  .deps/bench-venv/bin/python bench/light_and_dark.py "$OUT"
+fi
