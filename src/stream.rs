@@ -241,7 +241,7 @@ struct PersonReading {
     hair: Option<HairStyle>,
     /// The track, the identity the search found for it, and the shape its shading added
     /// ([`crate::photometric::displacement`]; `None` when the frame could not say).
-    steered: Option<(u64, Vec<f32>, Option<Vec<f32>>)>,
+    steered: Option<(u64, Steered)>,
 }
 
 /// The person thread: reads hair from frames handed to it one at a time, and steers a held
@@ -344,7 +344,7 @@ impl PersonWorker {
                         reading.steered = steer(net, model, opts, &image, &landmarks, &job)
                             .map_err(|e| tracing::warn!("cannot steer the visitor's identity: {e}"))
                             .ok()
-                            .map(|(shape, relief)| (job.track, shape, relief));
+                            .map(|s| (job.track, s));
                     }
                     if send.send(reading).is_err() {
                         return;
@@ -361,10 +361,23 @@ impl PersonWorker {
     }
 }
 
+/// What the person thread found for a held track on one of its frames.
+struct Steered {
+    /// The identity the search found.
+    shape: Vec<f32>,
+    /// The shape read from the frame's shading and its landmarks beyond the model's reach
+    /// (one model-frame displacement per vertex); `None` when the frame could not say.
+    relief: Option<Vec<f32>>,
+    /// The frame's own detail, as the photo path carves it ([`crate::gem::FaceDetail`]).
+    detail: Option<Arc<crate::gem::FaceDetail>>,
+}
+
 /// The identity search on one frame of a held track ([`crate::pipeline::gem::steer_identity`]),
 /// then the face's shape read from that frame's shading
 /// ([`crate::pipeline::gem::read_shading`]) and its landmarks beyond the model's reach
-/// ([`crate::warp`]) as one model-frame displacement.
+/// ([`crate::warp`]) as one model-frame displacement, and the frame's detail (brows, irises,
+/// the mouth, lines, and its light and dark: [`crate::gem::FaceDetail`]) on the face as the
+/// frame shows it.
 fn steer(
     net: &mut crate::detect::FaceEmbedder,
     model: &crate::shapemodel::SurreyModel,
@@ -372,7 +385,7 @@ fn steer(
     image: &RgbImage,
     landmarks: &[[f32; 2]],
     job: &IdentityJob,
-) -> Result<(Vec<f32>, Option<Vec<f32>>), String> {
+) -> Result<Steered, String> {
     let grey = image::imageops::grayscale(image);
     let mesh = model.instance(&job.fit.shape, &job.fit.expression);
     let shape = crate::pipeline::gem::steer_identity(
@@ -397,6 +410,25 @@ fn steer(
         &crate::warp::WarpParams::default(),
     )
     .map(|w| w.displacement);
+    let detail = {
+        let mut seen_mesh = mesh.clone();
+        if let Some(w) = &warp {
+            crate::photometric::add(&mut seen_mesh, w);
+        }
+        let seen =
+            crate::gem::detail::seen_vertices(&seen_mesh, &model.shape.triangles, &job.fit.pose);
+        let light = crate::pipeline::gem::tone_light(&seen_mesh, &job.fit.pose);
+        crate::gem::FaceDetail::read(
+            &grey,
+            landmarks,
+            seen,
+            &crate::gem::DetailParams::default(),
+            light,
+        )
+        .map_err(|e| tracing::warn!("cannot read the visitor's detail ({e}); the shape alone"))
+        .ok()
+        .map(Arc::new)
+    };
     let relief = match (relief, warp) {
         (Some(mut r), Some(w)) => {
             crate::photometric::add(&mut r, &w);
@@ -404,7 +436,11 @@ fn steer(
         }
         (r, w) => r.or(w),
     };
-    Ok((shape, relief))
+    Ok(Steered {
+        shape,
+        relief,
+        detail,
+    })
 }
 
 impl FaceUpdate {
@@ -445,7 +481,7 @@ impl FaceUpdate {
         let (built, stages) = crate::stage::record(|| {
             crate::stage::timed(
                 "gem",
-                || builder.build_after(&face.portrait, triangles, warm),
+                || builder.build_after(&face.portrait, triangles, warm, face.detail.as_deref()),
                 |mesh| format!("{} triangles", mesh.indices.len() / 3),
             )
         });
@@ -574,9 +610,9 @@ impl FaceStream {
                                 }
                                 if let Ok(Some(reading)) = worker.results.try_recv() {
                                     worker.busy = false;
-                                    if let Some((track, shape, relief)) = reading.steered {
+                                    if let Some((track, s)) = reading.steered {
                                         // A track lost meanwhile keeps its own.
-                                        tracker.steer(track, shape, relief);
+                                        tracker.steer(track, s.shape, s.relief, s.detail);
                                     }
                                     let changed = reading.hair.and_then(|s| smoother.push(s));
                                     if let (Some(style), Some(b)) = (changed, &builder) {

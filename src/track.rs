@@ -106,6 +106,10 @@ pub struct TrackedFace {
     pub track: u64,
     /// The portrait's identity was steered by the recognition network ([`Tracker::steer`]).
     pub steered: bool,
+    /// The visitor's detail read with the steered identity from one of the track's frames
+    /// ([`Tracker::steer`]; brows, irises, the mouth, lines, and the light and dark a frontal
+    /// gem models), attached to the face's vertices; `None` before.
+    pub detail: Option<std::sync::Arc<crate::gem::FaceDetail>>,
 }
 
 /// A frame's outcome: a face, or why there is none.
@@ -123,6 +127,8 @@ struct TrackState {
     steered: Option<Vec<f32>>,
     /// The shape read from the visitor's shading, added to the steered portrait.
     relief: Option<Vec<f32>>,
+    /// The detail read from the steered frame.
+    detail: Option<std::sync::Arc<crate::gem::FaceDetail>>,
     landmarks: Vec<[f32; 2]>,
     fit: Fit,
     identity_sum: Vec<f64>,
@@ -163,13 +169,21 @@ impl Tracker {
 
     /// Carves `shape` (identity, standard deviations) as the portrait of track `track` from
     /// now on, with `relief` (the shape read from the visitor's shading, a model-frame
-    /// displacement per vertex, [`crate::photometric::displacement`]) added, if that track is
-    /// still the one followed; `false` (and nothing changes) when it was lost meanwhile.
-    pub fn steer(&mut self, track: u64, shape: Vec<f32>, relief: Option<Vec<f32>>) -> bool {
+    /// displacement per vertex, [`crate::photometric::displacement`]) added and `detail` (read
+    /// from the same frame) carved, if that track is still the one followed; `false` (and
+    /// nothing changes) when it was lost meanwhile.
+    pub fn steer(
+        &mut self,
+        track: u64,
+        shape: Vec<f32>,
+        relief: Option<Vec<f32>>,
+        detail: Option<std::sync::Arc<crate::gem::FaceDetail>>,
+    ) -> bool {
         match &mut self.state {
             Some(s) if s.track == track && shape.len() == s.fit.shape.len() => {
                 s.steered = Some(shape);
                 s.relief = relief;
+                s.detail = detail;
                 true
             }
             _ => false,
@@ -221,6 +235,7 @@ impl Tracker {
             track: self.tracks,
             steered: None,
             relief: None,
+            detail: None,
             landmarks: Vec::new(),
             fit: fit.clone(),
             identity_sum: vec![0.0; fit.shape.len()],
@@ -409,7 +424,7 @@ impl Tracker {
             crate::photometric::add(&mut portrait, relief);
         }
         let identity_frames = state.identity_n;
-        let (track, steered) = (state.track, state.steered.is_some());
+        let (track, steered, detail) = (state.track, state.steered.is_some(), state.detail.clone());
         state.landmarks = landmarks.clone();
         state.fit = fit.clone();
         self.state = Some(state);
@@ -426,6 +441,7 @@ impl Tracker {
             portrait_shape,
             track,
             steered,
+            detail,
         }
     }
 }

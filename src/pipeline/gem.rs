@@ -563,7 +563,11 @@ fn load_segmenter(models: &ModelPaths, hair: Hair) -> Option<PersonSegmenter> {
 /// The stone's key light as the photo sees the face, for the detail's tone: the frontal
 /// portrait's (the model's frame is its stone's); the builder carves the tone into frontal
 /// portraits only (a profile shows the face's side, which the photo does not).
-fn tone_light(mesh: &[f32], pose: &glyptic_core::fit::Pose) -> Option<gem::detail::ToneLight> {
+#[cfg(feature = "face")]
+pub(crate) fn tone_light(
+    mesh: &[f32],
+    pose: &glyptic_core::fit::Pose,
+) -> Option<gem::detail::ToneLight> {
     if mesh.len() < 3 {
         return None;
     }

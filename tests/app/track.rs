@@ -390,6 +390,11 @@ fn the_face_thread_steers_the_visitors_identity_without_waiting() {
     );
     assert!(plain.len() >= 5, "the face thread waited for the search");
     assert!(steered.len() >= 3, "the identity was never steered");
+    // With the steered identity comes the frame's detail, the light and dark a frontal gem
+    // models included; none before.
+    assert!(plain.iter().all(|f| f.detail.is_none()));
+    let detail = steered[0].detail.as_ref().expect("the visitor's detail");
+    assert!(!detail.tone_map().is_empty(), "no light and dark read");
     let (a, b) = (plain.last().expect("plain"), &steered[0]);
     assert_eq!(a.track, b.track);
     let moved: f32 = a

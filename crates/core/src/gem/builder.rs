@@ -614,14 +614,16 @@ impl CameoBuilder {
 
     /// [`Self::build`] for the next face of a sequence (a tracked visitor): the relief's solve
     /// starts from the previous one's result kept in `warm` (empty at first), which it then
-    /// replaces. The gem equals [`Self::build`]'s within the solver's tolerance.
+    /// replaces, with the visitor's `detail` (read from one of their frames) carved when
+    /// given. The gem equals [`Self::build`]'s within the solver's tolerance.
     pub fn build_after(
         &self,
         positions: &[f32],
         triangles: &[[u32; 3]],
         warm: &mut Vec<f32>,
+        detail: Option<&FaceDetail>,
     ) -> Result<Mesh, GemError> {
-        let relief = self.relief_from(positions, triangles, warm)?;
+        let relief = self.relief_detailed(positions, triangles, warm, detail)?;
         let mesh = self.mesh_of(&relief);
         *warm = relief.relative;
         Ok(mesh)

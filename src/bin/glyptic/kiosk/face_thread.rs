@@ -15,6 +15,8 @@ pub(super) enum FaceNews {
     /// the stream and its latency from capture, ms.
     Update {
         face: Option<Vec<f32>>,
+        /// The visitor's detail, once read from one of their frames (carved with the face).
+        detail: Option<std::sync::Arc<glyptic::gem::FaceDetail>>,
         /// The visitor's hair once the person thread has settled it (boxed: its silhouette
         /// grid is some kilobytes).
         hair: Option<Box<glyptic::gem::HairStyle>>,
@@ -223,6 +225,7 @@ impl Live {
         match stream.updates().try_recv() {
             Ok(Some(u)) => news.push(FaceNews::Update {
                 hair: u.hair.map(Box::new),
+                detail: u.face.as_ref().and_then(|f| f.detail.clone()),
                 face: u.face.map(|f| f.portrait),
                 frame: u.frame_index,
                 latency_ms: u.latency_ms,

@@ -42,6 +42,9 @@ pub(super) struct GemFault {
 pub(super) struct GemJob {
     pub(super) face: Vec<f32>,
     pub(super) hair: HairStyle,
+    /// The visitor's detail read from one of their frames (attached to the face's vertices);
+    /// `None` for the default face.
+    pub(super) detail: Option<Arc<glyptic::gem::FaceDetail>>,
 }
 
 /// The gem thread: builds a cameo for each face mesh it is given (the newest wins) and starts
@@ -170,9 +173,9 @@ fn work(
     let _ = note_tx.try_send(GemNote::Ready {
         default_face: Arc::new(mean.clone()),
     });
-    let (mut face, mut hair) = match first {
-        Some(job) => (job.face, job.hair),
-        None => (mean.clone(), params.hair),
+    let (mut face, mut hair, mut detail) = match first {
+        Some(job) => (job.face, job.hair, job.detail),
+        None => (mean.clone(), params.hair, None),
     };
     let mut warm = Vec::new();
     let mut built_count = 0u64;
@@ -199,7 +202,7 @@ fn work(
         }
         let t = Instant::now();
         let built = builder
-            .build_after(&face, &triangles, &mut warm)
+            .build_after(&face, &triangles, &mut warm, detail.as_deref())
             .map(|mesh| BuiltGem {
                 mesh: Arc::new(mesh),
                 ms: t.elapsed().as_secs_f64() * 1e3,
@@ -209,7 +212,7 @@ fn work(
             return;
         }
         match jobs.recv() {
-            Ok(next) => (face, hair) = (next.face, next.hair),
+            Ok(next) => (face, hair, detail) = (next.face, next.hair, next.detail),
             Err(_) => return,
         }
     }

@@ -65,6 +65,7 @@ impl Running {
             match news {
                 FaceNews::Update {
                     face,
+                    detail,
                     hair,
                     frame,
                     latency_ms,
@@ -88,7 +89,7 @@ impl Running {
                         self.visitor_seen();
                     }
                     if let Some(face) = face
-                        && let Some(job) = self.portrait.seen(face, self.controls.frozen)
+                        && let Some(job) = self.portrait.seen(face, detail, self.controls.frozen)
                     {
                         self.gems.send(job);
                     }

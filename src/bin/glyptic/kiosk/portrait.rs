@@ -23,6 +23,9 @@ pub(super) struct Portrait {
     carve_glasses: bool,
     /// The last face seen and when.
     last_face: Option<(Vec<f32>, Instant)>,
+    /// The visitor's detail as last read (carved with their face and its ease back; dropped
+    /// at the default face).
+    visitor_detail: Option<Arc<glyptic::gem::FaceDetail>>,
     /// The default face's weight in the last job sent (0: the visitor's own face).
     sent_weight: f32,
     idle_seconds: f32,
@@ -38,6 +41,7 @@ impl Portrait {
             visitor_hair: hair,
             carve_glasses: config.glasses,
             last_face: None,
+            visitor_detail: None,
             sent_weight: 1.0,
             idle_seconds: config.idle_seconds,
             ease_seconds: config.ease_seconds,
@@ -53,14 +57,25 @@ impl Portrait {
         };
     }
 
-    /// A face seen now; the job that shows it unless the gem is `frozen`.
+    /// A face seen now, with the visitor's detail once read (`None`: keep the last, as a
+    /// visitor's frames before the person thread has read theirs); the job that shows it
+    /// unless the gem is `frozen`.
     #[cfg_attr(not(feature = "face"), allow(dead_code))]
-    pub(super) fn seen(&mut self, face: Vec<f32>, frozen: bool) -> Option<GemJob> {
+    pub(super) fn seen(
+        &mut self,
+        face: Vec<f32>,
+        detail: Option<Arc<glyptic::gem::FaceDetail>>,
+        frozen: bool,
+    ) -> Option<GemJob> {
+        if detail.is_some() {
+            self.visitor_detail = detail;
+        }
         let job = (!frozen).then(|| {
             self.sent_weight = 0.0;
             GemJob {
                 face: face.clone(),
                 hair: self.visitor_hair,
+                detail: self.visitor_detail.clone(),
             }
         });
         self.last_face = Some((face, Instant::now()));
@@ -74,6 +89,7 @@ impl Portrait {
         Some(GemJob {
             face: face.clone(),
             hair: self.visitor_hair,
+            detail: self.visitor_detail.clone(),
         })
     }
 
@@ -101,14 +117,16 @@ impl Portrait {
         let Some(blend) = blend_faces(face, default, w) else {
             return Some(None);
         };
-        // Back at the default face, the classical hair again.
+        // Back at the default face, the classical hair again and no visitor's detail.
         if w >= 1.0 {
             self.visitor_hair = self.default_hair;
+            self.visitor_detail = None;
         }
         self.sent_weight = w;
         Some(Some(GemJob {
             face: blend,
             hair: self.visitor_hair,
+            detail: self.visitor_detail.clone(),
         }))
     }
 }
@@ -132,9 +150,9 @@ mod tests {
     fn a_seen_face_is_sent_unless_frozen_and_eases_back_to_the_default_when_idle() {
         let mut p = portrait(0.0, 0.0);
         assert!(p.ease().is_none(), "no face seen: nothing to ease");
-        assert!(p.seen(vec![3.0; 6], true).is_none(), "frozen: no job");
+        assert!(p.seen(vec![3.0; 6], None, true).is_none(), "frozen: no job");
         assert!(!p.shows_visitor(), "the frozen gem is still the default");
-        let job = p.seen(vec![3.0; 6], false).expect("a job");
+        let job = p.seen(vec![3.0; 6], None, false).expect("a job");
         assert_eq!(job.face, vec![3.0; 6]);
         assert!(p.shows_visitor());
         // No idle time and no ease: the default face at once, with the default hair.
@@ -149,7 +167,7 @@ mod tests {
     #[test]
     fn a_visitor_still_there_is_not_eased_and_glasses_follow_the_configuration() {
         let mut p = portrait(60.0, 5.0);
-        p.seen(vec![1.0; 6], false);
+        p.seen(vec![1.0; 6], None, false);
         assert!(p.ease().is_none(), "seen just now");
         p.carve_glasses = false;
         p.read_hair(&HairStyle {
@@ -166,7 +184,36 @@ mod tests {
     #[test]
     fn faces_of_another_size_are_not_blended() {
         let mut p = portrait(0.0, 0.0);
-        p.seen(vec![1.0; 3], false);
+        p.seen(vec![1.0; 3], None, false);
         assert!(matches!(p.ease(), Some(None)));
+    }
+
+    /// A FaceDetail read from a flat grey frame (what the jobs carry is all that matters here).
+    fn detail() -> glyptic::gem::FaceDetail {
+        let lm: Vec<[f32; 2]> = (0..68)
+            .map(|k| {
+                let t = k as f32 * 0.37;
+                [200.0 + 80.0 * t.cos(), 200.0 + 90.0 * t.sin()]
+            })
+            .collect();
+        let img = image::GrayImage::from_pixel(400, 400, image::Luma([128]));
+        glyptic::gem::FaceDetail::read(&img, &lm, Vec::new(), &Default::default(), None)
+            .expect("detail")
+    }
+
+    #[test]
+    fn the_visitors_detail_goes_with_their_face_until_the_default_face() {
+        let mut p = portrait(0.0, 0.0);
+        let d = Arc::new(detail());
+        let job = p.seen(vec![3.0; 6], Some(d.clone()), false).expect("a job");
+        assert!(job.detail.as_ref().is_some_and(|j| Arc::ptr_eq(j, &d)));
+        // The visitor's next frames, before another reading, keep it.
+        let job = p.seen(vec![3.5; 6], None, false).expect("a job");
+        assert!(job.detail.as_ref().is_some_and(|j| Arc::ptr_eq(j, &d)));
+        assert!(p.newest().expect("the newest face").detail.is_some());
+        // Nobody there: the default face, without the visitor's detail.
+        let back = p.ease().expect("a step due").expect("the faces blend");
+        assert!(back.detail.is_none());
+        assert!(p.newest().expect("the newest face").detail.is_none());
     }
 }
