@@ -287,6 +287,9 @@ impl CameoBuilder {
         let mut cover = vec![0f32; n];
         let mut face_share = vec![0f32; n];
         let mut face_height = vec![f32::NAN; n];
+        // The photo's light and dark per node (canonical mm; `FaceDetail::tone_at`), carved
+        // after the compression.
+        let mut tone = vec![0f32; n];
         for i in portrait_box.indices(cols) {
             // (Behind the front-most node, not on it: what the face leaves uncovered of that
             // node's cell is the ground before the profile, and the head's share there raised
@@ -320,8 +323,10 @@ impl CameoBuilder {
                 // it is thick (up to 4 mm).
                 let thick = fuzz.get(i).copied().unwrap_or(0.0);
                 // The photo's detail, except under a beard (carved as locks instead).
-                if let Some(d) = &photo {
-                    carved += d[i] * (1.0 - template::smoothstep(0.5, 2.0, thick));
+                if let Some((d, t)) = &photo {
+                    let bare = 1.0 - template::smoothstep(0.5, 2.0, thick);
+                    carved += d[i] * bare;
+                    tone[i] = t[i] * bare * share;
                 }
                 let locks = if thick > 0.05 {
                     (thick / 4.0).min(1.0) * template::beard_texture(&p.hair, u, v)
@@ -436,7 +441,15 @@ impl CameoBuilder {
         // steeply to its edge the wall is lower, never under `MIN_WALL_SHARE` of its height.
         // (Unclamped: the compression leaves its edge a little below zero, and a clamp there
         // would crease the top.)
-        let scaled: Vec<f32> = relative.iter().map(|r| r * gain).collect();
+        // The tone goes into the stone after the compression, its slopes as the photo's light
+        // and dark asked for them (canonical mm over canonical mm = gem mm over gem mm): the
+        // compression would flatten its steepest slopes most, the ones that draw the
+        // strongest light and dark.
+        let scaled: Vec<f32> = relative
+            .iter()
+            .zip(&tone)
+            .map(|(r, t)| r * gain + t / self.scale)
+            .collect();
         let continued = extrapolate(&scaled, &mask, &outline, cols, rows, 2);
         let mut top = vec![0f32; n];
         let mut height = vec![0f32; n];
@@ -719,9 +732,9 @@ fn extrapolate(
 
 /// The photo's detail per face node (canonical mm): the photo point each node shows, from its
 /// vertices' photo positions interpolated over the face, faded where the photo sees the face
-/// edge-on; 0 off the face. A frontal portrait adds the tone (the photo's light and dark
-/// modelled for the key light, which only a face looking out of the stone shows as the photo
-/// does).
+/// edge-on; 0 off the face. Then the tone, apart (carved after the compression), in a frontal
+/// portrait only (the photo's light and dark modelled for the key light, which only a face
+/// looking out of the stone shows as the photo does).
 fn photo_detail(
     detail: &FaceDetail,
     view: View,
@@ -730,7 +743,7 @@ fn photo_detail(
     face: &[bool],
     cols: usize,
     rows: usize,
-) -> Vec<f32> {
+) -> (Vec<f32>, Vec<f32>) {
     let seen = detail.seen();
     let channel = |f: fn(&[f32; 3]) -> f32| -> Vec<f32> {
         let a: Vec<f32> = seen.iter().map(f).collect();
@@ -748,12 +761,13 @@ fn photo_detail(
                 } else {
                     0.0
                 };
-                template::smoothstep(0.2, 0.8, w[i]) * (detail.at(px, py) + tone)
+                let seen = template::smoothstep(0.2, 0.8, w[i]);
+                (seen * detail.at(px, py), seen * tone)
             } else {
-                0.0
+                (0.0, 0.0)
             }
         })
-        .collect()
+        .unzip()
 }
 
 /// The fewest triangles a face mesh may have: a relief is carved from its surface, and a

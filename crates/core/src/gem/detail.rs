@@ -44,7 +44,7 @@ use crate::photo_grid::{bilinear_grey, polyline_distance};
 pub const CELLS_PER_IOD: f32 = 64.0;
 
 /// The tone's steepest slope by default (see [`DetailParams::tone`]).
-pub const TONE: f32 = 1.5;
+pub const TONE: f32 = 2.25;
 /// The tone's band: brightness against its surroundings over this share of the eyes'
 /// distance (a Gaussian's sigma).
 const TONE_BAND: f32 = 0.16;
@@ -65,8 +65,9 @@ pub struct DetailParams {
     pub mouth_mm: f32,
     /// Folds and lines incised.
     pub line_mm: f32,
-    /// The steepest slope (canonical mm per mm) with which the photo's fine light and dark is
-    /// modelled for the stone's key light ([`super::tone`]); 0: none.
+    /// The steepest slope (mm per mm) with which the photo's fine light and dark is modelled
+    /// for the stone's key light ([`super::tone`]), carved into the stone after the relief's
+    /// compression with its slopes kept; 0: none.
     pub tone: f32,
 }
 

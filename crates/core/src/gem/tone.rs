@@ -11,7 +11,8 @@
 //! BENCHMARKS.md, issue #37) were ranked to their own person for nearly every gem.
 //!
 //! The key light is fixed to the stone ([`crate::scene::key_light_dir`]), so the pattern holds
-//! while the gem turns. Heights come from a least-squares fit of their slope along the light's
+//! while the gem turns. The heights are carved after the bas-relief's compression, their
+//! slopes kept (the compression flattens steep slopes most: the strongest light and dark). Heights come from a least-squares fit of their slope along the light's
 //! direction to the wanted slope, smooth across it and held near zero by a ridge: a field whose
 //! every change is small (a fraction of a millimetre over a few), not a picture pressed in.
 //!

