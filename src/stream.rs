@@ -417,7 +417,7 @@ fn steer(
         }
         let seen =
             crate::gem::detail::seen_vertices(&seen_mesh, &model.shape.triangles, &job.fit.pose);
-        let light = crate::pipeline::gem::tone_light(&seen_mesh, &job.fit.pose);
+        let light = crate::gem::detail::ToneLight::of_face(&job.fit.pose, &seen_mesh);
         crate::gem::FaceDetail::read(
             &grey,
             landmarks,

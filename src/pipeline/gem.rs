@@ -249,7 +249,8 @@ impl GemPipeline {
                 "detail",
                 || {
                     let seen = gem::detail::seen_vertices(&seen_mesh, triangles, &face.fit.pose);
-                    let light = tone_light(&seen_mesh, &face.fit.pose);
+                    // The builder carves the tone into frontal portraits only.
+                    let light = gem::detail::ToneLight::of_face(&face.fit.pose, &seen_mesh);
                     gem::FaceDetail::read(&grey, &face.landmarks, seen, params, light)
                 },
                 |d| {
@@ -558,27 +559,6 @@ fn load_segmenter(models: &ModelPaths, hair: Hair) -> Option<PersonSegmenter> {
     PersonSegmenter::load(&models.segmenter, &models.onnxruntime)
         .map_err(|e| tracing::warn!("{e}; the hair is read by colour alone (run scripts/setup.sh)"))
         .ok()
-}
-
-/// The stone's key light as the photo sees the face, for the detail's tone: the frontal
-/// portrait's (the model's frame is its stone's); the builder carves the tone into frontal
-/// portraits only (a profile shows the face's side, which the photo does not).
-#[cfg(feature = "face")]
-pub(crate) fn tone_light(
-    mesh: &[f32],
-    pose: &glyptic_core::fit::Pose,
-) -> Option<gem::detail::ToneLight> {
-    if mesh.len() < 3 {
-        return None;
-    }
-    let n = (mesh.len() / 3) as f32;
-    let mut at = [0f32; 3];
-    for v in mesh.chunks_exact(3) {
-        for k in 0..3 {
-            at[k] += v[k] / n;
-        }
-    }
-    gem::detail::ToneLight::seen(pose, at, glyptic_core::scene::key_light_dir())
 }
 
 /// Reads and decodes a photo (stage `decode`, its size as the detail).

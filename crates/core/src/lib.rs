@@ -12,6 +12,7 @@
 //! file lives: readers take the path (or bytes) they are given. So this crate builds and tests
 //! alone (`cargo test -p glyptic-core`), and its benches measure computation only.
 
+mod cg;
 pub mod files;
 pub mod fit;
 pub mod gem;

@@ -383,7 +383,13 @@ pub fn fit(
         for i in 0..n {
             rhs[i] -= reg[i];
         }
-        let step_d = conjugate_gradient(&op, &rhs, 3000, 1e-3);
+        let mut scratch = Scratch::new(rhs.len());
+        let step_d = crate::cg::conjugate_gradient(
+            |p, out| op.apply_into(p, out, &mut scratch),
+            &rhs,
+            3000,
+            1e-3,
+        );
         for i in 0..n {
             d[i] += step_d[i];
         }
@@ -674,46 +680,6 @@ impl Scratch {
     }
 }
 
-/// Conjugate gradients on a symmetric positive definite operator, from zero.
-fn conjugate_gradient(op: &Operator, b: &[f32], iterations: usize, tolerance: f32) -> Vec<f32> {
-    let n = b.len();
-    let mut x = vec![0f32; n];
-    let mut r = b.to_vec();
-    let mut p = r.clone();
-    let mut ap = vec![0f32; n];
-    let mut scratch = Scratch::new(n);
-    let dot = |a: &[f32], b: &[f32]| -> f64 {
-        a.iter()
-            .zip(b)
-            .map(|(x, y)| f64::from(*x) * f64::from(*y))
-            .sum()
-    };
-    let mut rr = dot(&r, &r);
-    let stop = rr * f64::from(tolerance * tolerance);
-    for _ in 0..iterations {
-        if rr <= stop || rr == 0.0 {
-            break;
-        }
-        op.apply_into(&p, &mut ap, &mut scratch);
-        let pap = dot(&p, &ap);
-        if pap.is_nan() || pap <= 0.0 {
-            break;
-        }
-        let alpha = (rr / pap) as f32;
-        for i in 0..n {
-            x[i] += alpha * p[i];
-            r[i] -= alpha * ap[i];
-        }
-        let rr_new = dot(&r, &r);
-        let beta = (rr_new / rr) as f32;
-        for i in 0..n {
-            p[i] = r[i] + beta * p[i];
-        }
-        rr = rr_new;
-    }
-    x
-}
-
 fn sample(map: &[f32], cols: usize, rows: usize, u: f32, v: f32) -> f32 {
     if !(u >= 0.0 && v >= 0.0 && u <= (cols - 1) as f32 && v <= (rows - 1) as f32) {
         return 0.0;
@@ -731,7 +697,7 @@ fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use nalgebra::{Matrix3, Vector2};
 
@@ -790,7 +756,8 @@ mod tests {
         })
     }
 
-    fn correlation(a: &[f32], b: &[f32]) -> f32 {
+    /// Pearson's correlation of two series (0 when either is flat).
+    pub(crate) fn correlation(a: &[f32], b: &[f32]) -> f32 {
         let n = a.len() as f32;
         let (ma, mb) = (a.iter().sum::<f32>() / n, b.iter().sum::<f32>() / n);
         let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
@@ -799,7 +766,7 @@ mod tests {
             aa += (x - ma) * (x - ma);
             bb += (y - mb) * (y - mb);
         }
-        ab / (aa * bb).sqrt()
+        ab / (aa * bb).sqrt().max(1e-12)
     }
 
     #[test]

@@ -639,7 +639,7 @@ pub(crate) mod tests {
                 b.push(f32::from(img.get_pixel(x as u32, y as u32).0[0]) - local);
             }
         }
-        let corr = correlation(&a, &b);
+        let corr = crate::photometric::tests::correlation(&a, &b);
         assert!(corr > 0.5, "shading against the photo: correlation {corr}");
         let none = FaceDetail::read(&img, &lm, Vec::new(), &p, None).expect("detail");
         assert!(none.tone_map().is_empty());
@@ -649,18 +649,6 @@ pub(crate) mod tests {
         assert!(off.tone_map().is_empty());
         // The regions' carving is the same with or without the tone.
         assert_eq!(none.map().2, d.map().2);
-    }
-
-    fn correlation(a: &[f32], b: &[f32]) -> f32 {
-        let n = a.len() as f32;
-        let (ma, mb) = (a.iter().sum::<f32>() / n, b.iter().sum::<f32>() / n);
-        let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-        for (x, y) in a.iter().zip(b) {
-            ab += (x - ma) * (y - mb);
-            aa += (x - ma) * (x - ma);
-            bb += (y - mb) * (y - mb);
-        }
-        ab / (aa * bb).sqrt().max(1e-12)
     }
 
     #[test]

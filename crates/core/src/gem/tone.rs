@@ -59,6 +59,28 @@ impl ToneLight {
     }
 }
 
+impl ToneLight {
+    /// The stone's key light ([`crate::scene::key_light_dir`]; the model's frame is a frontal
+    /// portrait's stone frame) seen at the centre of `mesh` (its vertices' mean, model mm):
+    /// [`Self::seen`]. `None` for an empty or broken mesh too.
+    pub fn of_face(pose: &Pose, mesh: &[f32]) -> Option<Self> {
+        let n = (mesh.len() / 3) as f32;
+        if n < 1.0 {
+            return None;
+        }
+        let mut at = [0f32; 3];
+        for v in mesh.chunks_exact(3) {
+            for k in 0..3 {
+                at[k] += v[k] / n;
+            }
+        }
+        if at.iter().any(|c| !c.is_finite()) {
+            return None;
+        }
+        Self::seen(pose, at, crate::scene::key_light_dir())
+    }
+}
+
 /// How the slopes are fitted: smoothness and ridge weights against the slope's own (1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ToneSolve {
@@ -128,7 +150,7 @@ pub fn fit_slopes(
     // A h = D^T W D h + smooth * L h + ridge * h (L: the grid's Laplacian with free borders).
     let mut tmp = vec![0f32; n];
     let mut tmp2 = vec![0f32; n];
-    let mut apply = |h: &[f32], out: &mut [f32]| {
+    let apply = |h: &[f32], out: &mut [f32]| {
         d(h, &mut tmp);
         for (t, w) in tmp.iter_mut().zip(weight) {
             *t *= w;
@@ -161,34 +183,8 @@ pub fn fit_slopes(
         .collect();
     let mut b = vec![0f32; n];
     dt(&ws, &mut b);
-    let mut h = vec![0f32; n];
-    let mut r = b.clone();
-    let mut p = r.clone();
-    let mut ap = vec![0f32; n];
-    let dot = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(x, y)| f64::from(x * y)).sum::<f64>();
-    let mut rr = dot(&r, &r);
-    let stop = rr * 1e-8;
-    for _ in 0..solve.iterations {
-        if rr <= stop || rr == 0.0 {
-            break;
-        }
-        apply(&p, &mut ap);
-        let pap = dot(&p, &ap);
-        if pap <= 0.0 || !pap.is_finite() {
-            break;
-        }
-        let alpha = (rr / pap) as f32;
-        for i in 0..n {
-            h[i] += alpha * p[i];
-            r[i] -= alpha * ap[i];
-        }
-        let next = dot(&r, &r);
-        let beta = (next / rr) as f32;
-        rr = next;
-        for i in 0..n {
-            p[i] = r[i] + beta * p[i];
-        }
-    }
+    // Stops when the residual is 1e-4 of the right-hand side's.
+    let h = crate::cg::conjugate_gradient(apply, &b, solve.iterations, 1e-4);
     if h.iter().all(|v| v.is_finite()) {
         h
     } else {

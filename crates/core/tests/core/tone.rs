@@ -35,15 +35,8 @@ fn the_tone_under_the_key_light_gives_back_the_photos_light_and_dark() {
             .into_luma8();
         let f = fit::fit(model, &lm, &FitOptions::default()).expect("a fit");
         let mesh = model.instance(&f.shape, &f.expression);
-        let n = (mesh.len() / 3) as f32;
-        let mut at = [0f32; 3];
-        for v in mesh.chunks_exact(3) {
-            for k in 0..3 {
-                at[k] += v[k] / n;
-            }
-        }
-        let light = ToneLight::seen(&f.pose, at, glyptic_core::scene::key_light_dir())
-            .expect("the key light crosses a frontal photo");
+        let light =
+            ToneLight::of_face(&f.pose, &mesh).expect("the key light crosses a frontal photo");
         let seen = seen_vertices(&mesh, &model.shape.triangles, &f.pose);
         let d = FaceDetail::read(&photo, &lm, seen, &DetailParams::default(), Some(light))
             .expect("detail");
@@ -108,14 +101,7 @@ fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
         .into_luma8();
     let f = fit::fit(model, &lm, &FitOptions::default()).expect("a fit");
     let mesh = model.instance(&f.shape, &f.expression);
-    let n = (mesh.len() / 3) as f32;
-    let mut at = [0f32; 3];
-    for v in mesh.chunks_exact(3) {
-        for k in 0..3 {
-            at[k] += v[k] / n;
-        }
-    }
-    let light = ToneLight::seen(&f.pose, at, glyptic_core::scene::key_light_dir());
+    let light = ToneLight::of_face(&f.pose, &mesh);
     let read = |tone: f32| {
         let seen = seen_vertices(&mesh, &model.shape.triangles, &f.pose);
         let p = DetailParams {
