@@ -74,10 +74,13 @@ pub struct FaceLandmarks {
     pub points: Vec<[f32; 2]>,
 }
 
-fn load_detector(models: &ModelPaths) -> Result<FaceDetector, PipelineError> {
+fn load_detector(models: &ModelPaths, threads: usize) -> Result<FaceDetector, PipelineError> {
+    let config = crate::detect::SessionConfig {
+        intra_threads: threads.max(1),
+    };
     Ok(timed(
         "load detector",
-        || FaceDetector::load(&models.detector, &models.onnxruntime),
+        || FaceDetector::load_with(&models.detector, &models.onnxruntime, &config),
         |_| format!("{}", models.detector.display()),
     )?)
 }
@@ -111,7 +114,7 @@ impl LandmarkPipeline {
     /// read) on a second thread while ONNX Runtime builds the detector's session here.
     pub fn load(models: &ModelPaths) -> Result<Self, PipelineError> {
         let (predictor, detector) =
-            crate::stage::alongside(|| load_predictor(models), || load_detector(models));
+            crate::stage::alongside(|| load_predictor(models), || load_detector(models, 1));
         Ok(Self::with(detector?, predictor?))
     }
 
@@ -218,12 +221,24 @@ pub const PORTRAIT_PRIOR: f64 = 2.0;
 pub const PORTRAIT_EXPRESSION: f32 = 0.5;
 
 impl FacePipeline {
-    /// Loads the three models, timing each: the landmark and face models (plain reads) on a
-    /// second thread while ONNX Runtime builds the detector's session here.
+    /// Loads the three models, timing each: the landmark and face models (plain reads) on
+    /// two more threads while ONNX Runtime builds the detector's session here.
     pub fn load(models: &ModelPaths) -> Result<Self, PipelineError> {
-        let ((predictor, model), detector) = crate::stage::alongside(
-            || (load_predictor(models), load_face_model(models)),
-            || load_detector(models),
+        Self::load_threads(models, 1)
+    }
+
+    /// [`FacePipeline::load`] with the detector's operators on `detector_threads` threads: a
+    /// one-shot photo waits on its detection, a live tracker shares the cores with the
+    /// render loop and keeps one.
+    pub fn load_threads(
+        models: &ModelPaths,
+        detector_threads: usize,
+    ) -> Result<Self, PipelineError> {
+        // Three threads: the landmark model's read (the longest), the face model's read and
+        // parse, and ONNX Runtime's session here.
+        let ((model, predictor), detector) = crate::stage::alongside(
+            || crate::stage::alongside(|| load_face_model(models), || load_predictor(models)),
+            || load_detector(models, detector_threads),
         );
         Ok(FacePipeline {
             faces: LandmarkPipeline::with(detector?, predictor?),

@@ -102,6 +102,25 @@ pub struct GemPipeline {
     pub warp: Option<crate::warp::WarpParams>,
 }
 
+/// What [`GemPipeline::load_with`] loads, and how.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Load the recognition network (the identity search); false: not even loaded.
+    pub recognise: bool,
+    /// Threads inside the detector's operators (1: beside other pipelines, as a batch's
+    /// workers; more where a single photo waits on its detection).
+    pub detector_threads: usize,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        Self {
+            recognise: true,
+            detector_threads: 1,
+        }
+    }
+}
+
 #[cfg(feature = "face")]
 impl GemPipeline {
     /// Loads the face pipeline and, for [`Hair::Photo`], the segmentation model (missing or
@@ -111,18 +130,18 @@ impl GemPipeline {
         cameo: CameoParams,
         hair: Hair,
     ) -> Result<Self, PipelineError> {
-        Self::load_with(models, cameo, hair, true)
+        Self::load_with(models, cameo, hair, LoadOptions::default())
     }
 
-    /// [`GemPipeline::load`], with the recognition network (the identity search) or without
-    /// (`recognise` false: it is not even loaded).
+    /// [`GemPipeline::load`] with `options`' networks and threads.
     pub fn load_with(
         models: &ModelPaths,
         cameo: CameoParams,
         hair: Hair,
-        recognise: bool,
+        options: LoadOptions,
     ) -> Result<Self, PipelineError> {
-        let face = FacePipeline::load(models)?;
+        let recognise = options.recognise;
+        let face = FacePipeline::load_threads(models, options.detector_threads)?;
         let segmenter = load_segmenter(models, hair);
         // Started last: it loads while the photo is decoded and its face found (the GPU's
         // start-up, on another thread, is over by then: started first it slowed both).
@@ -241,29 +260,37 @@ impl GemPipeline {
                 crate::photometric::add(seen_mesh.to_mut(), &w.displacement);
             }
         }
-        let (cameo, person) =
-            self.person_cameo(img, &face.landmarks, shading.as_ref().map(|f| &f.expected));
-        let detail = self.detail.as_ref().and_then(|params| {
-            let triangles = &self.face.model.shape.triangles;
-            timed(
-                "detail",
-                || {
-                    let seen = gem::detail::seen_vertices(&seen_mesh, triangles, &face.fit.pose);
-                    // The builder carves the tone into frontal portraits only.
-                    let light = gem::detail::ToneLight::of_face(&face.fit.pose, &seen_mesh);
-                    gem::FaceDetail::read(&grey, &face.landmarks, seen, params, light)
-                },
-                |d| {
-                    if d.tone_map().is_empty() {
-                        "brows, irises, mouth, lines".into()
-                    } else {
-                        "brows, irises, mouth, lines, light and dark".into()
-                    }
-                },
-            )
-            .map_err(|e| tracing::warn!("cannot read the face's detail ({e}); the shape alone"))
-            .ok()
-        });
+        // The detail (the fitted face and the photo's brightness) and the person (hair,
+        // beard, glasses: the photo's colours) need nothing of each other: the detail is read
+        // on a second thread while the person is read here.
+        let detail_params = self.detail;
+        let model = self.face.model.clone();
+        let (detail, (cameo, person)) = crate::stage::alongside(
+            || {
+                let params = detail_params.as_ref()?;
+                let triangles = &model.shape.triangles;
+                timed(
+                    "detail",
+                    || {
+                        let seen =
+                            gem::detail::seen_vertices(&seen_mesh, triangles, &face.fit.pose);
+                        // The builder carves the tone into frontal portraits only.
+                        let light = gem::detail::ToneLight::of_face(&face.fit.pose, &seen_mesh);
+                        gem::FaceDetail::read(&grey, &face.landmarks, seen, params, light)
+                    },
+                    |d| {
+                        if d.tone_map().is_empty() {
+                            "brows, irises, mouth, lines".into()
+                        } else {
+                            "brows, irises, mouth, lines, light and dark".into()
+                        }
+                    },
+                )
+                .map_err(|e| tracing::warn!("cannot read the face's detail ({e}); the shape alone"))
+                .ok()
+            },
+            || self.person_cameo(img, &face.landmarks, shading.as_ref().map(|f| &f.expected)),
+        );
         let mesh = build_gem_detailed(
             &face.portrait,
             &self.face.model.shape.triangles,

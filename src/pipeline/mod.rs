@@ -14,5 +14,5 @@ mod person;
 #[cfg(feature = "face")]
 pub use face::*;
 #[cfg(feature = "face")]
-pub use gem::{GemPipeline, PhotoGem};
+pub use gem::{GemPipeline, LoadOptions, PhotoGem};
 pub use gem::{GemPipelineError, Hair};

@@ -18,6 +18,7 @@ pub mod fit;
 pub mod gem;
 pub mod identity;
 pub mod landmarks;
+pub mod par;
 pub mod person;
 mod photo_grid;
 pub mod photometric;

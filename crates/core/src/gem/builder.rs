@@ -84,31 +84,34 @@ impl CameoBuilder {
             .collect();
         // Each node is the mean of 2 x 2 samples across its cell, so carved grooves and the
         // outline do not alias into stair-steps.
-        let mut template = Template {
-            height: vec![0.0; cols * rows],
-            hair: vec![0.0; cols * rows],
-            coverage: vec![0.0; cols * rows],
-        };
-        for i in (0..cols * rows).filter(|&i| allowed[i]) {
-            let (x, y) = node(i);
-            for (dx, dy) in [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)] {
-                let s = template::sample(
-                    p.view,
-                    &p.hair,
-                    centre[0] + (x + dx * p.cell) * scale,
-                    centre[1] + (y + dy * p.cell) * scale,
-                );
-                template.height[i] += 0.25 * s.height;
-                template.hair[i] += 0.25 * s.hair;
-                template.coverage[i] += 0.25 * f32::from(u8::from(s.covered));
+        // Nodes are independent: spread over the cores (the photo waits on this, issue #42).
+        let sampled = crate::par::map(cols * rows, PAR_NODES, |i| {
+            let mut s3 = [0f32; 3];
+            if allowed[i] {
+                let (x, y) = node(i);
+                for (dx, dy) in [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)] {
+                    let s = template::sample(
+                        p.view,
+                        &p.hair,
+                        centre[0] + (x + dx * p.cell) * scale,
+                        centre[1] + (y + dy * p.cell) * scale,
+                    );
+                    s3[0] += 0.25 * s.height;
+                    s3[1] += 0.25 * s.hair;
+                    s3[2] += 0.25 * f32::from(u8::from(s.covered));
+                }
             }
-        }
+            s3
+        });
+        let coarse: Vec<f32> = sampled.iter().map(|s| s[2]).collect();
         // Along the outline (partly covered nodes, or nodes beside one of another coverage)
         // the coverage again from the finer sub-samples the face's outline gets.
-        let coarse = template.coverage.clone();
-        for i in (0..cols * rows).filter(|&i| allowed[i]) {
-            let (x, y) = (i % cols, i / cols);
+        let coverage = crate::par::map(cols * rows, PAR_NODES, |i| {
             let c = coarse[i];
+            if !allowed[i] {
+                return c;
+            }
+            let (x, y) = (i % cols, i / cols);
             let neighbours = [
                 (x > 0).then(|| i - 1),
                 (x + 1 < cols).then(|| i + 1),
@@ -117,7 +120,7 @@ impl CameoBuilder {
             ];
             let edge = (c > 0.0 && c < 1.0) || neighbours.iter().flatten().any(|&j| coarse[j] != c);
             if !edge {
-                continue;
+                return c;
             }
             let (gx, gy) = node(i);
             let covered = |k: usize| {
@@ -135,13 +138,18 @@ impl CameoBuilder {
             // cost all 64 (the template is a few times dearer than the face to sample).
             let n = relief::COVERAGE_SAMPLES;
             let first = (0..n).step_by(4).filter(|&k| covered(k)).count();
-            template.coverage[i] = if first == 0 || first == n / 4 {
+            if first == 0 || first == n / 4 {
                 first as f32 / (n / 4) as f32
             } else {
                 let rest = (0..n).filter(|k| k % 4 != 0 && covered(*k)).count();
                 (first + rest) as f32 / n as f32
-            };
-        }
+            }
+        });
+        let template = Template {
+            height: sampled.iter().map(|s| s[0]).collect(),
+            hair: sampled.iter().map(|s| s[1]).collect(),
+            coverage,
+        };
         let mut base = Mesh::default();
         add_setting(&mut base, p);
         let template_box = Window::of(cols, rows, |i| {
@@ -666,6 +674,10 @@ struct Template {
 /// The wall's least height where the relief falls steeply to its outline, a share of
 /// [`CameoParams::wall`].
 const MIN_WALL_SHARE: f32 = 0.5;
+
+/// Grid nodes a thread takes at least when the template is sampled on several cores (a
+/// node's samples cost a few microseconds; a thread's start some tens).
+const PAR_NODES: usize = 2048;
 
 /// `values` where `known`, continued `rings` nodes past it wherever `reach` is positive, to
 /// first order: each new node the mean of its known 4-neighbours' values carried on by their

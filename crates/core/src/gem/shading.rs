@@ -185,14 +185,14 @@ pub(super) fn light_transmission(
                 + (h(x0, y1) * (1.0 - tx) + h(x1, y1) * tx) * ty,
         )
     };
-    let mut out = vec![0f32; n];
-    for (i, o) in out.iter_mut().enumerate() {
+    // Each node marches its own ray: spread over the cores.
+    crate::par::map(n, 2048, |i| {
         let (dark, h0) = (shadow[i].clamp(0.0, 1.0), height[i]);
         // The relief only: the ground's shadows stay as they are (light through a part
         // reaches the ground behind it spread thin, and marching every shadowed ground node
         // costs more than the rest of the shading together).
         if dark < 0.01 || h0 <= 0.0 {
-            continue;
+            return 0.0;
         }
         let (x, y) = ((i % cols) as f32, (i / cols) as f32);
         // March until the ray rises above the highest relief, or until what could still come
@@ -212,9 +212,8 @@ pub(super) fn light_transmission(
                 inside += along_ray;
             }
         }
-        *o = dark * (-inside / mean_free_mm).exp();
-    }
-    out
+        dark * (-inside / mean_free_mm).exp()
+    })
 }
 
 #[cfg(test)]

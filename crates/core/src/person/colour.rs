@@ -115,10 +115,12 @@ impl Gmm {
         (!comps.is_empty()).then_some(Gmm(comps))
     }
 
+    /// The mixture's log density (log-sum-exp). Called for every canvas pixel each round:
+    /// no allocation (each component's term is computed twice, cheaper than a heap buffer).
     pub(super) fn log_pdf(&self, c: Colour) -> f32 {
-        let terms: Vec<f32> = self.0.iter().map(|g| g.log_norm - 0.5 * g.d2(c)).collect();
-        let m = terms.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-        m + terms.iter().map(|t| (t - m).exp()).sum::<f32>().ln()
+        let term = |g: &Gauss| g.log_norm - 0.5 * g.d2(c);
+        let m = self.0.iter().map(term).fold(f32::NEG_INFINITY, f32::max);
+        m + self.0.iter().map(|g| (term(g) - m).exp()).sum::<f32>().ln()
     }
 
     /// The smallest squared Mahalanobis distance to a component.

@@ -55,6 +55,8 @@ const T_RANGE: (f32, f32) = (-3.4, 6.0);
 const CLOTHES_NOT_HAIR: f32 = 9.0;
 /// Canvas pixel, IOD.
 const RES: f32 = 0.04;
+/// Canvas pixels a thread takes at least when per-pixel work is spread over the cores.
+const PAR_PIXELS: usize = 2048;
 /// How unlike the face's skin (squared Mahalanobis distance) a colour of the crown must be to
 /// seed the hair's model; in a black-and-white photo, where only brightness tells them apart,
 /// less (a grey or fair head otherwise read bald: on black-and-white copies of the labelled
@@ -650,8 +652,11 @@ pub fn analyse_shaded(
     const ROUNDS: usize = 4;
     for round in 0..ROUNDS {
         let last = round + 1 == ROUNDS;
-        let mut post = [vec![0f32; w * h], vec![0f32; w * h], vec![0f32; w * h]];
-        for i in (0..w * h).filter(|&i| valid[i]) {
+        // Each pixel's posterior alone: spread over the cores (the photo waits on it).
+        let each = crate::par::map(w * h, PAR_PIXELS, |i| {
+            if !valid[i] {
+                return [0f32; 3];
+            }
             let mut ll = [&bg, &skin, &hair].map(|g| {
                 g.as_ref()
                     .map_or(f32::NEG_INFINITY, |g| g.log_pdf(col[i]).max(-60.0))
@@ -663,11 +668,11 @@ pub fn analyse_shaded(
             let m = lp.iter().copied().fold(f32::NEG_INFINITY, f32::max);
             let e: [f32; 3] = std::array::from_fn(|c| (lp[c] - m).exp());
             let z: f32 = e.iter().sum();
-            for c in 0..3 {
-                post[c][i] = e[c] / z;
-            }
-        }
-        let post = post.map(|p| box_blur(&p, w, h, 2));
+            e.map(|e| e / z)
+        });
+        let post: [Vec<f32>; 3] = std::array::from_fn(|c| {
+            box_blur(&each.iter().map(|p| p[c]).collect::<Vec<_>>(), w, h, 2)
+        });
         for i in 0..w * h {
             labels[i] = if !valid[i] {
                 Label::Outside

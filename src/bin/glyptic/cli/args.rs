@@ -289,13 +289,21 @@ impl ChoiceArgs {
         pipeline.portrait_expression = self.expression;
     }
 
-    /// The photo -> gem pipeline with these choices and `view`'s portrait.
-    pub fn gem_pipeline(&self, view: &ViewArgs) -> Result<glyptic::pipeline::GemPipeline> {
+    /// The photo -> gem pipeline with these choices and `view`'s portrait, its detector on
+    /// `detector_threads` threads.
+    pub fn gem_pipeline(
+        &self,
+        view: &ViewArgs,
+        detector_threads: usize,
+    ) -> Result<glyptic::pipeline::GemPipeline> {
         let mut p = glyptic::pipeline::GemPipeline::load_with(
             &glyptic::assets::ModelPaths::locate(),
             view.cameo(),
             self.hair,
-            self.likeness_search > 0,
+            glyptic::pipeline::LoadOptions {
+                recognise: self.likeness_search > 0,
+                detector_threads,
+            },
         )?;
         self.apply_face(&mut p.face);
         p.carve_glasses = self.glasses == GlassesArg::Carve;

@@ -344,7 +344,8 @@ pub fn batch(args: &BatchArgs) -> Result<()> {
     let models = glyptic::assets::ModelPaths::locate();
     // One detector and segmentation session per worker, sharing the landmark and face models;
     // a missing segmentation model is reported once.
-    let mut pipelines = vec![args.choice.gem_pipeline(&args.view)?];
+    // One detector thread each: the workers already fill the cores.
+    let mut pipelines = vec![args.choice.gem_pipeline(&args.view, 1)?];
     for _ in 1..jobs {
         let p = pipelines[0].fork(&models)?;
         pipelines.push(p);

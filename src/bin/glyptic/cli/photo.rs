@@ -359,7 +359,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
                     Ok(glyptic::pipeline::gem::decode(image_path)?)
                 }
             },
-            || args.choice.gem_pipeline(&args.view),
+            || args.choice.gem_pipeline(&args.view, detector_threads()),
         );
         let img = img?;
         let mut pipeline = pipeline?;
@@ -462,4 +462,12 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The one photo's detector threads: the cores but one (the renderer starts and the models
+/// load beside it), at most 8 (a 640-pixel frame's convolutions gain little past that). On
+/// two cores: one, as before (measured: a second thread there only competed with the GPU's
+/// start, issue #42).
+fn detector_threads() -> usize {
+    (glyptic_core::par::cores().saturating_sub(1)).clamp(1, 8)
 }
