@@ -468,6 +468,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
 /// load beside it), at most 8 (a 640-pixel frame's convolutions gain little past that). On
 /// two cores: one, as before (measured: a second thread there only competed with the GPU's
 /// start, issue #42).
+#[cfg(feature = "face")]
 fn detector_threads() -> usize {
     (glyptic_core::par::cores().saturating_sub(1)).clamp(1, 8)
 }
