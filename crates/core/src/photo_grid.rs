@@ -75,6 +75,22 @@ pub(crate) fn bilinear_grey(img: &GrayImage, x: f32, y: f32) -> f32 {
         + (px(x0, y1) * (1.0 - fx) + px(x1, y1) * fx) * fy
 }
 
+/// A row-major map of `cols` x `rows` values read at (u, v) (cells, whole numbers at the
+/// nodes), bilinear, clamped to its edge: the photo's maps, the tone's coarse heights and the
+/// relief read between their nodes.
+pub(crate) fn bilinear_map(map: &[f32], cols: usize, rows: usize, u: f32, v: f32) -> f32 {
+    let (u, v) = (
+        u.clamp(0.0, (cols - 1) as f32),
+        v.clamp(0.0, (rows - 1) as f32),
+    );
+    let (c0, r0) = (u as usize, v as usize);
+    let (c1, r1) = ((c0 + 1).min(cols - 1), (r0 + 1).min(rows - 1));
+    let (fx, fy) = (u - c0 as f32, v - r0 as f32);
+    let h = |c: usize, r: usize| map[r * cols + c];
+    (h(c0, r0) * (1.0 - fx) + h(c1, r0) * fx) * (1.0 - fy)
+        + (h(c0, r1) * (1.0 - fx) + h(c1, r1) * fx) * fy
+}
+
 /// The distance from `p` to the nearest segment of `line` (infinite for fewer than two points).
 pub(crate) fn polyline_distance(line: &[[f32; 2]], p: [f32; 2]) -> f32 {
     line.windows(2)

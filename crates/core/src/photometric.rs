@@ -684,12 +684,7 @@ fn sample(map: &[f32], cols: usize, rows: usize, u: f32, v: f32) -> f32 {
     if !(u >= 0.0 && v >= 0.0 && u <= (cols - 1) as f32 && v <= (rows - 1) as f32) {
         return 0.0;
     }
-    let (c0, r0) = (u as usize, v as usize);
-    let (c1, r1) = ((c0 + 1).min(cols - 1), (r0 + 1).min(rows - 1));
-    let (fx, fy) = (u - c0 as f32, v - r0 as f32);
-    let h = |c: usize, r: usize| map[r * cols + c];
-    (h(c0, r0) * (1.0 - fx) + h(c1, r0) * fx) * (1.0 - fy)
-        + (h(c0, r1) * (1.0 - fx) + h(c1, r1) * fx) * fy
+    crate::photo_grid::bilinear_map(map, cols, rows, u, v)
 }
 
 fn smoothstep(a: f32, b: f32, x: f32) -> f32 {

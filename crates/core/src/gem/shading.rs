@@ -176,14 +176,7 @@ pub(super) fn light_transmission(
         if x < 0.0 || y < 0.0 || x > (cols - 1) as f32 || y > (rows - 1) as f32 {
             return None;
         }
-        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-        let (x1, y1) = ((x0 + 1).min(cols - 1), (y0 + 1).min(rows - 1));
-        let (tx, ty) = (x - x0 as f32, y - y0 as f32);
-        let h = |xx: usize, yy: usize| height[yy * cols + xx];
-        Some(
-            (h(x0, y0) * (1.0 - tx) + h(x1, y0) * tx) * (1.0 - ty)
-                + (h(x0, y1) * (1.0 - tx) + h(x1, y1) * tx) * ty,
-        )
+        Some(crate::photo_grid::bilinear_map(height, cols, rows, x, y))
     };
     // Each node marches its own ray: spread over the cores.
     crate::par::map(n, 2048, |i| {

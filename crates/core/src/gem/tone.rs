@@ -243,15 +243,7 @@ pub fn fit_slopes_halved(
         &coarse,
     );
     // Fine cell c's centre lies at (c + 0.5) / 2 - 0.5 coarse cells.
-    let at = |u: f32, v: f32| {
-        let (u, v) = (u.clamp(0.0, (cc - 1) as f32), v.clamp(0.0, (cr - 1) as f32));
-        let (c0, r0) = (u as usize, v as usize);
-        let (c1, r1) = ((c0 + 1).min(cc - 1), (r0 + 1).min(cr - 1));
-        let (fx, fy) = (u - c0 as f32, v - r0 as f32);
-        let g = |c: usize, r: usize| h[r * cc + c];
-        (g(c0, r0) * (1.0 - fx) + g(c1, r0) * fx) * (1.0 - fy)
-            + (g(c0, r1) * (1.0 - fx) + g(c1, r1) * fx) * fy
-    };
+    let at = |u: f32, v: f32| crate::photo_grid::bilinear_map(&h, cc, cr, u, v);
     (0..n)
         .map(|i| {
             let (c, r) = ((i % cols) as f32, (i / cols) as f32);
