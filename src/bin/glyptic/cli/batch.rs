@@ -283,6 +283,7 @@ fn export_job(
                     &gem.face.portrait,
                     &pipeline.face.model.shape.triangles,
                     &gem.cameo,
+                    gem.detail.as_ref(),
                     (&gem.mesh, view),
                     &super::make::source_label(input),
                 )

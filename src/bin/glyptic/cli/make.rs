@@ -103,13 +103,16 @@ pub(super) fn glb(
 }
 
 /// The files `make` asks for: the STL and height map of the relief cut from `face` (model
-/// mm) for `cameo` (the relief again, ~30 ms, since the gem's mesh is made for rendering),
-/// and the GLB of the gem's `mesh` as `params` shows it.
+/// mm) for `cameo` with the photo's `detail` carved as in the gem (the relief again, ~30 ms,
+/// since the gem's mesh is made for rendering), and the GLB of the gem's `mesh` as `params`
+/// shows it.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn make_files(
     make: &MakeArgs,
     face: &[f32],
     triangles: &[[u32; 3]],
     cameo: &gem::CameoParams,
+    detail: Option<&gem::FaceDetail>,
     (mesh, params): (&glyptic::render::Mesh, &RenderParams),
     source: &str,
 ) -> Result<Made> {
@@ -134,7 +137,9 @@ pub(super) fn make_files(
             ms: start.elapsed().as_secs_f64() * 1e3,
         });
     }
-    let relief = gem::CameoBuilder::new(cameo)?.relief(face, triangles)?;
+    // The same relief the gem's mesh was cut from: the photo's brows, eyes, lines and light
+    // and dark too (without them a print was a smoother face than the picture showed).
+    let relief = gem::CameoBuilder::new(cameo)?.relief_detailed(face, triangles, &[], detail)?;
     let field = relief.height_field();
     let half = [cameo.half_width, cameo.half_height];
     if let Some(path) = &make.stl {

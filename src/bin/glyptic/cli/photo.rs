@@ -245,6 +245,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
         &face,
         &triangles,
         &cameo,
+        None,
         (&mesh, &params),
         &source,
     )?;
@@ -377,6 +378,7 @@ pub(super) fn photo(args: &PhotoArgs) -> Result<()> {
         &gem.face.portrait,
         triangles,
         &gem.cameo,
+        gem.detail.as_ref(),
         (&gem.mesh, &params),
         &source_label(image_path),
     )?;
