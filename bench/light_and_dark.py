@@ -36,6 +36,22 @@ def band(img, iod, sigma):
     return np.log(lum / around)
 
 
+def affine(gem_lm, photo_lm):
+    """PIL's affine coefficients carrying gem pixels to photo pixels (least squares)."""
+    a, *_ = np.linalg.lstsq(np.c_[gem_lm, np.ones(len(gem_lm))], photo_lm, rcond=None)
+    return (a[0, 0], a[1, 0], a[2, 0], a[0, 1], a[1, 1], a[2, 1])
+
+
+def face_mask(size, g):
+    """The face on a picture of `size` with landmarks `g`: the jaw's outline and the brows
+    lifted by 0.3 of the eyes' distance, filled with 255."""
+    iod = eye_distance(g)
+    mask = Image.new("L", size, 0)
+    outline = list(g[0:17]) + list(g[26:16:-1] - np.array([0.0, 0.3 * iod]))
+    ImageDraw.Draw(mask).polygon([tuple(q) for q in outline], fill=255)
+    return mask
+
+
 def main():
     if len(sys.argv) < 2:
         sys.exit(__doc__)
@@ -53,19 +69,14 @@ def main():
             continue  # no face found on the photo or on the gem
         p, g = lm[src], lm[path]
         gem = Image.open(path).convert("L")
-        a, *_ = np.linalg.lstsq(np.c_[g, np.ones(len(g))], p, rcond=None)  # gem -> photo
         ph = Image.open(src).convert("L")
         r = band(ph, eye_distance(p), sigma)
         lo, hi = np.percentile(r, [1, 99])
         r = Image.fromarray(np.float32(np.clip(r, lo, hi)), mode="F")
         mapped = np.asarray(
-            r.transform(gem.size, Image.AFFINE, (a[0, 0], a[1, 0], a[2, 0], a[0, 1], a[1, 1], a[2, 1]),
-                        resample=Image.BILINEAR))
+            r.transform(gem.size, Image.AFFINE, affine(g, p), resample=Image.BILINEAR))
         giod = eye_distance(g)
-        mask = Image.new("L", gem.size, 0)
-        outline = list(g[0:17]) + list(g[26:16:-1] - np.array([0.0, 0.3 * giod]))
-        ImageDraw.Draw(mask).polygon([tuple(q) for q in outline], fill=255)
-        inside = np.asarray(mask) > 128
+        inside = np.asarray(face_mask(gem.size, g)) > 128
         corr.append(np.corrcoef(band(gem, giod, sigma)[inside], mapped[inside])[0, 1])
     corr = np.array(corr)
     if len(corr) == 0:

@@ -23,7 +23,7 @@ import os
 import sys
 
 import numpy as np
-from PIL import Image, ImageDraw, ImageFilter
+from PIL import Image, ImageFilter
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import light_and_dark as ld  # noqa: E402
@@ -33,20 +33,6 @@ SIGMA = 0.25
 
 def manifest(run):
     return [line.rstrip("\n").split("\t") for line in open(run + "/manifest.tsv")]
-
-
-def affine(gem_lm, photo_lm):
-    """PIL's affine coefficients carrying gem pixels to photo pixels (least squares)."""
-    a, *_ = np.linalg.lstsq(np.c_[gem_lm, np.ones(len(gem_lm))], photo_lm, rcond=None)
-    return (a[0, 0], a[1, 0], a[2, 0], a[0, 1], a[1, 1], a[2, 1])
-
-
-def face_mask(size, g):
-    iod = ld.eye_distance(g)
-    mask = Image.new("L", size, 0)
-    outline = list(g[0:17]) + list(g[26:16:-1] - np.array([0.0, 0.3 * iod]))
-    ImageDraw.Draw(mask).polygon([tuple(q) for q in outline], fill=255)
-    return mask
 
 
 def parts(on, off):
@@ -64,8 +50,8 @@ def parts(on, off):
         r = ld.band(Image.open(src).convert("L"), ld.eye_distance(p), SIGMA)
         lo, hi = np.percentile(r, [1, 99])
         r = Image.fromarray(np.float32(np.clip(r, lo, hi)), mode="F")
-        mapped = np.asarray(r.transform(gem.size, Image.AFFINE, affine(g, p), resample=Image.BILINEAR))
-        inside = np.asarray(face_mask(gem.size, g)) > 128
+        mapped = np.asarray(r.transform(gem.size, Image.AFFINE, ld.affine(g, p), resample=Image.BILINEAR))
+        inside = np.asarray(ld.face_mask(gem.size, g)) > 128
         iod = ld.eye_distance(g)
         with_tone, without = ld.band(gem, iod, SIGMA)[inside], ld.band(bare, iod, SIGMA)[inside]
         tone, ph = with_tone - without, mapped[inside]
@@ -104,10 +90,10 @@ def overlay(run, out, amp, blur):
         ratio = Image.fromarray(np.uint8(np.clip(np.clip(lum / around, 0.3, 1.6) ** amp * 128, 0, 255)))
         if blur > 0:
             ratio = ratio.filter(ImageFilter.GaussianBlur(blur * iod))
-        ratio = np.asarray(ratio.transform(gem.size, Image.AFFINE, affine(g, p),
+        ratio = np.asarray(ratio.transform(gem.size, Image.AFFINE, ld.affine(g, p),
                                            resample=Image.BILINEAR, fillcolor=128), dtype=np.float64) / 128.0
         giod = ld.eye_distance(g)
-        mask = face_mask(gem.size, g).filter(ImageFilter.GaussianBlur(0.1 * giod))
+        mask = ld.face_mask(gem.size, g).filter(ImageFilter.GaussianBlur(0.1 * giod))
         w = np.asarray(mask, dtype=np.float64)[..., None] / 255.0
         picture = np.asarray(gem, dtype=np.float64) * (1 + w * (ratio[..., None] - 1))
         dst = f"{out}/pics/{int(m[2]):03d}.png"
