@@ -2,13 +2,15 @@
 //! and bust on the relief grid, the bezel and the back), then each face rasterised, merged,
 //! compressed, shaded and meshed. Gem millimetres.
 //!
-//! Length: about 790 lines, most of it [`CameoBuilder::relief_detailed`], the face's steps in
-//! order (rasterise, merge into the template, compress, carve the photo's detail, shade) over
-//! one grid and its masks; each step's own computation lives in its module.
+//! Length: about 950 lines, most of it [`CameoBuilder::relief_detailed`], the face's steps in
+//! order (rasterise, merge into the template, compress, carve the photo's detail, refine the
+//! grid for its stipple, shade) over one grid and its masks; each step's own computation
+//! lives in its module.
 
 use crate::scene::Mesh;
 
 use super::detail::FaceDetail;
+use super::refine::Refine;
 use super::setting::add_setting;
 use super::shading::{cavity, light_transmission, light_visibility, penumbra, smooth_121};
 use super::tessellate::{add_relief_surface, plan_surface};
@@ -68,7 +70,7 @@ impl CameoBuilder {
             let (x, y) = node(i);
             ((x / p.half_width).powi(2) + (y / p.half_height).powi(2)).sqrt()
         };
-        let inside = (0..cols * rows).map(|i| oval(i) <= 1.0).collect();
+        let inside = inside_oval(p, cols, rows, p.cell);
         let allowed: Vec<bool> = (0..cols * rows).map(|i| oval(i) <= PORTRAIT_OVAL).collect();
         let (a, b) = (p.half_width * PORTRAIT_OVAL, p.half_height * PORTRAIT_OVAL);
         let oval_cover = (0..cols * rows)
@@ -238,9 +240,8 @@ impl CameoBuilder {
         let face: Vec<bool> = (0..n)
             .map(|i| raw[i].is_finite() && self.allowed[i])
             .collect();
-        let photo = detail
-            .filter(|d| d.seen().len() == points.len())
-            .map(|d| photo_detail(d, view, &points, triangles, &face, cols, rows));
+        let detail = detail.filter(|d| d.seen().len() == points.len());
+        let photo = detail.map(|d| photo_detail(d, &points, triangles, &face, cols, rows));
         let face_box = Window::of(cols, rows, |i| face[i]).map(|w| w.grow(2, cols, rows));
         let face_cover = relief::coverage(&points, triangles, &raw, cols, rows);
         // Smooth the face within its footprint (1-2-1 each way, about 0.7 cells: the Surrey
@@ -295,9 +296,9 @@ impl CameoBuilder {
         let mut cover = vec![0f32; n];
         let mut face_share = vec![0f32; n];
         let mut face_height = vec![f32::NAN; n];
-        // The photo's light and dark per node (canonical mm; `FaceDetail::tone_at`), carved
-        // after the compression.
-        let mut tone = vec![0f32; n];
+        // How much of the photo's light and dark (`FaceDetail::tone_at`, carved after the
+        // compression) each node takes: none under a beard, the face's share of its cell.
+        let mut tone_weight = vec![0f32; n];
         for i in portrait_box.indices(cols) {
             // (Behind the front-most node, not on it: what the face leaves uncovered of that
             // node's cell is the ground before the profile, and the head's share there raised
@@ -331,10 +332,10 @@ impl CameoBuilder {
                 // it is thick (up to 4 mm).
                 let thick = fuzz.get(i).copied().unwrap_or(0.0);
                 // The photo's detail, except under a beard (carved as locks instead).
-                if let Some((d, t)) = &photo {
+                if let Some(ph) = &photo {
                     let bare = 1.0 - template::smoothstep(0.5, 2.0, thick);
-                    carved += d[i] * bare;
-                    tone[i] = t[i] * bare * share;
+                    carved += ph.detail[i] * bare;
+                    tone_weight[i] = ph.seen[i] * bare * share;
                 }
                 let locks = if thick > 0.05 {
                     (thick / 4.0).min(1.0) * template::beard_texture(&p.hair, u, v)
@@ -449,16 +450,51 @@ impl CameoBuilder {
         // steeply to its edge the wall is lower, never under `MIN_WALL_SHARE` of its height.
         // (Unclamped: the compression leaves its edge a little below zero, and a clamp there
         // would crease the top.)
-        // The tone goes into the stone after the compression, its slopes as the photo's light
-        // and dark asked for them (canonical mm over canonical mm = gem mm over gem mm): the
-        // compression would flatten its steepest slopes most, the ones that draw the
-        // strongest light and dark.
-        let scaled: Vec<f32> = relative
-            .iter()
-            .zip(&tone)
-            .map(|(r, t)| r * gain + t / self.scale)
-            .collect();
+        let scaled: Vec<f32> = relative.iter().map(|r| r * gain).collect();
         let continued = extrapolate(&scaled, &mask, &outline, cols, rows, 2);
+        // The photo's light and dark goes into the stone after the compression, its slopes as
+        // the photo asked for them (canonical mm over canonical mm = gem mm over gem mm): the
+        // compression would flatten its steepest slopes most, the ones that draw the
+        // strongest light and dark. Its stipple's pits are a few tenths of a millimetre
+        // across: from here on the grid is `TONE_SUBDIVISION` times finer (the relief's
+        // solve, the head and the outline stay on the coarse one, bilinearly refined).
+        let tone_detail = detail.filter(|d| {
+            view == View::Frontal
+                && !d.tone_map().is_empty()
+                && tone_weight.iter().any(|w| *w > 0.0)
+        });
+        let k = match tone_detail {
+            Some(d) if d.stippled() && fine_nodes(p, TONE_SUBDIVISION) <= MAX_FINE_NODES => {
+                TONE_SUBDIVISION
+            }
+            _ => 1,
+        };
+        // (Every field refined is 0 off the portrait's window.)
+        let grid = Refine::new(cols, rows, k, portrait_box);
+        let (cols, rows, n, cell) = (grid.cols, grid.rows, grid.cols * grid.rows, cell / k as f32);
+        let mut continued = grid.up(&continued);
+        // Where the stipple cut a pit (the mesh keeps the finer grid's cells there only).
+        let mut stippled = Vec::new();
+        if let (Some(d), Some(ph)) = (tone_detail, &photo) {
+            let weight = grid.up(&tone_weight);
+            let point = grid.up_points(&ph.point, &ph.seen);
+            if k > 1 {
+                stippled = vec![false; n];
+            }
+            for (i, c) in continued.iter_mut().enumerate() {
+                if weight[i] > 0.0 {
+                    let [x, y] = point[i];
+                    let pit = weight[i] * d.stipple_at(x, y);
+                    *c += (weight[i] * d.tone_at(x, y) + pit) / self.scale;
+                    if let Some(s) = stippled.get_mut(i) {
+                        *s = pit < -STIPPLE_EPS;
+                    }
+                }
+            }
+        }
+        let outline = grid.up(&outline);
+        let face_share = grid.up(&face_share);
+        let portrait_box = grid.window(portrait_box);
         let mut top = vec![0f32; n];
         let mut height = vec![0f32; n];
         for i in portrait_box.indices(cols) {
@@ -486,35 +522,75 @@ impl CameoBuilder {
             rows,
         );
         let mut key_light = vec![1f32; n];
-        let mut transmit = vec![0f32; n];
         let box_height = shadow_box.crop(&height, cols, |h| h);
         let (bw, bh) = (shadow_box.width(), shadow_box.height());
         let sharp = light_visibility(&box_height, bw, bh, cell, light);
-        let visible = penumbra(&sharp, bw, bh);
-        let shadow: Vec<f32> = visible.iter().map(|v| 1.0 - v).collect();
-        shadow_box.paste(&visible, &mut key_light, cols);
-        shadow_box.paste(
-            &light_transmission(&box_height, bw, bh, cell, light, &shadow, MEAN_FREE_MM),
+        shadow_box.paste(&penumbra(&sharp, bw, bh), &mut key_light, cols);
+        // The light through the stone on the solve grid, then refined: each node marches a
+        // ray of many cells, a refined grid's 8 times the work, for a soft glow that the
+        // face (where the stipple is) does not take.
+        let (coarse_cols, coarse_rows) = grid.coarse;
+        let coarse_box = grid.coarse_window(shadow_box);
+        let (cw, ch) = (coarse_box.width(), coarse_box.height());
+        let coarse_height = coarse_box.crop(&grid.down(&height), coarse_cols, |h| h);
+        let coarse_shadow = coarse_box.crop(&grid.down(&key_light), coarse_cols, |v| 1.0 - v);
+        let mut transmit = vec![0f32; coarse_cols * coarse_rows];
+        coarse_box.paste(
+            &light_transmission(
+                &coarse_height,
+                cw,
+                ch,
+                cell * k as f32,
+                light,
+                &coarse_shadow,
+                MEAN_FREE_MM,
+            ),
             &mut transmit,
-            cols,
+            coarse_cols,
         );
+        let mut transmit = grid.up(&transmit);
         // Not through the face: its shadows model it (the sockets under the brows, the
         // nose's side), and lightening them made the gems less like their people to a
         // recognition network that was not tuned on (BENCHMARKS.md, "The glow").
         for (t, share) in transmit.iter_mut().zip(&face_share) {
             *t *= 1.0 - share.clamp(0.0, 1.0);
         }
+        let face_f: Vec<f32> = face.iter().map(|&f| f32::from(u8::from(f))).collect();
+        let face = grid
+            .up(&face_f)
+            .iter()
+            .map(|&f| f >= 0.5)
+            .collect::<Vec<bool>>();
+        let face_height = if k == 1 {
+            face_height
+        } else {
+            let known: Vec<f32> = face_height
+                .iter()
+                .map(|h| f32::from(u8::from(h.is_finite())))
+                .collect();
+            let values: Vec<f32> = face_height
+                .iter()
+                .map(|h| if h.is_finite() { *h } else { 0.0 })
+                .collect();
+            let (v, w) = (grid.up(&values), grid.up(&known));
+            v.iter()
+                .zip(&w)
+                .zip(&face)
+                .map(|((v, w), &f)| if f && *w > 1e-6 { v / w } else { f32::NAN })
+                .collect()
+        };
         Ok(Relief {
             height,
             top,
             outline,
-            hair,
+            hair: grid.up(&hair),
             occlusion,
             key_light,
             transmit,
             face,
-            portrait,
+            portrait: grid.up(&portrait),
             face_height,
+            stippled,
             cols,
             rows,
             origin: self.origin,
@@ -653,7 +729,15 @@ impl CameoBuilder {
     /// The cameo mesh of a relief: the stone's top as planned, the bezel and the back.
     pub fn mesh_of(&self, relief: &Relief) -> Mesh {
         let mut mesh = Mesh::default();
-        let plan = plan_surface(relief, &self.inside);
+        let k = (self.params.cell / relief.cell).round().max(1.0) as usize;
+        let fine;
+        let inside = if relief.cols == self.cols && relief.rows == self.rows {
+            &self.inside
+        } else {
+            fine = inside_oval(&self.params, relief.cols, relief.rows, relief.cell);
+            &fine
+        };
+        let plan = plan_surface(relief, inside, k);
         add_relief_surface(&mut mesh, relief, &plan);
         let first = mesh.vertices.len() as u32;
         mesh.vertices.extend_from_slice(&self.base.vertices);
@@ -742,20 +826,24 @@ fn extrapolate(
     out
 }
 
-/// The photo's detail per face node (canonical mm): the photo point each node shows, from its
-/// vertices' photo positions interpolated over the face, faded where the photo sees the face
-/// edge-on; 0 off the face. Then the tone, apart (carved after the compression), in a frontal
-/// portrait only (the photo's light and dark modelled for the key light, which only a face
-/// looking out of the stone shows as the photo does).
+/// The photo per face node: its detail's height (canonical mm), and the photo point the node
+/// shows (pixels), from its vertices' photo positions interpolated over the face, with how
+/// squarely the photo sees it there (0..1; 0 off the face, or where the photo sees it
+/// edge-on): the tone is read at that point after the compression, on the finer grid.
+struct PhotoNodes {
+    detail: Vec<f32>,
+    point: Vec<[f32; 2]>,
+    seen: Vec<f32>,
+}
+
 fn photo_detail(
     detail: &FaceDetail,
-    view: View,
     points: &[Option<[f32; 3]>],
     triangles: &[[u32; 3]],
     face: &[bool],
     cols: usize,
     rows: usize,
-) -> (Vec<f32>, Vec<f32>) {
+) -> PhotoNodes {
     let seen = detail.seen();
     let channel = |f: fn(&[f32; 3]) -> f32| -> Vec<f32> {
         let a: Vec<f32> = seen.iter().map(f).collect();
@@ -764,22 +852,46 @@ fn photo_detail(
     let w = channel(|s| s[2]);
     let x = channel(|s| s[0] * s[2]);
     let y = channel(|s| s[1] * s[2]);
+    let mut out = PhotoNodes {
+        detail: vec![0.0; cols * rows],
+        point: vec![[0.0; 2]; cols * rows],
+        seen: vec![0.0; cols * rows],
+    };
+    for i in (0..cols * rows).filter(|&i| face[i] && w[i] > 0.05) {
+        let (px, py) = (x[i] / w[i], y[i] / w[i]);
+        let seen = template::smoothstep(0.2, 0.8, w[i]);
+        out.detail[i] = seen * detail.at(px, py);
+        out.point[i] = [px, py];
+        out.seen[i] = seen;
+    }
+    out
+}
+
+/// The relief's cells per solve-grid cell where the photo's light and dark is carved (a
+/// frontal portrait with a photo): its stipple's pits are 0.3 mm apart on the default stone,
+/// 1.5 cells of 0.2 mm, which carve as a rough speckle; at 0.1 mm they carve round (the
+/// recognition networks' measure: BENCHMARKS.md, issue #37).
+pub const TONE_SUBDIVISION: usize = 2;
+/// A pit shallower than this (canonical mm) leaves its cells to the solve grid's mesh.
+const STIPPLE_EPS: f32 = 0.01;
+/// The most nodes a refined grid may have (a stone with a fine cell stays on its own grid).
+const MAX_FINE_NODES: f32 = 4.0e6;
+
+/// The nodes of the stone's grid `k` times finer.
+fn fine_nodes(p: &CameoParams, k: usize) -> f32 {
+    let cell = p.cell / k as f32;
+    (2.0 * p.half_width / cell + 1.0) * (2.0 * p.half_height / cell + 1.0)
+}
+
+/// Per node of a `cols` x `rows` grid of `cell` mm over the stone: inside its oval.
+fn inside_oval(p: &CameoParams, cols: usize, rows: usize, cell: f32) -> Vec<bool> {
     (0..cols * rows)
         .map(|i| {
-            if face[i] && w[i] > 0.05 {
-                let (px, py) = (x[i] / w[i], y[i] / w[i]);
-                let tone = if view == View::Frontal {
-                    detail.tone_at(px, py)
-                } else {
-                    0.0
-                };
-                let seen = template::smoothstep(0.2, 0.8, w[i]);
-                (seen * detail.at(px, py), seen * tone)
-            } else {
-                (0.0, 0.0)
-            }
+            let x = -p.half_width + (i % cols) as f32 * cell;
+            let y = -p.half_height + (i / cols) as f32 * cell;
+            (x / p.half_width).powi(2) + (y / p.half_height).powi(2) <= 1.0
         })
-        .unzip()
+        .collect()
 }
 
 /// The fewest triangles a face mesh may have: a relief is carved from its surface, and a

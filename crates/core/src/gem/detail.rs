@@ -20,7 +20,10 @@
 //! Besides the regions, for a frontal portrait, the **tone** ([`super::tone`]): the photo's
 //! fine light and dark, everywhere on the face, modelled as slopes towards or away from the
 //! stone's key light, so the stone under its own light shows the pattern a face is known by
-//! (kept apart from the regions' heights: a profile does not carve it).
+//! (kept apart from the regions' heights: a profile does not carve it); and its darks
+//! **stippled**, round pits on a lattice whose size follows the darkness, since one raking
+//! light shows only the slope along it, and a dark carved as a slope needs its rise back as a
+//! light streak beside it, which the photo does not have.
 //!
 //! Every response is a band-pass of the brightness (what changes over a few hundredths of the
 //! eyes' distance, not the light across the face) scaled by the face's own contrast (its
@@ -53,6 +56,15 @@ const TONE_EYES: f32 = 0.6;
 /// The ridge off the face that holds the tone's heights at 0 there (per cell squared, against
 /// the slope's 1; [`super::tone::fit_slopes`]).
 const TONE_HOLD: f32 = 1.0;
+/// The stipple's depth by default (see [`DetailParams::stipple_mm`]).
+pub const STIPPLE: f32 = 6.0;
+/// The stipple's lattice: pits this far apart (a share of the eyes' distance, about 0.3 gem
+/// mm on the default stone), in rows turned 45 degrees from the photo's axes (the eye finds a
+/// screen along the axes first, as in a printer's halftone).
+const STIPPLE_SPACING: f32 = 0.0424;
+/// How dark (against the tone's strongest, 1) the photo must be before a pit is cut: the
+/// skin's own small variations stay smooth.
+const STIPPLE_FROM: f32 = 0.1;
 
 /// How deep each region is carved at full strength (canonical mm).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -69,6 +81,11 @@ pub struct DetailParams {
     /// for the stone's key light ([`super::tone`]), carved into the stone after the relief's
     /// compression with its slopes kept; 0: none.
     pub tone: f32,
+    /// How deep the darks of that light and dark are stippled (canonical mm): round pits on a
+    /// lattice, each as wide as the photo is dark there (its shadowed share follows the
+    /// darkness), as a stipple engraver renders tone and as drilled gems (the *a globolo*
+    /// style) cut it; carved with the tone, so only in a frontal portrait. 0: none.
+    pub stipple_mm: f32,
 }
 
 impl Default for DetailParams {
@@ -84,6 +101,7 @@ impl Default for DetailParams {
             mouth_mm: 3.0,
             line_mm: 1.6,
             tone: TONE,
+            stipple_mm: STIPPLE,
         }
     }
 }
@@ -97,6 +115,7 @@ impl DetailParams {
             mouth_mm: self.mouth_mm * k,
             line_mm: self.line_mm * k,
             tone: self.tone * k,
+            stipple_mm: self.stipple_mm * k,
         }
     }
 }
@@ -115,6 +134,9 @@ pub struct FaceDetail {
     /// The photo's light and dark modelled for the key light of a frontal portrait
     /// (canonical mm per cell, row-major; empty: none read).
     tone: Vec<f32>,
+    /// The stipple's pits cut into the tone's darks (canonical mm, 0 or below, row-major;
+    /// empty: none cut).
+    stipple: Vec<f32>,
     /// Per vertex of the face mesh: photo x, y (pixels) and how squarely the photo sees it
     /// (0: turned away or hidden, 1: facing the camera).
     seen: Vec<[f32; 3]>,
@@ -269,7 +291,7 @@ impl FaceDetail {
             };
             height[i] = h;
         }
-        let tone = match light.filter(|_| params.tone > 0.0) {
+        let (tone, stipple) = match light.filter(|_| params.tone > 0.0) {
             Some(light) => {
                 let eye_cells: Vec<bool> = (0..cols * rows)
                     .map(|i| {
@@ -289,7 +311,7 @@ impl FaceDetail {
                     params,
                 )
             }
-            None => Vec::new(),
+            None => (Vec::new(), Vec::new()),
         };
         // Soften the regions' borders by a cell.
         let height = blur(&height, cols, rows, 0.7);
@@ -300,6 +322,7 @@ impl FaceDetail {
             rows,
             height,
             tone,
+            stipple,
             seen,
         })
     }
@@ -313,6 +336,19 @@ impl FaceDetail {
     /// outside the map or when none was read.
     pub fn tone_at(&self, x: f32, y: f32) -> f32 {
         self.sample(&self.tone, x, y)
+    }
+
+    /// The stipple's pit (canonical mm, 0 or below) at photo point (x, y): 0 outside the map,
+    /// between the pits, or when none was cut.
+    pub fn stipple_at(&self, x: f32, y: f32) -> f32 {
+        self.sample(&self.stipple, x, y)
+    }
+
+    /// Whether the stipple was cut (a frontal portrait's tone, [`DetailParams::stipple_mm`]
+    /// above 0): its pits are a few tenths of a millimetre across, and a relief carves them on
+    /// a finer grid ([`super::TONE_SUBDIVISION`]).
+    pub fn stippled(&self) -> bool {
+        !self.stipple.is_empty()
     }
 
     fn sample(&self, map: &[f32], x: f32, y: f32) -> f32 {
@@ -348,12 +384,18 @@ impl FaceDetail {
     pub fn tone_map(&self) -> &[f32] {
         &self.tone
     }
+
+    /// The stipple's pits, as [`Self::map`]'s (empty when none were cut).
+    pub fn stipple_map(&self) -> &[f32] {
+        &self.stipple
+    }
 }
 
 /// The photo's fine light and dark as heights (canonical mm) whose slope along the key light
 /// gives it back ([`super::tone`]): the log brightness against its surroundings over
 /// [`TONE_BAND`] of the eyes' distance, in units of the face's own spread (its median absolute
 /// value), to at most [`DetailParams::tone`]; fitted over the face, faded at its outline.
+/// With them, the stipple's pits in its darks ([`DetailParams::stipple_mm`]; empty at 0).
 #[allow(clippy::too_many_arguments)]
 fn tone_heights(
     lum: &[f32],
@@ -365,7 +407,7 @@ fn tone_heights(
     step: f32,
     light: ToneLight,
     params: &DetailParams,
-) -> Vec<f32> {
+) -> (Vec<f32>, Vec<f32>) {
     const EPS: f32 = 0.02;
     let around = blur(lum, cols, rows, TONE_BAND * CELLS_PER_IOD);
     let rel: Vec<f32> = fine
@@ -403,7 +445,43 @@ fn tone_heights(
         light.toward,
         &super::tone::ToneSolve::default(),
     );
-    h.iter().zip(&inside_face).map(|(h, w)| h * w).collect()
+    let tone = h.iter().zip(&inside_face).map(|(h, w)| h * w).collect();
+    let stipple = if params.stipple_mm > 0.0 {
+        (0..cols * rows)
+            .map(|i| {
+                let dark = ((-rel[i] / (3.0 * spread) - STIPPLE_FROM) / (1.0 - STIPPLE_FROM))
+                    .clamp(0.0, 1.0);
+                -params.stipple_mm
+                    * stipple_pit((i % cols) as f32, (i / cols) as f32, dark)
+                    * inside_face[i].max(0.0)
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    (tone, stipple)
+}
+
+/// The stipple's pit at map cell (`col`, `row`) where the photo is this `dark` (0..1): 0 to 1
+/// (its centre), a paraboloid whose radius follows the darkness's square root, so the share of
+/// the lattice's cell it hollows (and its shadow) follows the darkness; the darkest pits
+/// touch their neighbours.
+fn stipple_pit(col: f32, row: f32, dark: f32) -> f32 {
+    if dark <= 0.0 {
+        return 0.0;
+    }
+    let spacing = STIPPLE_SPACING * CELLS_PER_IOD;
+    let (a, b) = (
+        (col + row) * std::f32::consts::FRAC_1_SQRT_2 / spacing,
+        (row - col) * std::f32::consts::FRAC_1_SQRT_2 / spacing,
+    );
+    let d = (a - a.round()).hypot(b - b.round());
+    let radius = 0.5 * dark.sqrt();
+    if d < radius {
+        1.0 - (d / radius).powi(2)
+    } else {
+        0.0
+    }
 }
 
 /// Where each vertex of `mesh` (model mm, the fitted face with its expression) lies in the
@@ -605,7 +683,11 @@ pub(crate) mod tests {
             toward: [-0.8, -0.6],
             mm_per_px: 0.3,
         };
-        let p = DetailParams::default();
+        // The slopes alone (the stipple's pits: the next tests).
+        let p = DetailParams {
+            stipple_mm: 0.0,
+            ..DetailParams::default()
+        };
         let d = FaceDetail::read(&img, &lm, Vec::new(), &p, Some(light)).expect("detail");
         let (cols, rows, _) = d.map();
         let tone = d.tone_map();
@@ -649,6 +731,91 @@ pub(crate) mod tests {
         assert!(off.tone_map().is_empty());
         // The regions' carving is the same with or without the tone.
         assert_eq!(none.map().2, d.map().2);
+    }
+
+    /// A pit's radius follows the darkness's square root: the share of the lattice it
+    /// hollows (what shows dark under the light) follows the darkness, pi / 4 of it.
+    #[test]
+    fn the_stipples_hollowed_share_follows_the_darkness() {
+        assert_eq!(stipple_pit(3.0, 7.0, 0.0), 0.0);
+        for dark in [0.1f32, 0.4, 0.9] {
+            let (mut cut, mut all) = (0usize, 0usize);
+            for r in 0..400 {
+                for c in 0..400 {
+                    let v = stipple_pit(c as f32 * 0.25, r as f32 * 0.25, dark);
+                    assert!((0.0..=1.0).contains(&v));
+                    cut += usize::from(v > 0.0);
+                    all += 1;
+                }
+            }
+            let share = cut as f32 / all as f32;
+            let want = std::f32::consts::FRAC_PI_4 * dark;
+            assert!(
+                (share - want).abs() < 0.03,
+                "dark {dark}: share {share}, want {want}"
+            );
+        }
+        // A pit's centre is a lattice point: the map's origin.
+        assert_eq!(stipple_pit(0.0, 0.0, 0.5), 1.0);
+    }
+
+    /// The stipple cuts pits (never raises) where the face is darker than around it, and
+    /// leaves the skin elsewhere nearly smooth.
+    #[test]
+    fn the_stipple_cuts_the_darks_and_leaves_plain_skin() {
+        let lm = face();
+        let mut img = GrayImage::from_pixel(800, 800, image::Luma([170]));
+        // A dark patch on one cheek (a shadow), a little texture elsewhere.
+        draw(&mut img, |x, y| {
+            let v = if (x - 300.0).hypot(y - 450.0) < 25.0 {
+                90.0
+            } else {
+                170.0 + 6.0 * ((x * 0.2).sin() * (y * 0.17).cos())
+            };
+            Some(v as u8)
+        });
+        let light = ToneLight {
+            toward: [-0.8, -0.6],
+            mm_per_px: 0.3,
+        };
+        let with = DetailParams::default();
+        let without = DetailParams {
+            stipple_mm: 0.0,
+            ..with
+        };
+        let read = |p: &DetailParams| {
+            FaceDetail::read(&img, &lm, Vec::new(), p, Some(light)).expect("detail")
+        };
+        let (a, b) = (read(&with), read(&without));
+        let (cols, _, _) = a.map();
+        assert_eq!(a.tone_map(), b.tone_map(), "the stipple changed the slopes");
+        assert!(a.stippled() && !b.stippled() && b.stipple_map().is_empty());
+        let diff = a.stipple_map();
+        let most = diff.iter().fold(f32::MIN, |m, d| m.max(*d));
+        assert!(most <= 0.0, "a pit raised the stone by {most}");
+        assert!(diff.iter().all(|d| *d >= -with.stipple_mm - 1e-3));
+        // The share of cells cut: in the patch, and on the skin of the other cheek.
+        let share = |cx: f32, cy: f32, r: f32| {
+            let (mut cut, mut all) = (0, 0);
+            for (i, d) in diff.iter().enumerate() {
+                let [x, y] = [
+                    a.origin[0] + (i % cols) as f32 * a.step,
+                    a.origin[1] + (i / cols) as f32 * a.step,
+                ];
+                if (x - cx).hypot(y - cy) < r {
+                    all += 1;
+                    cut += usize::from(*d < -0.05);
+                }
+            }
+            cut as f32 / all.max(1) as f32
+        };
+        let (patch, skin) = (share(300.0, 450.0, 15.0), share(500.0, 450.0, 20.0));
+        // (The skin's faint texture is measured against the face's own spread: its darkest
+        // spots take a few small pits.)
+        assert!(
+            patch > 0.25 && skin < 0.1,
+            "cut: patch {patch}, skin {skin}"
+        );
     }
 
     #[test]

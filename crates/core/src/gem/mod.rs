@@ -28,6 +28,7 @@ pub mod gltf;
 pub mod measure;
 mod obj;
 mod poisson;
+mod refine;
 pub mod relief;
 pub mod setting;
 mod shading;
@@ -40,7 +41,9 @@ mod window;
 
 use crate::scene::Mesh;
 pub use basrelief::Compression;
-pub use builder::{CameoBuilder, FACE_EXTENT_MM, MIN_FACE_TRIANGLES, check_face_mesh};
+pub use builder::{
+    CameoBuilder, FACE_EXTENT_MM, MIN_FACE_TRIANGLES, TONE_SUBDIVISION, check_face_mesh,
+};
 pub use detail::{DetailParams, FaceDetail};
 pub use face::Placement;
 pub use obj::{ObjError, mesh_to_obj, parse_obj, to_obj};
@@ -188,6 +191,10 @@ pub struct Relief {
     /// The face's own height (canonical mm, smoothed, eyes carved) where it covers a node;
     /// NaN elsewhere.
     pub face_height: Vec<f32>,
+    /// Nodes where the stipple cut a pit ([`DetailParams::stipple_mm`]; empty on a grid
+    /// without one): the grid is then [`TONE_SUBDIVISION`] times finer than the solve grid
+    /// ([`CameoParams::cell`]), and the mesh keeps the finer cells only round the pits.
+    pub stippled: Vec<bool>,
     pub cols: usize,
     pub rows: usize,
     /// Gem position of node (0, 0) and the spacing, gem mm.
@@ -201,7 +208,8 @@ pub struct Relief {
     pub canonical_per_gem: f32,
     /// How the Poisson solve of the compression went.
     pub solve: basrelief::SolveReport,
-    /// The compressed heights before scaling (canonical mm, 0 off the portrait): the warm
+    /// The compressed heights before scaling (canonical mm, 0 off the portrait), on the solve
+    /// grid ([`CameoParams::cell`], coarser than this relief's where it is stippled): the warm
     /// start of the next relief when a face is tracked ([`CameoBuilder::build_after`]).
     pub relative: Vec<f32>,
 }

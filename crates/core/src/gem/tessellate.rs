@@ -12,7 +12,8 @@ use std::collections::HashMap;
 use super::{GROUND_EPS, OUTLINE_LEVEL, Relief};
 use crate::scene::{Mesh, Region, Vertex};
 
-/// Largest square of grid cells the stone's top is simplified to, how far (gem mm) a
+/// Largest square of grid cells the stone's top is simplified to (on the relief's solve grid;
+/// a finer grid's squares are as many times larger, the same millimetres), how far (gem mm) a
 /// simplified square's grid heights may stray from the bilinear patch of its corners, and how
 /// far their slopes may (shading follows the interpolated normals, which show a fan's pattern
 /// long before its heights do).
@@ -46,6 +47,9 @@ struct Element {
     x: usize,
     y: usize,
     size: usize,
+    /// One cell of the solve grid on a refined one (no stipple in it): cut as that grid's
+    /// cell was, two triangles, unless a finer neighbour's node lies on its border.
+    whole: bool,
 }
 
 /// The stone's top before triangulation: per node its material region and slope, and the
@@ -67,8 +71,11 @@ pub(super) struct SurfacePlan {
 /// [`FLAT_TOLERANCE_MM`] of a plane and the material does not change, so the flat ground and
 /// smooth slopes take a few triangles and the face keeps every cell. Cells need all four
 /// corners inside the oval; the bezel's inner foot covers the stepped outline.
-pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
+/// `subdivision`: the relief's cells per cell of its solve grid (1, or more where the photo's
+/// stipple is carved).
+pub(super) fn plan_surface(relief: &Relief, inside: &[bool], subdivision: usize) -> SurfacePlan {
     let (cols, rows) = (relief.cols, relief.rows);
+    let max_block = MAX_BLOCK * subdivision.clamp(1, 4).next_power_of_two();
     let mut region = vec![Region::Ground; cols * rows];
     let mut slope = vec![[0.0; 2]; cols * rows];
     let mut zone = vec![Zone::Ground; cols * rows];
@@ -102,8 +109,8 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
         }
     }
     let (blocks_x, blocks_y) = (
-        (cols - 1).div_ceil(MAX_BLOCK),
-        (rows - 1).div_ceil(MAX_BLOCK),
+        (cols - 1).div_ceil(max_block),
+        (rows - 1).div_ceil(max_block),
     );
     // Summed-area table of nodes that are not bare ground (inside, height, slope and hair 0):
     // a square without any is merged without looking at its nodes (most of the field).
@@ -170,6 +177,24 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
             .all(|&(dx, dy)| node_ok(dx, dy))
             && (0..=e.size).all(|dy| (0..=e.size).all(|dx| node_ok(dx, dy)))
     };
+    // On a refined grid, a square of one solve-grid cell without a stipple's pit is one
+    // element, as the solve grid's cell was, whatever its slopes and light (a refined
+    // field's central differences are not its corners' bilinear patch, and would keep every
+    // fine cell; the tone's slopes there are carved at the cell's corners, as on the solve
+    // grid).
+    let refined = |e: Element| {
+        if subdivision < 2 || e.size != subdivision || relief.stippled.len() != cols * rows {
+            return false;
+        }
+        let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
+        let first = region[at(0, 0)];
+        (0..=e.size).all(|dy| {
+            (0..=e.size).all(|dx| {
+                let i = at(dx, dy);
+                inside[i] && zone[i] != Zone::Wall && region[i] == first && !relief.stippled[i]
+            })
+        })
+    };
     let split = |root: Element, elements: &mut Vec<Element>| {
         let mut stack = vec![root];
         while let Some(e) = stack.pop() {
@@ -187,6 +212,8 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
                 }
             } else if fits && mergeable(e) {
                 elements.push(e);
+            } else if fits && refined(e) {
+                elements.push(Element { whole: true, ..e });
             } else {
                 let h = e.size / 2;
                 for (dx, dy) in [(0, 0), (h, 0), (0, h), (h, h)] {
@@ -194,6 +221,7 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
                         x: e.x + dx,
                         y: e.y + dy,
                         size: h,
+                        whole: false,
                     });
                 }
             }
@@ -205,9 +233,10 @@ pub(super) fn plan_surface(relief: &Relief, inside: &[bool]) -> SurfacePlan {
         let (bx, by) = (b % blocks_x, b / blocks_x);
         split(
             Element {
-                x: bx * MAX_BLOCK,
-                y: by * MAX_BLOCK,
-                size: MAX_BLOCK,
+                x: bx * max_block,
+                y: by * max_block,
+                size: max_block,
+                whole: false,
             },
             &mut elements,
         );
@@ -347,13 +376,29 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
     let (elements, region, slope) = (&plan.elements, &plan.region, &plan.slope);
     // Nodes in use: every element's corners, and merged squares' centres.
     let mut corner = vec![false; cols * rows];
-    let mut used = vec![false; cols * rows];
     for e in elements {
         for (dx, dy) in [(0, 0), (e.size, 0), (0, e.size), (e.size, e.size)] {
             corner[(e.y + dy) * cols + e.x + dx] = true;
-            used[(e.y + dy) * cols + e.x + dx] = true;
         }
-        if e.size > 1 {
+    }
+    let mut used = corner.clone();
+    // A merged square's border, its corners and any finer neighbour's corners along it
+    // (counter-clockwise from its top-left corner).
+    let border_of = |e: &Element, border: &mut Vec<usize>| {
+        let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
+        let n = e.size;
+        border.clear();
+        border.extend((0..n).map(|k| at(k, 0)));
+        border.extend((0..n).map(|k| at(n, k)));
+        border.extend((0..n).map(|k| at(n - k, n)));
+        border.extend((0..n).map(|k| at(0, n - k)));
+        border.retain(|&i| corner[i]);
+    };
+    let mut border = Vec::with_capacity(4 * MAX_BLOCK);
+    // Centres: for the fans (a whole cell with just its four corners is cut in two).
+    for e in elements.iter().filter(|e| e.size > 1) {
+        border_of(e, &mut border);
+        if !(e.whole && border.len() == 4) {
             used[(e.y + e.size / 2) * cols + e.x + e.size / 2] = true;
         }
     }
@@ -388,7 +433,6 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
         feet: HashMap::new(),
         walls: HashMap::new(),
     };
-    let mut border = Vec::with_capacity(4 * MAX_BLOCK);
     for e in elements {
         let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
         if e.size == 1 {
@@ -404,12 +448,13 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
             continue;
         }
         let n = e.size;
-        border.clear();
-        border.extend((0..n).map(|k| at(k, 0)));
-        border.extend((0..n).map(|k| at(n, k)));
-        border.extend((0..n).map(|k| at(n - k, n)));
-        border.extend((0..n).map(|k| at(0, n - k)));
-        border.retain(|&i| corner[i]);
+        border_of(e, &mut border);
+        if e.whole && border.len() == 4 {
+            // As `size == 1`'s: (0,0) (n,0) (n,n), (0,0) (n,n) (0,n).
+            let [a, b, c, d] = [border[0], border[1], border[2], border[3]].map(|i| index[i]);
+            mesh.indices.extend_from_slice(&[a, b, c, a, c, d]);
+            continue;
+        }
         let centre = index[at(n / 2, n / 2)];
         for k in 0..border.len() {
             let (a, b) = (border[k], border[(k + 1) % border.len()]);

