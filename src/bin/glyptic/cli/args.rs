@@ -194,6 +194,12 @@ pub struct ChoiceArgs {
     /// shape alone, 1 as a cutter would.
     #[arg(long, value_parser = parse_detail, default_value = "1")]
     pub detail: f32,
+    /// How deep the photo's darks are stippled into a frontal face (part of the detail): round
+    /// pits about 0.3 mm apart, each as wide as the photo is dark there, as a stipple engraver
+    /// renders tone, 0..3: 0 leaves the skin smooth (the relief's grid stays at 0.2 mm; on a
+    /// CPU the photo is then about a sixth faster), 1 as measured (BENCHMARKS.md, issue #37).
+    #[arg(long, value_parser = parse_stipple, default_value = "1")]
+    pub stipple: f32,
     /// How many faces the likeness search draws and judges with the face-recognition network
     /// (the portrait's identity steered towards the photo, within the face model's prior);
     /// 0 (the default) keeps the landmark fit's identity: on the whole gem the search no
@@ -217,6 +223,11 @@ pub struct ChoiceArgs {
 #[cfg(feature = "face")]
 fn parse_detail(s: &str) -> Result<f32, String> {
     strength_0_to_3(s, "detail")
+}
+
+#[cfg(feature = "face")]
+fn parse_stipple(s: &str) -> Result<f32, String> {
+    strength_0_to_3(s, "stipple")
 }
 
 #[cfg(feature = "face")]
@@ -307,8 +318,13 @@ impl ChoiceArgs {
         )?;
         self.apply_face(&mut p.face);
         p.carve_glasses = self.glasses == GlassesArg::Carve;
-        p.detail =
-            (self.detail > 0.0).then(|| glyptic::gem::DetailParams::default().scaled(self.detail));
+        p.detail = (self.detail > 0.0).then(|| {
+            let d = glyptic::gem::DetailParams::default().scaled(self.detail);
+            glyptic::gem::DetailParams {
+                stipple_mm: d.stipple_mm * self.stipple,
+                ..d
+            }
+        });
         p.shading = (self.shading > 0.0).then(|| glyptic::photometric::ShadingParams {
             strength: self.shading,
             ..Default::default()

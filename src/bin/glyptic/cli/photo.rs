@@ -195,6 +195,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 expression: glyptic::pipeline::PORTRAIT_EXPRESSION,
                 glasses: GlassesArg::Carve,
                 detail: 1.0,
+                stipple: 1.0,
                 likeness_search: 0,
                 shading: 1.0,
                 warp: 1.0,
