@@ -35,7 +35,8 @@
 //! their defaults); `--caricature GAIN,DETAIL`, `--prior P` (the portrait's identity prior),
 //! `--detail-scale K` (the detail's depth times K), `--detail-depths BROW,IRIS,MOUTH,LINE`
 //! (each region's depth, mm), `--tone K` (the photo's light and dark modelled for the key
-//! light, steepest slope K; 0 off), `--classical-hair` (the same classical
+//! light, steepest slope K; 0 off), `--stipple MM` (the stipple's depth, canonical mm; 0
+//! off), `--classical-hair` (the same classical
 //! hair for everyone, as `photo --hair classical`))
 
 use std::collections::HashMap;
@@ -139,6 +140,7 @@ fn main() -> Result<()> {
     let mut detail_scale: Option<f32> = None;
     let mut detail_depths: Option<glyptic::gem::DetailParams> = None;
     let mut tone: Option<f32> = None;
+    let mut stipple: Option<f32> = None;
     let mut warp: Option<glyptic::warp::WarpParams> = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -168,6 +170,7 @@ fn main() -> Result<()> {
             "--classical-hair" => {}
             "--detail-scale" => detail_scale = Some(value()?.parse::<f32>()?),
             "--tone" => tone = Some(value()?.parse::<f32>()?),
+            "--stipple" => stipple = Some(value()?.parse::<f32>()?),
             "--detail-depths" => {
                 let v: Vec<f32> = value()?
                     .split(',')
@@ -264,6 +267,9 @@ fn main() -> Result<()> {
     }
     if let (Some(t), Some(d)) = (tone, pipeline.detail.as_mut()) {
         d.tone = t;
+    }
+    if let (Some(mm), Some(d)) = (stipple, pipeline.detail.as_mut()) {
+        d.stipple_mm = mm;
     }
     if warp.is_some() {
         pipeline.warp = warp;

@@ -56,8 +56,12 @@ const TONE_EYES: f32 = 0.6;
 /// The ridge off the face that holds the tone's heights at 0 there (per cell squared, against
 /// the slope's 1; [`super::tone::fit_slopes`]).
 const TONE_HOLD: f32 = 1.0;
-/// The stipple's depth by default (see [`DetailParams::stipple_mm`]).
-pub const STIPPLE: f32 = 6.0;
+/// The stipple's depth by default (see [`DetailParams::stipple_mm`]): about 0.9 gem mm.
+/// Measured at 4, 6, 9 and 12 on three photo sets by two recognition networks and without
+/// one: deeper brings every gem nearer its person's other photos by both; 9 ranks the most
+/// gems right by the held-out network, 12 by the other, and looks heavier, a young face
+/// grainy (BENCHMARKS.md, issue #37, ninth session).
+pub const STIPPLE: f32 = 9.0;
 /// The stipple's lattice: pits this far apart (a share of the eyes' distance, about 0.3 gem
 /// mm on the default stone), in rows turned 45 degrees from the photo's axes (the eye finds a
 /// screen along the axes first, as in a printer's halftone).
