@@ -132,6 +132,10 @@ pub struct KioskConfig {
     /// Longer searches fit the network's own quirks more than the visitor (BENCHMARKS.md,
     /// issue #37).
     pub likeness_search: u32,
+    /// How deep the visitor's darks are stippled into the face, 0..=3 (round pits as a
+    /// stipple engraver renders tone; carved with the visitor's detail, read with the likeness
+    /// search): 0 leaves the skin smooth, 1 as measured (BENCHMARKS.md, issue #37).
+    pub stipple: f32,
     /// Window size when not full-screen, logical pixels.
     pub width: u32,
     pub height: u32,
@@ -188,6 +192,7 @@ impl Default for KioskConfig {
             visitor_hair: true,
             glasses: true,
             likeness_search: 22,
+            stipple: 1.0,
             width: 800,
             height: 1000,
             render_scale: 1.0,
@@ -196,6 +201,15 @@ impl Default for KioskConfig {
 }
 
 impl KioskConfig {
+    /// How the visitor's detail is carved: the photo path's, the stipple as configured.
+    pub fn detail(&self) -> crate::gem::DetailParams {
+        let d = crate::gem::DetailParams::default();
+        crate::gem::DetailParams {
+            stipple_mm: d.stipple_mm * self.stipple,
+            ..d
+        }
+    }
+
     /// Whether the cursor is hidden: as configured, else when full screen.
     pub fn hides_cursor(&self) -> bool {
         self.hide_cursor.unwrap_or(self.fullscreen)
@@ -238,6 +252,7 @@ impl KioskConfig {
             ("ease_seconds", self.ease_seconds, 0.0, 60.0),
             ("render_scale", self.render_scale, 0.25, 1.0),
             ("attract_seconds", self.attract_seconds, 1.0, 86_400.0),
+            ("stipple", self.stipple, 0.0, 3.0),
         ] {
             if !within(v, lo, hi) {
                 return invalid(key, format!("is {v}, not within {lo}..={hi}"));
@@ -591,6 +606,17 @@ mod tests {
                 .unwrap()
                 .hides_cursor()
         );
+        // The stipple: the photo path's depth by default, none at 0, twice as deep at 2.
+        let deep = crate::gem::DetailParams::default().stipple_mm;
+        assert_eq!(
+            KioskConfig::default().detail(),
+            crate::gem::DetailParams::default()
+        );
+        assert_eq!(parse("stipple = 0").unwrap().detail().stipple_mm, 0.0);
+        assert_eq!(
+            parse("stipple = 2").unwrap().detail().stipple_mm,
+            2.0 * deep
+        );
         // The visitor's words, one replaced, the others kept.
         let c = parse("attract_seconds = 45\n[texts]\nlook = \"Vaata kaamerasse\"\n").unwrap();
         assert_eq!(c.texts.get(Prompt::Look), "Vaata kaamerasse");
@@ -620,6 +646,8 @@ mod tests {
         assert!(m.contains("width") && m.contains("64"), "{m}");
         let m = msg("render_scale = nan");
         assert!(m.contains("render_scale"), "{m}");
+        let m = msg("stipple = 4");
+        assert!(m.contains("stipple") && m.contains("0..=3"), "{m}");
         let m = msg("[texts]\nlok = \"typo\"");
         assert!(m.contains("lok"), "{m}");
         let m = msg("[texts]\nyours = \"  \"");

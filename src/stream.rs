@@ -226,6 +226,9 @@ pub struct StreamOptions {
     /// thread and the window never wait for it); `None`: the landmark fit's identity. Needs
     /// `models` (the network).
     pub likeness: Option<crate::identity::SearchOptions>,
+    /// How the visitor's own detail is carved, read on the frame the identity is steered
+    /// with ([`crate::gem::FaceDetail`]; the stipple's depth among it).
+    pub detail: crate::gem::DetailParams,
 }
 
 /// A job for the identity search: one frame of a held track.
@@ -284,6 +287,7 @@ impl PersonWorker {
             crate::identity::SearchOptions,
             Arc<crate::shapemodel::SurreyModel>,
         )>,
+        detail: crate::gem::DetailParams,
     ) -> Option<Self> {
         let (jobs, inbox) = latest::<PersonJob>();
         let (send, results) = latest();
@@ -341,10 +345,13 @@ impl PersonWorker {
                     if let (Some(job), Some(net), Some((opts, model))) =
                         (identity, net.as_mut(), likeness.as_ref())
                     {
-                        reading.steered = steer(net, model, opts, &image, &landmarks, &job)
-                            .map_err(|e| tracing::warn!("cannot steer the visitor's identity: {e}"))
-                            .ok()
-                            .map(|s| (job.track, s));
+                        reading.steered =
+                            steer(net, model, opts, &detail, &image, &landmarks, &job)
+                                .map_err(|e| {
+                                    tracing::warn!("cannot steer the visitor's identity: {e}")
+                                })
+                                .ok()
+                                .map(|s| (job.track, s));
                     }
                     if send.send(reading).is_err() {
                         return;
@@ -382,6 +389,7 @@ fn steer(
     net: &mut crate::detect::FaceEmbedder,
     model: &crate::shapemodel::SurreyModel,
     opts: &crate::identity::SearchOptions,
+    detail: &crate::gem::DetailParams,
     image: &RgbImage,
     landmarks: &[[f32; 2]],
     job: &IdentityJob,
@@ -418,16 +426,10 @@ fn steer(
         let seen =
             crate::gem::detail::seen_vertices(&seen_mesh, &model.shape.triangles, &job.fit.pose);
         let light = crate::gem::detail::ToneLight::of_face(&job.fit.pose, &seen_mesh);
-        crate::gem::FaceDetail::read(
-            &grey,
-            landmarks,
-            seen,
-            &crate::gem::DetailParams::default(),
-            light,
-        )
-        .map_err(|e| tracing::warn!("cannot read the visitor's detail ({e}); the shape alone"))
-        .ok()
-        .map(Arc::new)
+        crate::gem::FaceDetail::read(&grey, landmarks, seen, detail, light)
+            .map_err(|e| tracing::warn!("cannot read the visitor's detail ({e}); the shape alone"))
+            .ok()
+            .map(Arc::new)
     };
     let relief = match (relief, warp) {
         (Some(mut r), Some(w)) => {
@@ -550,6 +552,7 @@ impl FaceStream {
                 hair: false,
                 models: None,
                 likeness: None,
+                detail: crate::gem::DetailParams::default(),
             },
         )
     }
@@ -561,6 +564,7 @@ impl FaceStream {
             hair,
             models,
             likeness,
+            detail,
         } = options;
         let likeness = likeness
             .filter(|_| models.is_some())
@@ -579,7 +583,7 @@ impl FaceStream {
                 let mut warm = Vec::new();
                 let detections_before = tracker.detections();
                 let mut person = if hair || steering {
-                    PersonWorker::spawn(models, hair, triangles, likeness)
+                    PersonWorker::spawn(models, hair, triangles, likeness, detail)
                 } else {
                     None
                 };

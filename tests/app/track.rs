@@ -301,6 +301,7 @@ fn the_face_thread_reads_the_visitors_beard_without_waiting() {
         hair: true,
         models: Some(glyptic::assets::ModelPaths::locate()),
         likeness: None,
+        detail: glyptic::gem::DetailParams::default(),
     };
     let stream = stream_of(frames, tracker, options);
     let (mut before_hair, mut hair) = (0, None);
@@ -357,6 +358,7 @@ fn the_face_thread_steers_the_visitors_identity_without_waiting() {
         hair: false,
         models: Some(glyptic::assets::ModelPaths::locate()),
         likeness: Some(glyptic::identity::SearchOptions::with_faces(8)),
+        detail: glyptic::gem::DetailParams::default(),
     };
     let stream = stream_of(frames, tracker, options);
     let (mut plain, mut steered) = (Vec::new(), Vec::new());

@@ -278,6 +278,7 @@ pub fn track(args: &TrackArgs) -> Result<()> {
                 hair,
                 models: Some(glyptic::assets::ModelPaths::locate()),
                 likeness: None,
+                detail: glyptic::gem::DetailParams::default(),
             },
         );
         while processed < limit {

@@ -121,6 +121,7 @@ impl Live {
                     )?;
                     let tracker = Tracker::new(pipeline, TrackOptions::default());
                     let hair = config.visitor_hair;
+                    let detail = config.detail();
                     let likeness = (config.likeness_search > 0).then(|| {
                         glyptic::identity::SearchOptions::with_faces(
                             config.likeness_search as usize,
@@ -145,6 +146,7 @@ impl Live {
                             hair,
                             models: Some(glyptic::assets::ModelPaths::locate()),
                             likeness,
+                            detail,
                         },
                     ))
                 })();
