@@ -15,14 +15,9 @@ use anyhow::{Context, Result};
 use glyptic::gem::{CameoBuilder, DetailParams, FaceDetail};
 use glyptic::pipeline::gem::{GemPipeline, LoadOptions};
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    if v.is_empty() {
-        f64::NAN
-    } else {
-        v[v.len() / 2]
-    }
-}
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
 
 fn main() -> Result<()> {
     let mut photos = Vec::new();

@@ -28,14 +28,9 @@ fn write_pgm(path: &Path, gray: &image::GrayImage) -> Res<()> {
     Ok(())
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    if v.is_empty() {
-        f64::NAN
-    } else {
-        v[v.len() / 2]
-    }
-}
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
 
 fn timed_median<T>(repeats: usize, mut f: impl FnMut() -> T) -> (T, f64) {
     let mut times = Vec::new();

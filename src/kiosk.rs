@@ -203,11 +203,7 @@ impl Default for KioskConfig {
 impl KioskConfig {
     /// How the visitor's detail is carved: the photo path's, the stipple as configured.
     pub fn detail(&self) -> crate::gem::DetailParams {
-        let d = crate::gem::DetailParams::default();
-        crate::gem::DetailParams {
-            stipple_mm: d.stipple_mm * self.stipple,
-            ..d
-        }
+        crate::gem::DetailParams::default().stipple_scaled(self.stipple)
     }
 
     /// Whether the cursor is hidden: as configured, else when full screen.

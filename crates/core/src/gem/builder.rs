@@ -561,24 +561,13 @@ impl CameoBuilder {
             .iter()
             .map(|&f| f >= 0.5)
             .collect::<Vec<bool>>();
-        let face_height = if k == 1 {
-            face_height
-        } else {
-            let known: Vec<f32> = face_height
-                .iter()
-                .map(|h| f32::from(u8::from(h.is_finite())))
-                .collect();
-            let values: Vec<f32> = face_height
-                .iter()
-                .map(|h| if h.is_finite() { *h } else { 0.0 })
-                .collect();
-            let (v, w) = (grid.up(&values), grid.up(&known));
-            v.iter()
-                .zip(&w)
-                .zip(&face)
-                .map(|((v, w), &f)| if f && *w > 1e-6 { v / w } else { f32::NAN })
-                .collect()
-        };
+        let known: Vec<bool> = face_height.iter().map(|h| h.is_finite()).collect();
+        let face_height = grid
+            .up_where(&face_height, &known)
+            .iter()
+            .zip(&face)
+            .map(|(h, &f)| h.filter(|_| f).unwrap_or(f32::NAN))
+            .collect();
         Ok(Relief {
             height,
             top,

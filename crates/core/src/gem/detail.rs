@@ -122,6 +122,15 @@ impl DetailParams {
             stipple_mm: self.stipple_mm * k,
         }
     }
+
+    /// The stipple alone `k` times as deep (0: none; `glyptic photo --stipple`, the kiosk's
+    /// `stipple`).
+    pub fn stipple_scaled(self, k: f32) -> Self {
+        DetailParams {
+            stipple_mm: self.stipple_mm * k,
+            ..self
+        }
+    }
 }
 
 /// The detail read from one photo: a height map over a window of the photo, and where each

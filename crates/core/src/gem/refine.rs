@@ -66,20 +66,37 @@ impl Refine {
         out
     }
 
-    /// Points refined where `weight` is positive, each fine node's the weighted mean of its
-    /// coarse corners' (a corner off the face has no point to lend).
-    pub(super) fn up_points(&self, points: &[[f32; 2]], weight: &[f32]) -> Vec<[f32; 2]> {
-        let w: Vec<f32> = weight
+    /// A field known only where `known`, refined: each fine node the bilinear mean of its
+    /// known coarse corners' values (an unknown corner has nothing to lend), `None` where it
+    /// has none.
+    pub(super) fn up_where(&self, field: &[f32], known: &[bool]) -> Vec<Option<f32>> {
+        let w: Vec<f32> = known.iter().map(|&k| f32::from(u8::from(k))).collect();
+        let v: Vec<f32> = field
             .iter()
-            .map(|w| f32::from(u8::from(*w > 0.0)))
+            .zip(known)
+            .map(|(v, &k)| if k { *v } else { 0.0 })
             .collect();
-        let px: Vec<f32> = points.iter().zip(&w).map(|(p, w)| p[0] * w).collect();
-        let py: Vec<f32> = points.iter().zip(&w).map(|(p, w)| p[1] * w).collect();
-        let (px, py, w) = (self.up(&px), self.up(&py), self.up(&w));
-        px.iter()
-            .zip(&py)
-            .zip(&w)
-            .map(|((x, y), w)| if *w > 1e-6 { [x / w, y / w] } else { [0.0; 2] })
+        self.up(&v)
+            .iter()
+            .zip(&self.up(&w))
+            .map(|(v, w)| (*w > 1e-6).then(|| v / w))
+            .collect()
+    }
+
+    /// Points refined where `weight` is positive ([`Self::up_where`]); (0, 0) where none is.
+    pub(super) fn up_points(&self, points: &[[f32; 2]], weight: &[f32]) -> Vec<[f32; 2]> {
+        let known: Vec<bool> = weight.iter().map(|w| *w > 0.0).collect();
+        let axis = |k: usize| {
+            let v: Vec<f32> = points.iter().map(|p| p[k]).collect();
+            self.up_where(&v, &known)
+        };
+        axis(0)
+            .iter()
+            .zip(&axis(1))
+            .map(|(x, y)| match (x, y) {
+                (Some(x), Some(y)) => [*x, *y],
+                _ => [0.0; 2],
+            })
             .collect()
     }
 

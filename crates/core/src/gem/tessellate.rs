@@ -395,12 +395,23 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
         border.retain(|&i| corner[i]);
     };
     let mut border = Vec::with_capacity(4 * MAX_BLOCK);
-    // Centres: for the fans (a whole cell with just its four corners is cut in two).
-    for e in elements.iter().filter(|e| e.size > 1) {
-        border_of(e, &mut border);
-        if !(e.whole && border.len() == 4) {
-            used[(e.y + e.size / 2) * cols + e.x + e.size / 2] = true;
-        }
+    // Whole cells with just their four corners are cut in two; other merged squares are fans
+    // round their centre.
+    let halved: Vec<bool> = elements
+        .iter()
+        .map(|e| {
+            e.whole && {
+                border_of(e, &mut border);
+                border.len() == 4
+            }
+        })
+        .collect();
+    for (e, _) in elements
+        .iter()
+        .zip(&halved)
+        .filter(|(e, h)| e.size > 1 && !**h)
+    {
+        used[(e.y + e.size / 2) * cols + e.x + e.size / 2] = true;
     }
 
     let mut index = vec![u32::MAX; cols * rows];
@@ -433,8 +444,15 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
         feet: HashMap::new(),
         walls: HashMap::new(),
     };
-    for e in elements {
+    for (e, &halved) in elements.iter().zip(&halved) {
         let at = |dx: usize, dy: usize| (e.y + dy) * cols + e.x + dx;
+        if halved {
+            // As `size == 1`'s below: (0,0) (n,0) (n,n), (0,0) (n,n) (0,n).
+            let n = e.size;
+            let [a, b, c, d] = [at(0, 0), at(n, 0), at(n, n), at(0, n)].map(|i| index[i]);
+            mesh.indices.extend_from_slice(&[a, b, c, a, c, d]);
+            continue;
+        }
         if e.size == 1 {
             let [a, b, c, d] = [at(0, 0), at(1, 0), at(1, 1), at(0, 1)];
             let zones = [a, b, c, d].map(|i| plan.zone[i]);
@@ -449,12 +467,6 @@ pub(super) fn add_relief_surface(mesh: &mut Mesh, relief: &Relief, plan: &Surfac
         }
         let n = e.size;
         border_of(e, &mut border);
-        if e.whole && border.len() == 4 {
-            // As `size == 1`'s: (0,0) (n,0) (n,n), (0,0) (n,n) (0,n).
-            let [a, b, c, d] = [border[0], border[1], border[2], border[3]].map(|i| index[i]);
-            mesh.indices.extend_from_slice(&[a, b, c, a, c, d]);
-            continue;
-        }
         let centre = index[at(n / 2, n / 2)];
         for k in 0..border.len() {
             let (a, b) = (border[k], border[(k + 1) % border.len()]);

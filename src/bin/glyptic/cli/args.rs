@@ -197,7 +197,7 @@ pub struct ChoiceArgs {
     /// How deep the photo's darks are stippled into a frontal face (part of the detail): round
     /// pits about 0.3 mm apart, each as wide as the photo is dark there, as a stipple engraver
     /// renders tone, 0..3: 0 leaves the skin smooth (the relief's grid stays at 0.2 mm; on a
-    /// CPU the photo is then about a sixth faster), 1 as measured (BENCHMARKS.md, issue #37).
+    /// CPU the photo is then about a tenth faster), 1 as measured (BENCHMARKS.md, issue #37).
     #[arg(long, value_parser = parse_stipple, default_value = "1")]
     pub stipple: f32,
     /// How many faces the likeness search draws and judges with the face-recognition network
@@ -319,11 +319,9 @@ impl ChoiceArgs {
         self.apply_face(&mut p.face);
         p.carve_glasses = self.glasses == GlassesArg::Carve;
         p.detail = (self.detail > 0.0).then(|| {
-            let d = glyptic::gem::DetailParams::default().scaled(self.detail);
-            glyptic::gem::DetailParams {
-                stipple_mm: d.stipple_mm * self.stipple,
-                ..d
-            }
+            glyptic::gem::DetailParams::default()
+                .scaled(self.detail)
+                .stipple_scaled(self.stipple)
         });
         p.shading = (self.shading > 0.0).then(|| glyptic::photometric::ShadingParams {
             strength: self.shading,

@@ -34,8 +34,9 @@ pub struct MakeArgs {
           value_parser = crate::values::finite_in::<f32>(0.1, 100.0))]
     pub base: f32,
     /// Also write the relief as a 16-bit grey PNG for a CNC router: one pixel per grid node
-    /// (0.2 mm; 0.1 mm where a frontal face is stippled, `--stipple`), 0 the ground; the millimetres per level are printed and stored in the PNG's
-    /// text (`glyptic:mm_per_level`).
+    /// (0.2 mm; 0.1 mm where a frontal face is stippled, `--stipple`), 0 the ground; the
+    /// millimetres per level are printed and stored in the PNG's text
+    /// (`glyptic:mm_per_level`).
     #[arg(long, value_name = "FILE.png",
           value_parser = crate::values::file_named(&["png"], "a 16-bit PNG"))]
     pub heightmap: Option<PathBuf>,
