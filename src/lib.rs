@@ -17,6 +17,7 @@ pub mod capture;
 #[cfg(feature = "face")]
 pub mod detect;
 pub mod kiosk;
+pub mod memory;
 pub mod pipeline;
 pub mod stage;
 #[cfg(feature = "face")]

@@ -2,7 +2,7 @@
 //! default face), the newest job winning, so the window never waits for a relief solve.
 
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 
@@ -11,6 +11,10 @@ use glyptic::gem::{CameoBuilder, CameoParams, HairStyle};
 use glyptic::render::Mesh;
 
 use super::restarts::Restarts;
+
+/// How often the gem thread gives freed memory back ([`glyptic::memory::Trimmer`]): a trim
+/// walks every heap, a gem is built every 0.1-0.2 s.
+const TRIM_PERIOD: Duration = Duration::from_secs(2);
 
 /// A cameo built by the gem thread.
 pub(super) struct BuiltGem {
@@ -179,6 +183,8 @@ fn work(
     };
     let mut warm = Vec::new();
     let mut built_count = 0u64;
+    // Each gem's grids are freed here; their pages go back (glyptic::memory).
+    let mut trimmer = glyptic::memory::Trimmer::new(TRIM_PERIOD);
     loop {
         built_count += 1;
         if fault.is_some_and(|f| f.at == built_count) {
@@ -211,6 +217,7 @@ fn work(
         if send.send(built).is_err() {
             return;
         }
+        trimmer.tick();
         match jobs.recv() {
             Ok(next) => (face, hair, detail) = (next.face, next.hair, next.detail),
             Err(_) => return,
