@@ -545,11 +545,12 @@ fn nobody_there_eases_back_to_the_default_gem() {
 }
 
 /// A shortened soak (the full one: scripts/soak-kiosk.sh): a looping video with a moving face
-/// for 24 s (warm after 10); memory stops growing after warm-up and the window never waits for the other
-/// threads. Memory is the highest resident size over 5 s just after warm-up against the last
-/// 5 s: a gem's build and frame come and go by tens of MB and the gem thread gives freed pages
-/// back every 2 s (`glyptic::memory`), so one reading swings by ~6 % with nothing kept; a leak
-/// raises the high-water mark.
+/// for 36 s (warm after 10); memory stops growing after warm-up and the window never waits for the other
+/// threads. Memory is the highest resident size over the last 10 s against the highest from
+/// warm-up until then: a gem's build and frame come and go by tens of MB and the gem thread
+/// gives freed pages back every 2 s (`glyptic::memory`), so one reading, or the highest over a
+/// few seconds, swings by up to 6 % with nothing kept (BENCHMARKS.md); memory that grows sets
+/// a new high-water mark at the end.
 #[test]
 fn kiosk_soak_keeps_memory_flat_and_never_waits() {
     let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
@@ -566,7 +567,7 @@ fn kiosk_soak_keeps_memory_flat_and_never_waits() {
     glyptic::capture::video::write_mjpeg_avi(&video, &frames, 30.0).unwrap();
     let lines = traced(kiosk(&x).arg("--video").arg(&video).args([
         "--seconds",
-        "24",
+        "36",
         "--trace",
         "--size",
         "320x480",
@@ -580,7 +581,11 @@ fn kiosk_soak_keeps_memory_flat_and_never_waits() {
             .map(|l| l["rss_kb"].as_f64().unwrap())
             .fold(0.0, f64::max)
     };
-    let (warm, end) = (peak(10.0, 15.0), peak(end_t - 5.0, end_t));
+    let (warm, end) = (peak(10.0, end_t - 10.0), peak(end_t - 10.0, end_t));
+    assert!(
+        warm > 0.0 && end > 0.0,
+        "no frame presented in a stretch measured"
+    );
     let growth = end / warm - 1.0;
     let poll = last["poll_max_ms"].as_f64().unwrap();
     let frames = last["face_frame"].as_u64().unwrap();
@@ -591,7 +596,7 @@ fn kiosk_soak_keeps_memory_flat_and_never_waits() {
         lines.len(),
         growth * 100.0
     );
-    assert!(frames > 300, "only {frames} video frames in 24 s");
+    assert!(frames > 450, "only {frames} video frames in 36 s");
     assert!(gems > 10, "only {gems} gems");
     assert!(
         growth < 0.05,
