@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Kiosk soak under Xvfb: a looping video (lenna swaying, with sensor noise, 30 frames/s) until
 # FRAMES video frames have gone through the face thread; reports resident memory after warm-up
-# and at the end (the highest over a minute each), the longest the window spent looking at the other threads, the face
-# latency, and gems built and presented. Writes bench/results/kiosk-soak.md; fails if memory
-# grew 5 % or more after warm-up or the window ever waited 250 ms.
+# and at the end (the highest over a minute each), the longest the window spent looking at the
+# other threads, the face latency, and gems built and presented. Writes
+# bench/results/kiosk-soak.md; fails if memory grew 5 % or more after warm-up or the window ever
+# waited 250 ms.
 # Usage: scripts/soak-kiosk.sh [FRAMES]   (default 10000; about 6 minutes)
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/ready.sh"

@@ -52,6 +52,15 @@ pub fn trim() {
     }
 }
 
+/// Resident memory of this process, kB (Linux; 0 where unknown): the kiosk's trace and staff
+/// panel show it.
+pub fn resident_kb() -> u64 {
+    std::fs::read_to_string("/proc/self/statm")
+        .ok()
+        .and_then(|s| s.split_whitespace().nth(1)?.parse::<u64>().ok())
+        .map_or(0, |pages| pages * 4)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -70,20 +79,14 @@ mod tests {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     #[test]
     fn freed_pages_leave_resident_memory() {
-        fn rss_kb() -> u64 {
-            std::fs::read_to_string("/proc/self/statm")
-                .ok()
-                .and_then(|s| s.split_whitespace().nth(1)?.parse::<u64>().ok())
-                .map_or(0, |pages| pages * 4)
-        }
-        // Many medium blocks (below the mmap threshold, so they live in the heap), the first
+        // Many medium blocks (below the mmap threshold, so they live in the heap), the last
         // kept so the heap's top cannot simply shrink: the freed ones are in its middle.
         let mut blocks: Vec<Vec<u8>> = (0..1000).map(|i| vec![(i % 251) as u8; 100_000]).collect();
         let keep = blocks.pop();
-        let before_free = rss_kb();
+        let before_free = resident_kb();
         drop(blocks);
         trim();
-        let after = rss_kb();
+        let after = resident_kb();
         assert!(keep.is_some_and(|k| k[0] == (999 % 251) as u8));
         assert!(
             after + 60_000 < before_free,

@@ -68,19 +68,11 @@ impl Running {
             "poll_max_ms": self.timeline.poll_max_ms,
             "gem_restarts": self.gems.restarts.count,
             "face_restarts": self.face_restarts(),
-            "rss_kb": resident_kb(),
+            "rss_kb": glyptic::memory::resident_kb(),
             "controls": self.control_rects.iter().map(|(k, r)| (k.to_string(), serde_json::json!(r))).collect::<serde_json::Map<_, _>>(),
         });
         // (Added apart: one more key in the literal passes `json!`'s recursion limit.)
         line["pin_pad"] = serde_json::json!(self.staff.pad.as_ref().map(|p| p.said.clone()));
         line
     }
-}
-
-/// Resident memory of this process, kB (Linux; 0 where unknown).
-pub(super) fn resident_kb() -> u64 {
-    std::fs::read_to_string("/proc/self/statm")
-        .ok()
-        .and_then(|s| s.split_whitespace().nth(1)?.parse::<u64>().ok())
-        .map_or(0, |pages| pages * 4)
 }

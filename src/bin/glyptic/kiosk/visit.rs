@@ -289,7 +289,7 @@ impl Running {
             ),
             (
                 "memory",
-                format!("{:.0} MB", super::trace::resident_kb() as f64 / 1024.0),
+                format!("{:.0} MB", glyptic::memory::resident_kb() as f64 / 1024.0),
             ),
             (
                 "restarts",
