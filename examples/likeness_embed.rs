@@ -33,6 +33,7 @@
 //! carved, mid-grey 0, lighter raised, darker incised; `--warp S,SIGMA,RIDGE,MAX,OUTLINE,LIPS`:
 //! the landmark warp's parameters (`glyptic::warp::WarpParams`, in order, trailing ones at
 //! their defaults); `--caricature GAIN,DETAIL`, `--prior P` (the portrait's identity prior),
+//! `--expression E` (the share of the photo's expression the portrait carves),
 //! `--detail-scale K` (the detail's depth times K), `--detail-depths BROW,IRIS,MOUTH,LINE`
 //! (each region's depth, mm), `--tone K` (the photo's light and dark modelled for the key
 //! light, steepest slope K; 0 off), `--stipple MM` (the stipple's depth, canonical mm; 0
@@ -132,6 +133,7 @@ fn main() -> Result<()> {
     let mut components: Option<usize> = None;
     let mut shading: Option<f32> = None;
     let mut face_yaw = 0f32;
+    let mut expression: Option<f32> = None;
     let mut shading_band: Option<(f32, f32)> = None;
     let mut score: Option<PathBuf> = None;
     let mut maps: Option<PathBuf> = None;
@@ -203,6 +205,7 @@ fn main() -> Result<()> {
             }
             "--score" => score = Some(PathBuf::from(value()?)),
             "--detail-maps" => maps = Some(PathBuf::from(value()?)),
+            "--expression" => expression = Some(value()?.parse()?),
             "--caricature" => {
                 let v = value()?;
                 let (g, d) = v.split_once(',').context("--caricature GAIN,DETAIL")?;
@@ -258,6 +261,9 @@ fn main() -> Result<()> {
     }
     if let Some(p) = prior {
         pipeline.face.portrait_prior = p;
+    }
+    if let Some(e) = expression {
+        pipeline.face.portrait_expression = e;
     }
     if let Some(k) = detail_scale {
         pipeline.detail = Some(glyptic::gem::DetailParams::default().scaled(k));
