@@ -62,6 +62,13 @@ const TONE_HOLD: f32 = 1.0;
 /// gems right by the held-out network, 12 by the other, and looks heavier, a young face
 /// grainy (BENCHMARKS.md, issue #37, ninth session).
 pub const STIPPLE: f32 = 9.0;
+/// The stipple's band: its darks are the photo's brightness against its surroundings over
+/// this share of the eyes' distance (a Gaussian's sigma), narrower than the tone's slopes'
+/// ([`TONE_BAND`]): the dark of a lid's crease, a nostril or the lips' line more than the
+/// shade around them. Measured at 0.07, 0.1, 0.16 (the tone's) and 0.3 on three photo sets
+/// by two recognition networks: at 0.1 the gems come a little nearer their people's other
+/// photos on all three by both (BENCHMARKS.md, issue #37, tenth session).
+const STIPPLE_BAND: f32 = 0.1;
 /// The stipple's lattice: pits this far apart (a share of the eyes' distance, about 0.3 gem
 /// mm on the default stone), in rows turned 45 degrees from the photo's axes (the eye finds a
 /// screen along the axes first, as in a printer's halftone).
@@ -408,7 +415,8 @@ impl FaceDetail {
 /// gives it back ([`super::tone`]): the log brightness against its surroundings over
 /// [`TONE_BAND`] of the eyes' distance, in units of the face's own spread (its median absolute
 /// value), to at most [`DetailParams::tone`]; fitted over the face, faded at its outline.
-/// With them, the stipple's pits in its darks ([`DetailParams::stipple_mm`]; empty at 0).
+/// With them, the stipple's pits in its darks ([`DetailParams::stipple_mm`]; empty at 0),
+/// read over [`STIPPLE_BAND`].
 #[allow(clippy::too_many_arguments)]
 fn tone_heights(
     lum: &[f32],
@@ -421,17 +429,7 @@ fn tone_heights(
     light: ToneLight,
     params: &DetailParams,
 ) -> (Vec<f32>, Vec<f32>) {
-    const EPS: f32 = 0.02;
-    let around = blur(lum, cols, rows, TONE_BAND * CELLS_PER_IOD);
-    let rel: Vec<f32> = fine
-        .iter()
-        .zip(&around)
-        .map(|(f, a)| (f + EPS).ln() - (a + EPS).ln())
-        .collect();
-    let spread = 1.4826
-        * median(face_cells.iter().map(|&i| rel[i].abs()).collect())
-            .unwrap_or(0.0)
-            .max(0.01);
+    let (rel, spread) = relative_brightness(fine, lum, face_cells, cols, rows, TONE_BAND);
     let mut inside_face = vec![0f32; cols * rows];
     for &i in face_cells {
         inside_face[i] = 1.0;
@@ -460,6 +458,7 @@ fn tone_heights(
     );
     let tone = h.iter().zip(&inside_face).map(|(h, w)| h * w).collect();
     let stipple = if params.stipple_mm > 0.0 {
+        let (rel, spread) = relative_brightness(fine, lum, face_cells, cols, rows, STIPPLE_BAND);
         (0..cols * rows)
             .map(|i| {
                 let dark = ((-rel[i] / (3.0 * spread) - STIPPLE_FROM) / (1.0 - STIPPLE_FROM))
@@ -473,6 +472,31 @@ fn tone_heights(
         Vec::new()
     };
     (tone, stipple)
+}
+
+/// The log brightness `fine` against its surroundings in `lum` over `band` of the eyes'
+/// distance (a Gaussian's sigma), and its spread over the face's cells (1.4826 times the
+/// median absolute value, at least 0.01).
+fn relative_brightness(
+    fine: &[f32],
+    lum: &[f32],
+    face_cells: &[usize],
+    cols: usize,
+    rows: usize,
+    band: f32,
+) -> (Vec<f32>, f32) {
+    const EPS: f32 = 0.02;
+    let around = blur(lum, cols, rows, band * CELLS_PER_IOD);
+    let rel: Vec<f32> = fine
+        .iter()
+        .zip(&around)
+        .map(|(f, a)| (f + EPS).ln() - (a + EPS).ln())
+        .collect();
+    let spread = 1.4826
+        * median(face_cells.iter().map(|&i| rel[i].abs()).collect())
+            .unwrap_or(0.0)
+            .max(0.01);
+    (rel, spread)
 }
 
 /// The stipple's pit at map cell (`col`, `row`) where the photo is this `dark` (0..1): 0 to 1
