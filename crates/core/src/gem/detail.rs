@@ -73,8 +73,8 @@ const STIPPLE_BAND: f32 = 0.1;
 /// mm on the default stone), in rows turned 45 degrees from the photo's axes (the eye finds a
 /// screen along the axes first, as in a printer's halftone).
 const STIPPLE_SPACING: f32 = 0.0424;
-/// How dark (against the tone's strongest, 1) the photo must be before a pit is cut: the
-/// skin's own small variations stay smooth.
+/// How dark (against the strongest dark over [`STIPPLE_BAND`], 1) the photo must be before a
+/// pit is cut: the skin's own small variations stay smooth.
 const STIPPLE_FROM: f32 = 0.1;
 
 /// How deep each region is carved at full strength (canonical mm).
