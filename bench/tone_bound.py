@@ -10,25 +10,57 @@ parts ON OFF
     and dark (OFF), and the tone's own part (ON less OFF, in log brightness). Printed: their
     means, and the spreads of the relief's part, the tone's and the photo's.
 
-overlay RUN OUT AMP BLUR
+overlay RUN OUT AMP BLUR [REGION [SIDE]]
     Not a gem: each frontal gem of RUN with its photo's band-passed brightness laid over its
     face (a multiplier, the photo's brightness against its surroundings at 0.25 of the eyes'
     distance, raised to AMP: 1 the photo's own contrast; then blurred by BLUR eyes' distances,
     0 none), aligned by the 68 landmarks found on both. OUT then holds a run to score as
     likeness_embed's (`manifest.tsv`, `judge-input.txt`, the pictures): what a network makes
     of a carved face whose light and dark were that faithful to the photo, the bound the tone
-    works towards.
+    works towards. REGION keeps the overlay to part of the face: `eyes` (the brows and the
+    eyes), `nose`, `mouth` (each the hull of its landmarks grown by 0.12 of the eyes'
+    distance), `features` (the three), `rest` (the face without them) or `all` (the
+    default); SIDE to its darks (`dark`: the multiplier at most 1), its lights (`light`) or
+    `both` (the default): which part of the photo's light and dark a likeness needs.
 """
 import os
 import sys
 
 import numpy as np
-from PIL import Image, ImageFilter
+from PIL import Image, ImageDraw, ImageFilter
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import light_and_dark as ld  # noqa: E402
 
 SIGMA = 0.25
+REGIONS = {"eyes": list(range(17, 27)) + list(range(36, 48)), "nose": list(range(27, 36)),
+           "mouth": list(range(48, 68))}
+
+
+def hull(size, points, grow):
+    """The convex hull of `points` on a picture of `size`, grown by `grow` pixels (bool)."""
+    centre = points.mean(0)
+    order = np.argsort(np.arctan2(points[:, 1] - centre[1], points[:, 0] - centre[0]))
+    mask = Image.new("L", size, 0)
+    ImageDraw.Draw(mask).polygon([tuple(points[i]) for i in order], fill=255)
+    return np.asarray(mask.filter(ImageFilter.MaxFilter(2 * int(grow) + 1))) > 128
+
+
+def region_mask(size, g, region):
+    """Where the overlay goes (0..1): the face, or one of its `REGIONS` (see overlay)."""
+    face = np.asarray(ld.face_mask(size, g), dtype=np.float64) / 255.0
+    if region == "all":
+        return face
+    grow = 0.12 * ld.eye_distance(g)
+    parts = {k: hull(size, g[v], grow) for k, v in REGIONS.items()}
+    features = parts["eyes"] | parts["nose"] | parts["mouth"]
+    if region == "features":
+        return features.astype(np.float64)
+    if region == "rest":
+        return face * ~features
+    if region not in parts:
+        sys.exit(f"unknown region {region!r}")
+    return parts[region].astype(np.float64)
 
 
 def manifest(run):
@@ -65,7 +97,7 @@ def parts(on, off):
           f"spread: relief {m[3]:.3f}, tone {m[4]:.3f}, photo {m[5]:.3f}")
 
 
-def overlay(run, out, amp, blur):
+def overlay(run, out, amp, blur, region="all", side="both"):
     os.makedirs(out + "/pics", exist_ok=True)
     lm = ld.landmarks(run)
     photos = {int(m[2]): m[3] for m in manifest(run) if m[0] == "photo"}
@@ -92,8 +124,13 @@ def overlay(run, out, amp, blur):
             ratio = ratio.filter(ImageFilter.GaussianBlur(blur * iod))
         ratio = np.asarray(ratio.transform(gem.size, Image.AFFINE, ld.affine(g, p),
                                            resample=Image.BILINEAR, fillcolor=128), dtype=np.float64) / 128.0
+        if side == "dark":
+            ratio = np.minimum(ratio, 1.0)
+        elif side == "light":
+            ratio = np.maximum(ratio, 1.0)
         giod = ld.eye_distance(g)
-        mask = ld.face_mask(gem.size, g).filter(ImageFilter.GaussianBlur(0.1 * giod))
+        mask = Image.fromarray(np.uint8(255 * region_mask(gem.size, g, region)))
+        mask = mask.filter(ImageFilter.GaussianBlur(0.1 * giod if region == "all" else 0.05 * giod))
         w = np.asarray(mask, dtype=np.float64)[..., None] / 255.0
         picture = np.asarray(gem, dtype=np.float64) * (1 + w * (ratio[..., None] - 1))
         dst = f"{out}/pics/{int(m[2]):03d}.png"
@@ -111,8 +148,8 @@ def main():
     args = sys.argv[1:]
     if len(args) == 3 and args[0] == "parts":
         parts(args[1], args[2])
-    elif len(args) == 5 and args[0] == "overlay":
-        overlay(args[1], args[2], float(args[3]), float(args[4]))
+    elif 5 <= len(args) <= 7 and args[0] == "overlay":
+        overlay(args[1], args[2], float(args[3]), float(args[4]), *args[5:])
     else:
         sys.exit(__doc__)
 
