@@ -1,42 +1,25 @@
 #!/usr/bin/env python3
 """The face's proportions on frontal gems against their photos (issue #37): whether the relief
-keeps the person's geometry as a landmark detector reads it. No network: this program's own
-68 landmarks (`glyptic landmarks --json`) on each photo, its frontal gem and its fitted face
-alone (`likeness_embed --out DIR` runs), as ratios to the eye corners' distance (jaw and chin
-width, nose length and width, mouth, brows, eyes).
+keeps the person's geometry as a landmark detector reads it. No network: the 68 landmarks
+a `likeness_embed --out DIR` run found (this program's own, `DIR/judge-input.txt`) on each
+photo, its frontal gem and its fitted face alone, as ratios to the eye corners' distance (jaw
+and chin width, nose length and width, mouth, brows, eyes).
 
 Printed per ratio, over all runs given: the means on photos, gems and fitted faces; the gem
 over the photo; and over pairs of one person's photos (A, B != A) the correlation of photo A
 with photo B (how far the ratio is the person's, not the picture's), of gem A with photo B,
 and of fitted face A with photo B.
 
-Usage: bench/gem_geometry.py RUN... (GLYPTIC: the binary, default target/release/glyptic;
-landmarks are cached in RUN/geometry-cache/). numpy only."""
+Usage: bench/gem_geometry.py RUN...   (numpy: the bench virtualenv, .deps/bench-venv)."""
 import itertools
-import json
 import math
 import os
-import subprocess
 import sys
 
 import numpy as np
 
-GLYPTIC = os.environ.get("GLYPTIC", "target/release/glyptic")
-
-
-def landmarks(path, cache):
-    os.makedirs(cache, exist_ok=True)
-    c = os.path.join(cache, path.strip("/").replace("/", "_") + ".json")
-    if not os.path.exists(c):
-        r = subprocess.run([GLYPTIC, "landmarks", path, "--json"], capture_output=True, text=True)
-        try:
-            pts = json.loads(r.stdout)["faces"][0]["landmarks"]
-        except (ValueError, KeyError, IndexError):
-            pts = None
-        with open(c, "w") as f:
-            json.dump(pts, f)
-    with open(c) as f:
-        return json.load(f)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import light_and_dark as ld  # noqa: E402
 
 
 def ratios(p):
@@ -58,12 +41,13 @@ def main():
         sys.exit(__doc__)
     items = []
     for run in sys.argv[1:]:
-        cache = os.path.join(run, "geometry-cache")
-        rows = [l.rstrip("\n").split("\t") for l in open(run + "/manifest.tsv") if l.startswith("photo")]
-        for k, r in enumerate(rows):
-            found = [landmarks(p, cache) for p in (r[3], f"{run}/frontal/{k:03d}.png", f"{run}/fitted/{k:03d}.png")]
-            if all(found):
-                items.append((run + r[1], *map(ratios, found)))
+        lm = ld.landmarks(run)
+        rows = [l.rstrip("\n").split("\t") for l in open(run + "/manifest.tsv")]
+        made = {(r[0], r[2]): r[3] for r in rows}
+        for r in rows:
+            paths = [r[3], made.get(("frontal", r[2])), made.get(("fitted", r[2]))]
+            if r[0] == "photo" and all(p in lm for p in paths):
+                items.append((run + r[1], *(ratios(lm[p]) for p in paths)))
     pairs = [(a, b) for a, b in itertools.permutations(items, 2) if a[0] == b[0]]
     print(f"{len(items)} photos with a gem and a fitted face read, {len(pairs)} same-person pairs")
     print("| ratio | photo | gem | fitted | gem / photo | photo A ~ photo B | gem A ~ photo B | fitted A ~ photo B |")
