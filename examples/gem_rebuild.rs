@@ -52,6 +52,7 @@ fn main() -> Result<()> {
             .with_context(|| format!("{}", path.display()))?;
         pipeline.detail = Some(DetailParams {
             stipple_mm: 0.0,
+            shadows: 0.0,
             ..DetailParams::default()
         });
         let smooth = pipeline.photo(path)?.detail;

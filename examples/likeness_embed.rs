@@ -37,7 +37,10 @@
 //! `--detail-scale K` (the detail's depth times K), `--detail-depths BROW,IRIS,MOUTH,LINE`
 //! (each region's depth, mm), `--tone K` (the photo's light and dark modelled for the key
 //! light, steepest slope K; 0 off), `--stipple MM` (the stipple's depth, canonical mm; 0
-//! off), `--classical-hair` (the same classical
+//! off), `--shadows K` (the share of the darks sunk into the key light's shadow; 0 off),
+//! `--sface-judge DIR` (SFace's descriptors of a kept run's pictures, in the judge's format,
+//! on standard output: to score pictures changed after the run by the project's own network
+//! as `--score` does by another's), `--classical-hair` (the same classical
 //! hair for everyone, as `photo --hair classical`))
 
 use std::collections::HashMap;
@@ -136,6 +139,7 @@ fn main() -> Result<()> {
     let mut expression: Option<f32> = None;
     let mut shading_band: Option<(f32, f32)> = None;
     let mut score: Option<PathBuf> = None;
+    let mut sface_judge: Option<PathBuf> = None;
     let mut maps: Option<PathBuf> = None;
     let mut caricature: Option<(f32, f32)> = None;
     let mut prior: Option<f64> = None;
@@ -143,6 +147,7 @@ fn main() -> Result<()> {
     let mut detail_depths: Option<glyptic::gem::DetailParams> = None;
     let mut tone: Option<f32> = None;
     let mut stipple: Option<f32> = None;
+    let mut shadows: Option<f32> = None;
     let mut warp: Option<glyptic::warp::WarpParams> = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -173,6 +178,7 @@ fn main() -> Result<()> {
             "--detail-scale" => detail_scale = Some(value()?.parse::<f32>()?),
             "--tone" => tone = Some(value()?.parse::<f32>()?),
             "--stipple" => stipple = Some(value()?.parse::<f32>()?),
+            "--shadows" => shadows = Some(value()?.parse::<f32>()?),
             "--detail-depths" => {
                 let v: Vec<f32> = value()?
                     .split(',')
@@ -204,6 +210,7 @@ fn main() -> Result<()> {
                 shading_band = Some((a.parse()?, b.parse()?));
             }
             "--score" => score = Some(PathBuf::from(value()?)),
+            "--sface-judge" => sface_judge = Some(PathBuf::from(value()?)),
             "--detail-maps" => maps = Some(PathBuf::from(value()?)),
             "--expression" => expression = Some(value()?.parse()?),
             "--caricature" => {
@@ -235,6 +242,9 @@ fn main() -> Result<()> {
     if let Some(scored) = score {
         let file = judge_file.context("--score DIR needs --judge FILE")?;
         return score_with_judge(&scored, &file, judge_threshold);
+    }
+    if let Some(d) = sface_judge {
+        return sface_descriptors(&d);
     }
     let dir = dir.context("usage: likeness_embed DATASET_DIR [options]")?;
     let ids = identities::identities(&dir)?;
@@ -276,6 +286,9 @@ fn main() -> Result<()> {
     }
     if let (Some(mm), Some(d)) = (stipple, pipeline.detail.as_mut()) {
         d.stipple_mm = mm;
+    }
+    if let (Some(k), Some(d)) = (shadows, pipeline.detail.as_mut()) {
+        d.shadows = k;
     }
     if warp.is_some() {
         pipeline.warp = warp;
@@ -529,6 +542,42 @@ fn score_with_judge(dir: &Path, file: &Path, threshold: f64) -> Result<()> {
             "{}",
             judge::row(&k, &judge::judge(&photos, &these, dist, threshold))
         );
+    }
+    Ok(())
+}
+
+/// SFace's descriptors, in the judge's format (unit length, so Euclidean distance
+/// `sqrt(2 * (1 - cos))`: SFace's threshold is 1.1287), for every picture a kept run's
+/// `judge-input.txt` lists with its landmarks: so pictures changed after the run (a bound's
+/// overlays) are scored by the project's own network as by dlib's.
+fn sface_descriptors(dir: &Path) -> Result<()> {
+    let models = ModelPaths::locate();
+    let mut embedder = FaceEmbedder::load(&models.recogniser, &models.onnxruntime, 2)?;
+    let input = dir.join("judge-input.txt");
+    let text = std::fs::read_to_string(&input).with_context(|| format!("{}", input.display()))?;
+    let mut buf = vec![0.0; 3 * embed::SIDE * embed::SIDE];
+    for line in text.lines() {
+        let mut f = line.split_whitespace();
+        let Some(path) = f.next() else { continue };
+        let v: Vec<f32> = f.map(str::parse).collect::<Result<_, _>>()?;
+        let lm: Vec<[f32; 2]> = v.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+        let img = match image::open(path) {
+            Ok(i) => i.to_rgb8(),
+            Err(e) => {
+                eprintln!("{path}: {e}");
+                continue;
+            }
+        };
+        if embed::aligned_input(&img, &lm, &mut buf).is_err() {
+            continue;
+        }
+        if let Some(e) = embedder.embed_aligned(&buf, 1)?.pop() {
+            print!("{path}");
+            for x in e.0 {
+                print!(" {x:.6}");
+            }
+            println!();
+        }
     }
     Ok(())
 }

@@ -12,7 +12,10 @@ use crate::scene::Mesh;
 use super::detail::FaceDetail;
 use super::refine::Refine;
 use super::setting::add_setting;
-use super::shading::{cavity, light_transmission, light_visibility, penumbra, smooth_121};
+use super::shading::{
+    SHADOW_SOFTNESS_MM, ShadowCut, carve_shadows, cavity, light_transmission, light_visibility,
+    penumbra, smooth_121,
+};
 use super::tessellate::{add_relief_surface, plan_surface};
 use super::window::Window;
 use super::{
@@ -475,6 +478,8 @@ impl CameoBuilder {
         let mut continued = grid.up(&continued);
         // Where the stipple cut a pit (the mesh keeps the finer grid's cells there only).
         let mut stippled = Vec::new();
+        // How much of each node the photo's strongest darks sink into the key light's shadow.
+        let mut carve = Vec::new();
         if let (Some(d), Some(ph)) = (tone_detail, &photo) {
             let weight = grid.up(&tone_weight);
             let point = grid.up_points(&ph.point, &ph.seen);
@@ -491,6 +496,14 @@ impl CameoBuilder {
                     }
                 }
             }
+            if d.shadowed() {
+                carve = (0..n)
+                    .map(|i| {
+                        let [x, y] = point[i];
+                        weight[i] * d.shadow_at(x, y)
+                    })
+                    .collect();
+            }
         }
         let outline = grid.up(&outline);
         let face_share = grid.up(&face_share);
@@ -501,6 +514,33 @@ impl CameoBuilder {
             top[i] = (p.wall + continued[i]).clamp(MIN_WALL_SHARE * p.wall, p.relief_depth);
             if outline[i] >= OUTLINE_LEVEL {
                 height[i] = top[i];
+            }
+        }
+        // The darks sunk under the shadow's line, as far into its penumbra as they are dark;
+        // the mesh keeps the finer cells there, as round the pits.
+        if !carve.is_empty() {
+            let mut carved = height.clone();
+            carve_shadows(
+                &mut carved,
+                &carve,
+                cols,
+                rows,
+                cell,
+                crate::scene::key_light_dir(),
+                ShadowCut {
+                    penumbra: SHADOW_SOFTNESS_MM,
+                    max_drop: MAX_SHADOW_DROP * p.relief_depth,
+                    floor: MIN_WALL_SHARE * p.wall,
+                },
+            );
+            for i in 0..n {
+                if carved[i] < height[i] - SHADOW_EPS && outline[i] >= OUTLINE_LEVEL {
+                    height[i] = carved[i];
+                    top[i] = carved[i];
+                    if let Some(s) = stippled.get_mut(i) {
+                        *s = true;
+                    }
+                }
             }
         }
         let occlusion = cavity(&height, cols, rows, cell);
@@ -863,6 +903,12 @@ fn photo_detail(
 pub const TONE_SUBDIVISION: usize = 2;
 /// A pit shallower than this (canonical mm) leaves its cells to the solve grid's mesh.
 const STIPPLE_EPS: f32 = 0.01;
+/// A node lowered by more than this (gem mm) into the key light's shadow counts as cut there.
+const SHADOW_EPS: f32 = 1e-4;
+/// The deepest the photo's darks are sunk into the key light's shadow, a share of the
+/// relief's depth (1.5 mm of the default 5): a fold's groove, not a hole (on Biden's photo,
+/// 99 % of the sunk nodes go less than 1.2 mm).
+const MAX_SHADOW_DROP: f32 = 0.3;
 /// The most nodes a refined grid may have (a stone with a fine cell stays on its own grid).
 const MAX_FINE_NODES: f32 = 4.0e6;
 

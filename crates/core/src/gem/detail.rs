@@ -76,6 +76,13 @@ const STIPPLE_SPACING: f32 = 0.0424;
 /// How dark (against the strongest dark over [`STIPPLE_BAND`], 1) the photo must be before a
 /// pit is cut: the skin's own small variations stay smooth.
 const STIPPLE_FROM: f32 = 0.1;
+/// How dark (the stipple's measure, 0..1) the photo must be before the stone is sunk into the
+/// key light's shadow there ([`DetailParams::shadows`]), and how dark for the shadow's full
+/// dark: the strongest darks, a lid's crease, the eye's corners and lashes, a nostril, the
+/// lips' line, a frame of glasses. Measured from 0.15 to 0.4 on three photo sets by two
+/// recognition networks (BENCHMARKS.md, issue #37, twelfth session).
+pub const SHADOW_FROM: f32 = 0.25;
+pub const SHADOW_TO: f32 = 0.55;
 
 /// How deep each region is carved at full strength (canonical mm).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -97,6 +104,12 @@ pub struct DetailParams {
     /// darkness), as a stipple engraver renders tone and as drilled gems (the *a globolo*
     /// style) cut it; carved with the tone, so only in a frontal portrait. 0: none.
     pub stipple_mm: f32,
+    /// How much of the photo's strongest darks (past [`SHADOW_FROM`]) is cut into the
+    /// shadow the relief casts from the key light, 0..1: the stone sunk there under the
+    /// shadow's line, as deep into its penumbra as the photo is dark, as a carver sinks an
+    /// eye's socket under its brow, so the dark is a cast shadow's with no lit rise inside
+    /// it; carved with the tone, so only in a frontal portrait. 0: none.
+    pub shadows: f32,
 }
 
 impl Default for DetailParams {
@@ -113,6 +126,7 @@ impl Default for DetailParams {
             line_mm: 1.6,
             tone: TONE,
             stipple_mm: STIPPLE,
+            shadows: 1.0,
         }
     }
 }
@@ -127,6 +141,7 @@ impl DetailParams {
             line_mm: self.line_mm * k,
             tone: self.tone * k,
             stipple_mm: self.stipple_mm * k,
+            shadows: self.shadows,
         }
     }
 
@@ -135,6 +150,14 @@ impl DetailParams {
     pub fn stipple_scaled(self, k: f32) -> Self {
         DetailParams {
             stipple_mm: self.stipple_mm * k,
+            ..self
+        }
+    }
+
+    /// The darks' shadows at `share` (0..1; 0: none; `glyptic photo --shadows`).
+    pub fn with_shadows(self, share: f32) -> Self {
+        DetailParams {
+            shadows: share.clamp(0.0, 1.0),
             ..self
         }
     }
@@ -157,6 +180,9 @@ pub struct FaceDetail {
     /// The stipple's pits cut into the tone's darks (canonical mm, 0 or below, row-major;
     /// empty: none cut).
     stipple: Vec<f32>,
+    /// How much of the stone is sunk into the key light's shadow there, 0..1
+    /// ([`DetailParams::shadows`]; empty: none).
+    shadow: Vec<f32>,
     /// Per vertex of the face mesh: photo x, y (pixels) and how squarely the photo sees it
     /// (0: turned away or hidden, 1: facing the camera).
     seen: Vec<[f32; 3]>,
@@ -311,7 +337,7 @@ impl FaceDetail {
             };
             height[i] = h;
         }
-        let (tone, stipple) = match light.filter(|_| params.tone > 0.0) {
+        let (tone, stipple, shadow) = match light.filter(|_| params.tone > 0.0) {
             Some(light) => {
                 let eye_cells: Vec<bool> = (0..cols * rows)
                     .map(|i| {
@@ -331,7 +357,7 @@ impl FaceDetail {
                     params,
                 )
             }
-            None => (Vec::new(), Vec::new()),
+            None => (Vec::new(), Vec::new(), Vec::new()),
         };
         // Soften the regions' borders by a cell.
         let height = blur(&height, cols, rows, 0.7);
@@ -343,6 +369,7 @@ impl FaceDetail {
             height,
             tone,
             stipple,
+            shadow,
             seen,
         })
     }
@@ -364,11 +391,23 @@ impl FaceDetail {
         self.sample(&self.stipple, x, y)
     }
 
+    /// How much of the stone is sunk into the key light's shadow at photo point (x, y), 0..1
+    /// ([`DetailParams::shadows`]): 0 outside the map or when none is cut.
+    pub fn shadow_at(&self, x: f32, y: f32) -> f32 {
+        self.sample(&self.shadow, x, y)
+    }
+
     /// Whether the stipple was cut (a frontal portrait's tone, [`DetailParams::stipple_mm`]
     /// above 0): its pits are a few tenths of a millimetre across, and a relief carves them on
     /// a finer grid ([`super::TONE_SUBDIVISION`]).
     pub fn stippled(&self) -> bool {
         !self.stipple.is_empty()
+    }
+
+    /// Whether any of the stone is sunk into the key light's shadow
+    /// ([`DetailParams::shadows`]).
+    pub fn shadowed(&self) -> bool {
+        !self.shadow.is_empty()
     }
 
     fn sample(&self, map: &[f32], x: f32, y: f32) -> f32 {
@@ -416,7 +455,8 @@ impl FaceDetail {
 /// [`TONE_BAND`] of the eyes' distance, in units of the face's own spread (its median absolute
 /// value), to at most [`DetailParams::tone`]; fitted over the face, faded at its outline.
 /// With them, the stipple's pits in its darks ([`DetailParams::stipple_mm`]; empty at 0),
-/// read over [`STIPPLE_BAND`].
+/// read over [`STIPPLE_BAND`], and where the stone is sunk into the key light's shadow
+/// ([`DetailParams::shadows`]; empty at 0).
 #[allow(clippy::too_many_arguments)]
 fn tone_heights(
     lum: &[f32],
@@ -428,7 +468,7 @@ fn tone_heights(
     step: f32,
     light: ToneLight,
     params: &DetailParams,
-) -> (Vec<f32>, Vec<f32>) {
+) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
     let (rel, spread) = relative_brightness(fine, lum, face_cells, cols, rows, TONE_BAND);
     let mut inside_face = vec![0f32; cols * rows];
     for &i in face_cells {
@@ -457,21 +497,33 @@ fn tone_heights(
         &super::tone::ToneSolve::default(),
     );
     let tone = h.iter().zip(&inside_face).map(|(h, w)| h * w).collect();
+    // The darks over the stipple's band, 0..1.
+    let (rel, spread) = relative_brightness(fine, lum, face_cells, cols, rows, STIPPLE_BAND);
+    let dark: Vec<f32> = rel
+        .iter()
+        .map(|r| ((-r / (3.0 * spread) - STIPPLE_FROM) / (1.0 - STIPPLE_FROM)).clamp(0.0, 1.0))
+        .collect();
     let stipple = if params.stipple_mm > 0.0 {
-        let (rel, spread) = relative_brightness(fine, lum, face_cells, cols, rows, STIPPLE_BAND);
         (0..cols * rows)
             .map(|i| {
-                let dark = ((-rel[i] / (3.0 * spread) - STIPPLE_FROM) / (1.0 - STIPPLE_FROM))
-                    .clamp(0.0, 1.0);
                 -params.stipple_mm
-                    * stipple_pit((i % cols) as f32, (i / cols) as f32, dark)
+                    * stipple_pit((i % cols) as f32, (i / cols) as f32, dark[i])
                     * inside_face[i].max(0.0)
             })
             .collect()
     } else {
         Vec::new()
     };
-    (tone, stipple)
+    let shadows = params.shadows.clamp(0.0, 1.0);
+    let shadow = if shadows > 0.0 {
+        dark.iter()
+            .zip(&inside_face)
+            .map(|(d, w)| shadows * smoothstep(SHADOW_FROM, SHADOW_TO, *d) * w.max(0.0))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    (tone, stipple, shadow)
 }
 
 /// The log brightness `fine` against its surroundings in `lum` over `band` of the eyes'

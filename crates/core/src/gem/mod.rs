@@ -191,9 +191,10 @@ pub struct Relief {
     /// The face's own height (canonical mm, smoothed, eyes carved) where it covers a node;
     /// NaN elsewhere.
     pub face_height: Vec<f32>,
-    /// Nodes where the stipple cut a pit ([`DetailParams::stipple_mm`]; empty on a grid
-    /// without one): the grid is then [`TONE_SUBDIVISION`] times finer than the solve grid
-    /// ([`CameoParams::cell`]), and the mesh keeps the finer cells only round the pits.
+    /// Nodes where the stipple cut a pit ([`DetailParams::stipple_mm`]) or a dark was sunk
+    /// into the key light's shadow ([`DetailParams::shadows`]); empty on a grid without the
+    /// stipple: the grid is then [`TONE_SUBDIVISION`] times finer than the solve grid
+    /// ([`CameoParams::cell`]), and the mesh keeps the finer cells only round what was cut.
     pub stippled: Vec<bool>,
     pub cols: usize,
     pub rows: usize,

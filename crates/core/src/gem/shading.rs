@@ -62,7 +62,7 @@ fn pass_121(values: &[f32], cols: usize, rows: usize, along_x: bool) -> Vec<f32>
 }
 
 /// Softness of the cast shadows' edge, gem mm of height.
-const SHADOW_SOFTNESS_MM: f32 = 0.15;
+pub(super) const SHADOW_SOFTNESS_MM: f32 = 0.15;
 
 /// A penumbra for [`light_visibility`]'s result: smoothed twice 1-2-1 each way (about a cell
 /// and a half, 0.3 mm), as a lamp of some size casts it. The sweep's edge is decided node by
@@ -85,6 +85,61 @@ pub(super) fn light_visibility(
     rows: usize,
     cell: f32,
     light: [f32; 3],
+) -> Vec<f32> {
+    let mut h = height.to_vec();
+    sweep(&mut h, cols, rows, cell, light, |_, _| {})
+}
+
+/// How [`carve_shadows`] cuts, gem mm.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct ShadowCut {
+    /// The depth below the horizon over which a shadow's edge fades ([`SHADOW_SOFTNESS_MM`]).
+    pub penumbra: f32,
+    /// The deepest a node is sunk; one that would need more (a dark facing the light on the
+    /// relief's top, the horizon far below it) is left as it is.
+    pub max_drop: f32,
+    /// No node is sunk below this height (the wall's foot stays whole).
+    pub floor: f32,
+}
+
+/// Sinks each node with a `shade` (0..1) into the shadow the relief casts from the light:
+/// in one sweep from the light's side, a node standing above the horizon less `shade` times
+/// the penumbra is lowered to it. So the node lies in the shadow of the relief towards the
+/// light (the nodes sunk before it included), as dark as its shade asks within the
+/// penumbra: a dark cut as a carver cuts it for a known light, a drop on the side towards
+/// the light and a floor under the shadow's line, with no lit rise inside it. Nodes already
+/// below stay as they are, and those the cut's limits keep out of reach.
+pub(super) fn carve_shadows(
+    height: &mut [f32],
+    shade: &[f32],
+    cols: usize,
+    rows: usize,
+    cell: f32,
+    light: [f32; 3],
+    cut: ShadowCut,
+) {
+    if shade.len() != height.len() {
+        return;
+    }
+    sweep(height, cols, rows, cell, light, |i, (h, s)| {
+        let k = shade[i].clamp(0.0, 1.0);
+        let to = s - cut.penumbra * k;
+        if k > 0.0 && to.is_finite() && to < *h && *h - to <= cut.max_drop && to >= cut.floor {
+            *h = to;
+        }
+    });
+}
+
+/// The sweep of [`light_visibility`]: per node, the horizon S from the previous line; `at`
+/// may change the node's height (given its index, its height and S) before its visibility is
+/// decided and before the next line looks back at it.
+fn sweep(
+    height: &mut [f32],
+    cols: usize,
+    rows: usize,
+    cell: f32,
+    light: [f32; 3],
+    mut at: impl FnMut(usize, (&mut f32, f32)),
 ) -> Vec<f32> {
     let n = cols * rows;
     let plane = light[0].hypot(light[1]);
@@ -136,6 +191,7 @@ pub(super) fn light_visibility(
             };
             let s = sample(height).max(sample(&horizon)) - drop;
             let i = idx(line, k);
+            at(i, (&mut height[i], s));
             horizon[i] = s;
             vis[i] = template::smoothstep(-SHADOW_SOFTNESS_MM, 0.0, height[i] - s);
         }
@@ -268,6 +324,82 @@ mod tests {
             smooth < 0.5 * hard,
             "penumbra's jump {smooth} against {hard}"
         );
+    }
+
+    /// A dark band across a 2 mm plateau lit from the left at 20 degrees: sunk, its nodes lie
+    /// in the plateau's shadow, as dark as their shade within the penumbra; the light's side
+    /// of the band drops, the rest of it follows the shadow's line (no lit rise inside), the
+    /// plateau around it stays as it was, and the cut's limits hold.
+    #[test]
+    fn a_dark_band_is_sunk_into_the_shadow_and_no_further() {
+        let (cols, rows, cell) = (200, 3, 0.1);
+        let height: Vec<f32> = (0..cols * rows)
+            .map(|i| {
+                let x = (i % cols) as f32 * cell;
+                if (1.0..19.0).contains(&x) { 2.0 } else { 0.0 }
+            })
+            .collect();
+        // The band from 8 to 10 mm: full shade, and half shade from 12 to 13 mm.
+        let shade: Vec<f32> = (0..cols * rows)
+            .map(|i| {
+                let x = (i % cols) as f32 * cell;
+                if (8.0..10.0).contains(&x) {
+                    1.0
+                } else if (12.0..13.0).contains(&x) {
+                    0.5
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let el = 20f32.to_radians();
+        let light = [-el.cos(), 0.0, el.sin()];
+        let cut = ShadowCut {
+            penumbra: SHADOW_SOFTNESS_MM,
+            max_drop: 1.5,
+            floor: 1.0,
+        };
+        let mut carved = height.clone();
+        carve_shadows(&mut carved, &shade, cols, rows, cell, light, cut);
+        let vis = light_visibility(&carved, cols, rows, cell, light);
+        let node = |x_mm: f32| cols + (x_mm / cell).round() as usize;
+        for x in [8.0, 8.5, 9.0, 9.9] {
+            assert!(vis[node(x)] < 0.01, "{x} mm: light {}", vis[node(x)]);
+        }
+        // Half shade: half way into the penumbra (a smoothstep's 0.5).
+        let half = vis[node(12.5)];
+        assert!((0.3..0.7).contains(&half), "half shade's light {half}");
+        // Unshaded nodes keep their height; nothing is raised.
+        for i in 0..cols * rows {
+            assert!(carved[i] <= height[i]);
+            if shade[i] == 0.0 {
+                assert_eq!(carved[i], height[i]);
+            }
+        }
+        // The band's floor under the shadow's line falls at the light's slope from its edge.
+        let drop = |x: f32| height[node(x)] - carved[node(x)];
+        let slope = el.tan();
+        assert!((drop(9.9) - drop(8.0) - 1.9 * slope).abs() < 0.05);
+        // A longer band would go past the floor: the node where it would is left standing,
+        // and the band's shadow starts again behind it (a sawtooth of cuts).
+        let long: Vec<f32> = (0..cols * rows)
+            .map(|i| {
+                let x = (i % cols) as f32 * cell;
+                if (4.0..15.0).contains(&x) { 1.0 } else { 0.0 }
+            })
+            .collect();
+        let mut deep = height.clone();
+        carve_shadows(&mut deep, &long, cols, rows, cell, light, cut);
+        let deepest = (0..cols * rows).fold(0f32, |m, i| m.max(height[i] - deep[i]));
+        assert!(
+            deepest <= 1.0 + 1e-4,
+            "deepest {deepest} (the floor at 1 mm)"
+        );
+        let standing = (40..150)
+            .filter(|&x| deep[cols + x] == height[cols + x])
+            .count();
+        assert!(standing >= 1, "the whole band sunk");
+        assert!(deep[node(14.5)] < height[node(14.5)]);
     }
 
     /// On a 1 mm plateau of relief, a thin fin and a thick block, each 2 mm higher, lit from

@@ -41,6 +41,7 @@ fn the_tone_under_the_key_light_gives_back_the_photos_light_and_dark() {
         // The slopes alone: the stipple's pits are `the_stipple_is_cut_on_a_finer_grid...`'s.
         let p = DetailParams {
             stipple_mm: 0.0,
+            shadows: 0.0,
             ..DetailParams::default()
         };
         let d = FaceDetail::read(&photo, &lm, seen, &p, Some(light)).expect("detail");
@@ -120,7 +121,9 @@ fn einstein_details(params: &[DetailParams]) -> (Vec<f32>, Vec<FaceDetail>) {
 fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
     use glyptic_core::gem::{CameoBuilder, View};
     let model = crate::fit::model();
-    let smooth = DetailParams::default().stipple_scaled(0.0);
+    let smooth = DetailParams::default()
+        .stipple_scaled(0.0)
+        .with_shadows(0.0);
     let (mesh, d) = einstein_details(&[
         smooth,
         DetailParams {
@@ -172,9 +175,12 @@ fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
     use glyptic_core::gem::{CameoBuilder, TONE_SUBDIVISION, View};
     let model = crate::fit::model();
     let depth = DetailParams::default().stipple_mm;
+    // (The darks' shadows off in both: they are cut on either grid.)
     let (mesh, d) = einstein_details(&[
-        DetailParams::default(),
-        DetailParams::default().stipple_scaled(0.0),
+        DetailParams::default().with_shadows(0.0),
+        DetailParams::default()
+            .with_shadows(0.0)
+            .stipple_scaled(0.0),
     ]);
     let (with, without) = (&d[0], &d[1]);
     let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
@@ -234,4 +240,62 @@ fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
         "deepest {deepest}"
     );
     assert!(share > 0.05 && share < 0.6, "share cut {share}");
+}
+
+/// The photo's strongest darks sunk into the key light's shadow on einstein's frontal relief
+/// (`DetailParams::shadows`): only lowered, only on the face, no deeper than the cut's limit,
+/// a small share of the face's nodes, each sunk one in the light's shadow; kept on the finer
+/// grid's cells like the pits.
+#[test]
+fn the_darks_are_sunk_into_the_key_lights_shadow() {
+    use glyptic_core::gem::{CameoBuilder, View};
+    let model = crate::fit::model();
+    let (mesh, d) = einstein_details(&[
+        DetailParams::default(),
+        DetailParams::default().with_shadows(0.0),
+    ]);
+    let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
+    let tris = &model.shape.triangles;
+    let a = b
+        .relief_detailed(&mesh, tris, &[], Some(&d[0]))
+        .expect("relief");
+    let z = b
+        .relief_detailed(&mesh, tris, &[], Some(&d[1]))
+        .expect("relief");
+    assert_eq!((a.cols, a.rows, a.cell), (z.cols, z.rows, z.cell));
+    let diff: Vec<f32> = a.height.iter().zip(&z.height).map(|(x, y)| x - y).collect();
+    let sunk: Vec<usize> = (0..diff.len()).filter(|&i| diff[i] < -1e-3).collect();
+    let face_nodes = z.face.iter().filter(|f| **f).count();
+    let deepest = diff.iter().fold(0f32, |m, d| m.min(*d));
+    let share = sunk.len() as f32 / face_nodes as f32;
+    println!(
+        "shadows: {} of {face_nodes} face nodes sunk ({:.1} %), deepest {deepest:.2} mm",
+        sunk.len(),
+        100.0 * share
+    );
+    assert!(diff.iter().all(|d| *d <= 1e-5), "a node raised");
+    assert!(share > 0.002 && share < 0.2, "share sunk {share}");
+    assert!(
+        deepest >= -0.3 * b.params().relief_depth - 1e-3,
+        "{deepest}"
+    );
+    let off_face = sunk.iter().filter(|&&i| !z.face[i]).count();
+    let coarse = sunk.iter().filter(|&&i| !a.stippled[i]).count();
+    // (The tone, and so the cut, reaches the face's border cells by the face's share.)
+    assert!(
+        off_face * 100 <= sunk.len() && coarse == 0,
+        "{off_face} sunk nodes off the face, {coarse} not kept on the finer grid"
+    );
+    // In the key light's shadow, as deep into its penumbra as the photo is dark there: the
+    // light's visibility baked for the renderer, on the sunk nodes, before and after.
+    let mean = |v: &[f32]| sunk.iter().map(|&i| v[i]).sum::<f32>() / sunk.len() as f32;
+    let (before, after) = (mean(&z.key_light), mean(&a.key_light));
+    let dark = sunk.iter().filter(|&&i| a.key_light[i] < 0.5).count();
+    println!("key light on the sunk nodes: {before:.2} -> {after:.2}; {dark} under a half");
+    assert!(after < before - 0.03, "key light {before} -> {after}");
+    assert!(
+        dark * 5 > sunk.len(),
+        "{dark} of {} under a half",
+        sunk.len()
+    );
 }

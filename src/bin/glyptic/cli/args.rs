@@ -200,6 +200,12 @@ pub struct ChoiceArgs {
     /// CPU the photo is then about a tenth faster), 1 as measured (BENCHMARKS.md, issue #37).
     #[arg(long, value_parser = parse_stipple, default_value = "1")]
     pub stipple: f32,
+    /// How much of the photo's strongest darks in a frontal face (part of the detail) is cut
+    /// into the shadow the key light casts, 0..1: the stone there sunk under the shadow's line
+    /// (the eye's corners and lashes, a nostril, the lips' line, glasses' rims), as a carver
+    /// deepens a socket under its brow; 0 leaves them to the modelled slopes and the stipple.
+    #[arg(long, value_parser = parse_shadows, default_value = "1")]
+    pub shadows: f32,
     /// How many faces the likeness search draws and judges with the face-recognition network
     /// (the portrait's identity steered towards the photo, within the face model's prior);
     /// 0 (the default) keeps the landmark fit's identity: on the whole gem the search no
@@ -228,6 +234,15 @@ fn parse_detail(s: &str) -> Result<f32, String> {
 #[cfg(feature = "face")]
 fn parse_stipple(s: &str) -> Result<f32, String> {
     strength_0_to_3(s, "stipple")
+}
+
+#[cfg(feature = "face")]
+fn parse_shadows(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        Ok(v) => Err(format!("{v}: the shadows' share must be 0..1")),
+        Err(e) => Err(format!("{s:?} is not a number ({e})")),
+    }
 }
 
 #[cfg(feature = "face")]
@@ -322,6 +337,7 @@ impl ChoiceArgs {
             glyptic::gem::DetailParams::default()
                 .scaled(self.detail)
                 .stipple_scaled(self.stipple)
+                .with_shadows(self.shadows)
         });
         p.shading = (self.shading > 0.0).then(|| glyptic::photometric::ShadingParams {
             strength: self.shading,

@@ -196,6 +196,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 glasses: GlassesArg::Carve,
                 detail: 1.0,
                 stipple: 1.0,
+                shadows: 1.0,
                 likeness_search: 0,
                 shading: 1.0,
                 warp: 1.0,
