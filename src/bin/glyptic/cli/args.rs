@@ -238,11 +238,7 @@ fn parse_stipple(s: &str) -> Result<f32, String> {
 
 #[cfg(feature = "face")]
 fn parse_shadows(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
-        Ok(v) => Err(format!("{v}: the shadows' share must be 0..1")),
-        Err(e) => Err(format!("{s:?} is not a number ({e})")),
-    }
+    strength_up_to(s, "shadow", 1.0)
 }
 
 #[cfg(feature = "face")]
@@ -258,9 +254,15 @@ fn parse_warp(s: &str) -> Result<f32, String> {
 /// A strength of 0..3 (0: off, 1: as read), named in the error.
 #[cfg(feature = "face")]
 fn strength_0_to_3(s: &str, what: &str) -> Result<f32, String> {
+    strength_up_to(s, what, 3.0)
+}
+
+/// A strength of 0..`most`, named in the error.
+#[cfg(feature = "face")]
+fn strength_up_to(s: &str, what: &str, most: f32) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
-        Ok(v) if (0.0..=3.0).contains(&v) => Ok(v),
-        Ok(v) => Err(format!("{v}: the {what}'s strength must be 0..3")),
+        Ok(v) if (0.0..=most).contains(&v) => Ok(v),
+        Ok(v) => Err(format!("{v}: the {what}'s strength must be 0..{most}")),
         Err(e) => Err(format!("{s:?} is not a number ({e})")),
     }
 }
