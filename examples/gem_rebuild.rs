@@ -1,12 +1,13 @@
 //! What a kiosk rebuild costs (issue #37: "time added to a kiosk rebuild measured"): the gem
 //! thread's `CameoBuilder::build_after` (warm-started, the builder made once) for each photo's
-//! fitted face, frontal, with the photo's detail as the kiosk carves it, with its detail but
-//! no stipple (the relief's grid stays at the solve grid's 0.2 mm), and without any detail.
+//! fitted face, frontal, with the photo's detail as the kiosk carves it, the same without the
+//! darks sunk into the key light's shadow, with its detail but no stipple (the relief's grid
+//! stays at the solve grid's 0.2 mm), and without any detail.
 //! The three are timed in turn, `--rounds` alternations of `--builds` builds after 3 warm-up
 //! builds each, and their medians printed with the meshes' sizes.
 //!
 //! `cargo run --release --example gem_rebuild -- PHOTO... [--builds 21] [--rounds 4]
-//! [--only K]` (`--only K`: time the K-th variant alone, 0-2, for a profiler)
+//! [--only K]` (`--only K`: time the K-th variant alone, 0-3, for a profiler)
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -56,10 +57,13 @@ fn main() -> Result<()> {
             ..DetailParams::default()
         });
         let smooth = pipeline.photo(path)?.detail;
+        pipeline.detail = Some(DetailParams::default().with_shadows(0.0));
+        let unshadowed = pipeline.photo(path)?.detail;
         let builder = CameoBuilder::new(&pg.cameo)?;
         let face = &pg.face.portrait;
-        let variants: [(&str, Option<&FaceDetail>); 3] = [
+        let variants: [(&str, Option<&FaceDetail>); 4] = [
             ("detail, stippled", pg.detail.as_ref()),
+            ("detail, stippled, no shadows", unshadowed.as_ref()),
             ("detail, no stipple", smooth.as_ref()),
             ("no detail", None),
         ];

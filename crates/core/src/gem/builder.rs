@@ -516,34 +516,6 @@ impl CameoBuilder {
                 height[i] = top[i];
             }
         }
-        // The darks sunk under the shadow's line, as far into its penumbra as they are dark;
-        // the mesh keeps the finer cells there, as round the pits.
-        if !carve.is_empty() {
-            let mut carved = height.clone();
-            carve_shadows(
-                &mut carved,
-                &carve,
-                cols,
-                rows,
-                cell,
-                crate::scene::key_light_dir(),
-                ShadowCut {
-                    penumbra: SHADOW_SOFTNESS_MM,
-                    max_drop: MAX_SHADOW_DROP * p.relief_depth,
-                    floor: MIN_WALL_SHARE * p.wall,
-                },
-            );
-            for i in 0..n {
-                if carved[i] < height[i] - SHADOW_EPS && outline[i] >= OUTLINE_LEVEL {
-                    height[i] = carved[i];
-                    top[i] = carved[i];
-                    if let Some(s) = stippled.get_mut(i) {
-                        *s = true;
-                    }
-                }
-            }
-        }
-        let occlusion = cavity(&height, cols, rows, cell);
         // Shadows fall away from the light, at most the depth over the light's slope.
         let light = crate::scene::key_light_dir();
         let reach = (p.relief_depth / light[2].max(0.05) / cell).ceil() as usize + 2;
@@ -561,6 +533,35 @@ impl CameoBuilder {
             cols,
             rows,
         );
+        // The darks sunk under the shadow's line, as far into its penumbra as they are dark;
+        // the mesh keeps the finer cells there, as round the pits. (In the shadows' box: the
+        // ground towards the light, beyond it, casts no horizon above the cut's floor.)
+        if !carve.is_empty() {
+            let mut carved = shadow_box.crop(&height, cols, |h| h);
+            carve_shadows(
+                &mut carved,
+                &shadow_box.crop(&carve, cols, |c| c),
+                shadow_box.width(),
+                shadow_box.height(),
+                cell,
+                light,
+                ShadowCut {
+                    penumbra: SHADOW_SOFTNESS_MM,
+                    max_drop: MAX_SHADOW_DROP * p.relief_depth,
+                    floor: MIN_WALL_SHARE * p.wall,
+                },
+            );
+            for (i, c) in shadow_box.indices(cols).zip(&carved) {
+                if *c < height[i] - SHADOW_EPS && outline[i] >= OUTLINE_LEVEL {
+                    height[i] = *c;
+                    top[i] = *c;
+                    if let Some(s) = stippled.get_mut(i) {
+                        *s = true;
+                    }
+                }
+            }
+        }
+        let occlusion = cavity(&height, cols, rows, cell);
         let mut key_light = vec![1f32; n];
         let box_height = shadow_box.crop(&height, cols, |h| h);
         let (bw, bh) = (shadow_box.width(), shadow_box.height());
