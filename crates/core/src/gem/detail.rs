@@ -183,6 +183,8 @@ pub struct FaceDetail {
     /// How much of the stone is sunk into the key light's shadow there, 0..1
     /// ([`DetailParams::shadows`]; empty: none).
     shadow: Vec<f32>,
+    /// The moles left aside (photo pixels): retouched out before the detail was read.
+    moles: Vec<[f32; 2]>,
     /// Per vertex of the face mesh: photo x, y (pixels) and how squarely the photo sees it
     /// (0: turned away or hidden, 1: facing the camera).
     seen: Vec<[f32; 3]>,
@@ -234,19 +236,6 @@ impl FaceDetail {
                 lum[r * cols + c] = bilinear_grey(photo, x, y);
             }
         }
-        // Band-pass: what changes over about 1-8 % of the eyes' distance, never finer than the
-        // photo's own pixels (a small face's cells are smaller than its pixels: finer than
-        // that is interpolation and compression noise).
-        let fine = blur(&lum, cols, rows, 0.8f32.max(1.0 / step));
-        let coarse = blur(&lum, cols, rows, 5.0);
-        let band: Vec<f32> = fine.iter().zip(&coarse).map(|(f, c)| f - c).collect();
-        // The iris against the whole eye: a wider band.
-        let wide = blur(&lum, cols, rows, 9.0);
-        let eye_band: Vec<f32> = fine.iter().zip(&wide).map(|(f, c)| f - c).collect();
-        // Lines: valleys of the brightness, blurred a little (a fold is 2-4 % of the eyes'
-        // distance wide).
-        let valley = valleys(&blur(&lum, cols, rows, 1.5), cols, rows);
-
         // Regions, in cells.
         let lm: Vec<[f32; 2]> = landmarks.iter().map(|&p| grid.to_cell(p)).collect();
         let iod_c = CELLS_PER_IOD;
@@ -282,6 +271,35 @@ impl FaceDetail {
             grow(&lm[42..48], 0.12 * iod_c),
         ];
         let brows = [&lm[17..22], &lm[22..27]];
+        // Moles left aside: small round darks on the skin, away from the features, retouched
+        // out of the brightness before anything is read from it ([`super::moles`]).
+        let (nose, lips) = (
+            grow(&lm[27..36], 0.1 * iod_c),
+            grow(&lm[48..60], 0.1 * iod_c),
+        );
+        let moles: Vec<[f32; 2]> = super::moles::retouch(&mut lum, cols, rows, |i| {
+            let p = [(i % cols) as f32, (i / cols) as f32];
+            inside(&outline, p)
+                && !eyes_wide.iter().any(|e| inside(e, p))
+                && !inside(&nose, p)
+                && !inside(&lips, p)
+                && brows.iter().all(|b| polyline_distance(b, p) > 0.1 * iod_c)
+        })
+        .into_iter()
+        .map(|[c, r]| grid.centre(c, r))
+        .collect();
+        // Band-pass: what changes over about 1-8 % of the eyes' distance, never finer than the
+        // photo's own pixels (a small face's cells are smaller than its pixels: finer than
+        // that is interpolation and compression noise).
+        let fine = blur(&lum, cols, rows, 0.8f32.max(1.0 / step));
+        let coarse = blur(&lum, cols, rows, 5.0);
+        let band: Vec<f32> = fine.iter().zip(&coarse).map(|(f, c)| f - c).collect();
+        // The iris against the whole eye: a wider band.
+        let wide = blur(&lum, cols, rows, 9.0);
+        let eye_band: Vec<f32> = fine.iter().zip(&wide).map(|(f, c)| f - c).collect();
+        // Lines: valleys of the brightness, blurred a little (a fold is 2-4 % of the eyes'
+        // distance wide).
+        let valley = valleys(&blur(&lum, cols, rows, 1.5), cols, rows);
 
         // Contrast scales over the face: the median absolute band-pass and valley.
         let face_cells: Vec<usize> = (0..cols * rows)
@@ -370,6 +388,7 @@ impl FaceDetail {
             tone,
             stipple,
             shadow,
+            moles,
             seen,
         })
     }
@@ -402,6 +421,12 @@ impl FaceDetail {
     /// a finer grid ([`super::TONE_SUBDIVISION`]).
     pub fn stippled(&self) -> bool {
         !self.stipple.is_empty()
+    }
+
+    /// The moles left aside (photo pixels): small round darks on the skin, away from the
+    /// features, retouched out of the photo before its detail was read.
+    pub fn moles(&self) -> &[[f32; 2]] {
+        &self.moles
     }
 
     /// Whether any of the stone is sunk into the key light's shadow
@@ -752,6 +777,13 @@ pub(crate) mod tests {
         );
         assert!(skin.abs() < 0.05, "plain skin {skin}");
         assert_eq!(d.at(-500.0, 10.0), 0.0);
+        // The mole, and only it, was retouched out before anything was read (so the tone,
+        // the stipple and the darks' shadows leave it too); the fold and the features stay.
+        let moles = d.moles();
+        assert!(
+            moles.len() == 1 && (moles[0][0] - 560.0).hypot(moles[0][1] - 450.0) < 6.0,
+            "moles {moles:?}"
+        );
     }
 
     /// The tone's heights lit by the key light give back the photo's fine light and dark: the

@@ -26,6 +26,7 @@ pub mod detail;
 pub mod face;
 pub mod gltf;
 pub mod measure;
+mod moles;
 mod obj;
 mod poisson;
 mod refine;
