@@ -279,11 +279,16 @@ impl GemPipeline {
                         gem::FaceDetail::read(&grey, &face.landmarks, seen, params, light)
                     },
                     |d| {
-                        if d.tone_map().is_empty() {
-                            "brows, irises, mouth, lines".into()
-                        } else {
-                            "brows, irises, mouth, lines, light and dark".into()
+                        let mut said = String::from("brows, irises, mouth, lines");
+                        if !d.tone_map().is_empty() {
+                            said.push_str(", light and dark");
                         }
+                        match d.moles().len() {
+                            0 => {}
+                            1 => said.push_str("; a mole left aside"),
+                            n => said.push_str(&format!("; {n} moles left aside")),
+                        }
+                        said
                     },
                 )
                 .map_err(|e| tracing::warn!("cannot read the face's detail ({e}); the shape alone"))
