@@ -533,16 +533,30 @@ impl CameoBuilder {
             cols,
             rows,
         );
-        // The darks sunk under the shadow's line, as far into its penumbra as they are dark;
-        // the mesh keeps the finer cells there, as round the pits. (In the shadows' box: the
-        // ground towards the light, beyond it, casts no horizon above the cut's floor.)
-        if !carve.is_empty() {
-            let mut carved = shadow_box.crop(&height, cols, |h| h);
-            carve_shadows(
-                &mut carved,
-                &shadow_box.crop(&carve, cols, |c| c),
-                shadow_box.width(),
-                shadow_box.height(),
+        // The darks sunk under the shadow's line, as far into its penumbra as they are dark
+        // (on the portrait's top only); the mesh keeps the finer cells there, as round the
+        // pits. (In the shadows' box: the ground towards the light, beyond it, casts no
+        // horizon above the cut's floor.) The cut's sweep gives the carved relief's shadows.
+        let mut box_height = shadow_box.crop(&height, cols, |h| h);
+        let (bw, bh) = (shadow_box.width(), shadow_box.height());
+        let sharp = if carve.is_empty() {
+            light_visibility(&box_height, bw, bh, cell, light)
+        } else {
+            let shade: Vec<f32> = shadow_box
+                .indices(cols)
+                .map(|i| {
+                    if outline[i] >= OUTLINE_LEVEL {
+                        carve[i]
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let sharp = carve_shadows(
+                &mut box_height,
+                &shade,
+                bw,
+                bh,
                 cell,
                 light,
                 ShadowCut {
@@ -551,21 +565,19 @@ impl CameoBuilder {
                     floor: MIN_WALL_SHARE * p.wall,
                 },
             );
-            for (i, c) in shadow_box.indices(cols).zip(&carved) {
-                if *c < height[i] - SHADOW_EPS && outline[i] >= OUTLINE_LEVEL {
+            for (i, c) in shadow_box.indices(cols).zip(&box_height) {
+                if *c < height[i] {
+                    if let Some(s) = stippled.get_mut(i) {
+                        *s |= *c < height[i] - SHADOW_EPS;
+                    }
                     height[i] = *c;
                     top[i] = *c;
-                    if let Some(s) = stippled.get_mut(i) {
-                        *s = true;
-                    }
                 }
             }
-        }
+            sharp
+        };
         let occlusion = cavity(&height, cols, rows, cell);
         let mut key_light = vec![1f32; n];
-        let box_height = shadow_box.crop(&height, cols, |h| h);
-        let (bw, bh) = (shadow_box.width(), shadow_box.height());
-        let sharp = light_visibility(&box_height, bw, bh, cell, light);
         shadow_box.paste(&penumbra(&sharp, bw, bh), &mut key_light, cols);
         // The light through the stone on the solve grid, then refined: each node marches a
         // ray of many cells, a refined grid's 8 times the work, for a soft glow that the

@@ -522,6 +522,10 @@ fn tone_heights(
         &super::tone::ToneSolve::default(),
     );
     let tone = h.iter().zip(&inside_face).map(|(h, w)| h * w).collect();
+    let shadows = params.shadows.clamp(0.0, 1.0);
+    if params.stipple_mm <= 0.0 && shadows <= 0.0 {
+        return (tone, Vec::new(), Vec::new());
+    }
     // The darks over the stipple's band, 0..1.
     let (rel, spread) = relative_brightness(fine, lum, face_cells, cols, rows, STIPPLE_BAND);
     let dark: Vec<f32> = rel
@@ -539,7 +543,6 @@ fn tone_heights(
     } else {
         Vec::new()
     };
-    let shadows = params.shadows.clamp(0.0, 1.0);
     let shadow = if shadows > 0.0 {
         dark.iter()
             .zip(&inside_face)

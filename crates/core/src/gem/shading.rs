@@ -108,7 +108,8 @@ pub(super) struct ShadowCut {
 /// light (the nodes sunk before it included), as dark as its shade asks within the
 /// penumbra: a dark cut as a carver cuts it for a known light, a drop on the side towards
 /// the light and a floor under the shadow's line, with no lit rise inside it. Nodes already
-/// below stay as they are, and those the cut's limits keep out of reach.
+/// below stay as they are, and those the cut's limits keep out of reach. Returns
+/// [`light_visibility`] of the carved heights (the same sweep's).
 pub(super) fn carve_shadows(
     height: &mut [f32],
     shade: &[f32],
@@ -117,9 +118,9 @@ pub(super) fn carve_shadows(
     cell: f32,
     light: [f32; 3],
     cut: ShadowCut,
-) {
+) -> Vec<f32> {
     if shade.len() != height.len() {
-        return;
+        return light_visibility(height, cols, rows, cell, light);
     }
     sweep(height, cols, rows, cell, light, |i, (h, s)| {
         let k = shade[i].clamp(0.0, 1.0);
@@ -127,7 +128,7 @@ pub(super) fn carve_shadows(
         if k > 0.0 && to.is_finite() && to < *h && *h - to <= cut.max_drop && to >= cut.floor {
             *h = to;
         }
-    });
+    })
 }
 
 /// The sweep of [`light_visibility`]: per node, the horizon S from the previous line; `at`
@@ -360,8 +361,8 @@ mod tests {
             floor: 1.0,
         };
         let mut carved = height.clone();
-        carve_shadows(&mut carved, &shade, cols, rows, cell, light, cut);
-        let vis = light_visibility(&carved, cols, rows, cell, light);
+        let vis = carve_shadows(&mut carved, &shade, cols, rows, cell, light, cut);
+        assert_eq!(vis, light_visibility(&carved, cols, rows, cell, light));
         let node = |x_mm: f32| cols + (x_mm / cell).round() as usize;
         for x in [8.0, 8.5, 9.0, 9.9] {
             assert!(vis[node(x)] < 0.01, "{x} mm: light {}", vis[node(x)]);
