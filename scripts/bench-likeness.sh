@@ -60,7 +60,14 @@ echo "dlib's ResNet (held out; Euclidean, same person under 0.6):"
 cat "$OUT/dlib.md"
 # The frontal gems' light and dark against their photos' (no network; bench/light_and_dark.py),
 # with the bench virtualenv's numpy and Pillow when scripts/bench-fit.sh has made it.
+# And what every gem shares against what is its person's, by both networks
+# (bench/stone_offset.py; SFace's descriptors written in the judge's format first).
 if [ -x .deps/bench-venv/bin/python ] && [ -d "$OUT/frontal" ]; then
   echo
   .deps/bench-venv/bin/python bench/light_and_dark.py "$OUT"
+  "$EX" --sface-judge "$OUT" > "$OUT/sface.txt"
+  echo
+  echo "The stone's common offset (dlib, then SFace):"
+  .deps/bench-venv/bin/python bench/stone_offset.py score "$OUT" "$OUT/dlib.txt" 0.6
+  .deps/bench-venv/bin/python bench/stone_offset.py score "$OUT" "$OUT/sface.txt" 1.1287
 fi
