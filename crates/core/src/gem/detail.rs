@@ -277,9 +277,13 @@ impl FaceDetail {
             grow(&lm[27..36], 0.1 * iod_c),
             grow(&lm[48..60], 0.1 * iod_c),
         );
+        // The face's cells (inside the outline), for the moles' skin and the contrast scales.
+        let in_face: Vec<bool> = (0..cols * rows)
+            .map(|i| inside(&outline, [(i % cols) as f32, (i / cols) as f32]))
+            .collect();
         let moles: Vec<[f32; 2]> = super::moles::retouch(&mut lum, cols, rows, |i| {
             let p = [(i % cols) as f32, (i / cols) as f32];
-            inside(&outline, p)
+            in_face[i]
                 && !eyes_wide.iter().any(|e| inside(e, p))
                 && !inside(&nose, p)
                 && !inside(&lips, p)
@@ -302,9 +306,7 @@ impl FaceDetail {
         let valley = valleys(&blur(&lum, cols, rows, 1.5), cols, rows);
 
         // Contrast scales over the face: the median absolute band-pass and valley.
-        let face_cells: Vec<usize> = (0..cols * rows)
-            .filter(|&i| inside(&outline, [(i % cols) as f32, (i / cols) as f32]))
-            .collect();
+        let face_cells: Vec<usize> = (0..cols * rows).filter(|&i| in_face[i]).collect();
         // Floors: a face without texture (a flat drawing, a blown-out photo) is not made to
         // carve its last grey level; 2 % of the brightness range at least.
         let mad = |v: &[f32]| {

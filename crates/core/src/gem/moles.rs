@@ -101,8 +101,10 @@ pub(super) fn retouch(
             found.push([c, r]);
         }
     }
+    let reach = (RADIUS + EDGE).ceil() as isize;
     for &[c, r] in &found {
-        let reach = (RADIUS + EDGE).ceil() as isize;
+        // Only darker than the skin around it: a light mark beside it stays.
+        let fill = ring[c + r * cols];
         for dy in -reach..=reach {
             for dx in -reach..=reach {
                 let (x, y) = (c as isize + dx, r as isize + dy);
@@ -112,8 +114,6 @@ pub(super) fn retouch(
                 let d = ((dx * dx + dy * dy) as f32).sqrt();
                 let w = 1.0 - super::template::smoothstep(RADIUS, RADIUS + EDGE, d);
                 let j = y as usize * cols + x as usize;
-                // Only darker than the skin around it: a light mark beside it stays.
-                let fill = ring[c + r * cols];
                 if lum[j] < fill {
                     lum[j] += w * (fill - lum[j]);
                 }
