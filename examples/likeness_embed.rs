@@ -38,6 +38,8 @@
 //! (each region's depth, mm), `--tone K` (the photo's light and dark modelled for the key
 //! light, steepest slope K; 0 off), `--stipple MM` (the stipple's depth, canonical mm; 0
 //! off), `--shadows K` (the share of the darks sunk into the key light's shadow; 0 off),
+//! `--photo-modelling K` (the share of the relief's fine modelling the photo's light and dark
+//! replaces; 0: none),
 //! `--sface-judge DIR` (SFace's descriptors of a kept run's pictures, in the judge's format,
 //! on standard output: to score pictures changed after the run by the project's own network
 //! as `--score` does by another's), `--classical-hair` (the same classical
@@ -148,6 +150,7 @@ fn main() -> Result<()> {
     let mut tone: Option<f32> = None;
     let mut stipple: Option<f32> = None;
     let mut shadows: Option<f32> = None;
+    let mut photo_modelling: Option<f32> = None;
     let mut warp: Option<glyptic::warp::WarpParams> = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -179,6 +182,7 @@ fn main() -> Result<()> {
             "--tone" => tone = Some(value()?.parse::<f32>()?),
             "--stipple" => stipple = Some(value()?.parse::<f32>()?),
             "--shadows" => shadows = Some(value()?.parse::<f32>()?),
+            "--photo-modelling" => photo_modelling = Some(value()?.parse::<f32>()?),
             "--detail-depths" => {
                 let v: Vec<f32> = value()?
                     .split(',')
@@ -286,6 +290,9 @@ fn main() -> Result<()> {
     }
     if let (Some(mm), Some(d)) = (stipple, pipeline.detail.as_mut()) {
         d.stipple_mm = mm;
+    }
+    if let (Some(k), Some(d)) = (photo_modelling, pipeline.detail.as_mut()) {
+        *d = d.with_photo_modelling(k);
     }
     if let (Some(k), Some(d)) = (shadows, pipeline.detail.as_mut()) {
         d.shadows = k;

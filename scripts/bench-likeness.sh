@@ -65,6 +65,8 @@ cat "$OUT/dlib.md"
 if [ -x .deps/bench-venv/bin/python ] && [ -d "$OUT/frontal" ]; then
   echo
   .deps/bench-venv/bin/python bench/light_and_dark.py "$OUT"
+  # Where on the face the gems carry their people's light and dark (a picture and a line).
+  .deps/bench-venv/bin/python bench/face_map.py "$OUT/face_map.png" 0.1 "$OUT"
   "$EX" --sface-judge "$OUT" > "$OUT/sface.txt"
   echo
   echo "The stone's common offset (dlib, then SFace):"

@@ -140,6 +140,10 @@ pub struct KioskConfig {
     /// (carved with the visitor's detail): 0 leaves them to the slopes and the stipple, 1 as
     /// measured (BENCHMARKS.md, issue #37, twelfth session).
     pub shadows: f32,
+    /// How much of the visitor's face's fine modelling is their photo's light and dark rather
+    /// than the fitted shape's, 0..=1 (carved with the visitor's detail): 1 as measured
+    /// (BENCHMARKS.md, issue #37, fourteenth session), 0 both added.
+    pub photo_modelling: f32,
     /// Window size when not full-screen, logical pixels.
     pub width: u32,
     pub height: u32,
@@ -198,6 +202,7 @@ impl Default for KioskConfig {
             likeness_search: 22,
             stipple: 1.0,
             shadows: 1.0,
+            photo_modelling: crate::gem::PHOTO_MODELLING,
             width: 800,
             height: 1000,
             render_scale: 1.0,
@@ -212,6 +217,7 @@ impl KioskConfig {
         crate::gem::DetailParams::default()
             .stipple_scaled(self.stipple)
             .with_shadows(self.shadows)
+            .with_photo_modelling(self.photo_modelling)
     }
 
     /// Whether the cursor is hidden: as configured, else when full screen.
@@ -258,6 +264,7 @@ impl KioskConfig {
             ("attract_seconds", self.attract_seconds, 1.0, 86_400.0),
             ("stipple", self.stipple, 0.0, 3.0),
             ("shadows", self.shadows, 0.0, 1.0),
+            ("photo_modelling", self.photo_modelling, 0.0, 1.0),
         ] {
             if !within(v, lo, hi) {
                 return invalid(key, format!("is {v}, not within {lo}..={hi}"));
@@ -625,6 +632,14 @@ mod tests {
         // The darks' shadows: on by default, off at 0.
         assert_eq!(KioskConfig::default().detail().shadows, 1.0);
         assert_eq!(parse("shadows = 0").unwrap().detail().shadows, 0.0);
+        assert_eq!(
+            parse("photo_modelling = 0.5")
+                .unwrap()
+                .detail()
+                .photo_modelling,
+            0.5
+        );
+        assert!(parse("photo_modelling = 2").is_err());
         // The visitor's words, one replaced, the others kept.
         let c = parse("attract_seconds = 45\n[texts]\nlook = \"Vaata kaamerasse\"\n").unwrap();
         assert_eq!(c.texts.get(Prompt::Look), "Vaata kaamerasse");

@@ -454,7 +454,7 @@ impl CameoBuilder {
         // (Unclamped: the compression leaves its edge a little below zero, and a clamp there
         // would crease the top.)
         let scaled: Vec<f32> = relative.iter().map(|r| r * gain).collect();
-        let continued = extrapolate(&scaled, &mask, &outline, cols, rows, 2);
+        let mut continued = extrapolate(&scaled, &mask, &outline, cols, rows, 2);
         // The photo's light and dark goes into the stone after the compression, its slopes as
         // the photo asked for them (canonical mm over canonical mm = gem mm over gem mm): the
         // compression would flatten its steepest slopes most, the ones that draw the
@@ -466,6 +466,20 @@ impl CameoBuilder {
                 && !d.tone_map().is_empty()
                 && tone_weight.iter().any(|w| *w > 0.0)
         });
+        // The relief's own fine light and dark, alike on every gem, gives way to the photo's
+        // where the tone is carved (`DetailParams::photo_modelling`); on the solve grid, so a
+        // stippled relief and a smooth one share it.
+        if let Some((share, band_mm)) = tone_detail.and_then(|d| d.replaces()) {
+            let sigma = band_mm / (cell * self.scale);
+            super::tone::replace_fine_relief(
+                &mut continued,
+                &tone_weight,
+                cols,
+                rows,
+                sigma,
+                share,
+            );
+        }
         let k = match tone_detail {
             Some(d) if d.stippled() && fine_nodes(p, TONE_SUBDIVISION) <= MAX_FINE_NODES => {
                 TONE_SUBDIVISION

@@ -23,7 +23,9 @@
 //! (kept apart from the regions' heights: a profile does not carve it); and its darks
 //! **stippled**, round pits on a lattice whose size follows the darkness, since one raking
 //! light shows only the slope along it, and a dark carved as a slope needs its rise back as a
-//! light streak beside it, which the photo does not have.
+//! light streak beside it, which the photo does not have. Where the tone is carved, the
+//! relief's own forms finer than the tone's band give way to it
+//! ([`DetailParams::photo_modelling`]): the fitted face's fine forms shade every gem alike.
 //!
 //! Every response is a band-pass of the brightness (what changes over a few hundredths of the
 //! eyes' distance, not the light across the face) scaled by the face's own contrast (its
@@ -46,8 +48,12 @@ use crate::photo_grid::{bilinear_grey, polyline_distance};
 /// Map cells per inter-ocular distance (eye centre to eye centre).
 pub const CELLS_PER_IOD: f32 = 64.0;
 
-/// The tone's steepest slope by default (see [`DetailParams::tone`]).
-pub const TONE: f32 = 2.25;
+/// The tone's steepest slope by default (see [`DetailParams::tone`]). 2.25 until the relief's
+/// fine forms gave way to it ([`PHOTO_MODELLING`]); then measured at 0.8, 1.2, 1.6, 2.25 and 3
+/// on three photo sets by two recognition networks: 1.2 ranks the most gems right by both and
+/// brings them nearest their people's other photos (BENCHMARKS.md, issue #37, fourteenth
+/// session).
+pub const TONE: f32 = 1.2;
 /// The tone's band: brightness against its surroundings over this share of the eyes'
 /// distance (a Gaussian's sigma).
 const TONE_BAND: f32 = 0.16;
@@ -83,6 +89,10 @@ const STIPPLE_FROM: f32 = 0.1;
 /// recognition networks (BENCHMARKS.md, issue #37, twelfth session).
 pub const SHADOW_FROM: f32 = 0.25;
 pub const SHADOW_TO: f32 = 0.55;
+/// How much of the relief's fine modelling the photo's replaces by default
+/// ([`DetailParams::photo_modelling`]). Measured at 0, 0.5 and 1 on three photo sets by two
+/// recognition networks (BENCHMARKS.md, issue #37, fourteenth session).
+pub const PHOTO_MODELLING: f32 = 1.0;
 
 /// How deep each region is carved at full strength (canonical mm).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -110,6 +120,14 @@ pub struct DetailParams {
     /// eye's socket under its brow, so the dark is a cast shadow's with no lit rise inside
     /// it; carved with the tone, so only in a frontal portrait. 0: none.
     pub shadows: f32,
+    /// How much of the relief's own modelling finer than the tone's band ([`TONE_BAND`]) the
+    /// photo's light and dark replaces where the tone is carved, 0..1. Under the raking key
+    /// light the fitted face's fine forms (the nose's sides, the eyes' sockets, the lips'
+    /// edges) shade every gem alike, whoever the photo shows (the shape from 68 landmarks is
+    /// much alike between people), and cast the same shadows; the photo's own light and dark
+    /// there is what tells one person from another. 1: the face's forms broader than the band
+    /// stay the relief's, the finer light and dark is the photo's alone; 0: both, added.
+    pub photo_modelling: f32,
 }
 
 impl Default for DetailParams {
@@ -127,6 +145,7 @@ impl Default for DetailParams {
             tone: TONE,
             stipple_mm: STIPPLE,
             shadows: 1.0,
+            photo_modelling: PHOTO_MODELLING,
         }
     }
 }
@@ -142,6 +161,7 @@ impl DetailParams {
             tone: self.tone * k,
             stipple_mm: self.stipple_mm * k,
             shadows: self.shadows,
+            photo_modelling: self.photo_modelling,
         }
     }
 
@@ -158,6 +178,15 @@ impl DetailParams {
     pub fn with_shadows(self, share: f32) -> Self {
         DetailParams {
             shadows: share.clamp(0.0, 1.0),
+            ..self
+        }
+    }
+
+    /// The relief's fine modelling replaced by the photo's at `share` (0..1;
+    /// `glyptic photo --photo-modelling`; [`Self::photo_modelling`]).
+    pub fn with_photo_modelling(self, share: f32) -> Self {
+        DetailParams {
+            photo_modelling: share.clamp(0.0, 1.0),
             ..self
         }
     }
@@ -183,6 +212,9 @@ pub struct FaceDetail {
     /// How much of the stone is sunk into the key light's shadow there, 0..1
     /// ([`DetailParams::shadows`]; empty: none).
     shadow: Vec<f32>,
+    /// The relief's fine modelling the tone replaces: share 0..1 and the band's sigma,
+    /// canonical mm ([`DetailParams::photo_modelling`]; `None`: no tone read).
+    replaces: Option<(f32, f32)>,
     /// The moles left aside (photo pixels): retouched out before the detail was read.
     moles: Vec<[f32; 2]>,
     /// Per vertex of the face mesh: photo x, y (pixels) and how squarely the photo sees it
@@ -379,6 +411,17 @@ impl FaceDetail {
             }
             None => (Vec::new(), Vec::new(), Vec::new()),
         };
+        // The tone's band in canonical mm: the share of the eyes' distance, in cells, times
+        // the cells' size in the photo and the photo's scale at the face.
+        let replaces = light
+            .filter(|_| !tone.is_empty() && params.photo_modelling > 0.0)
+            .map(|l| {
+                (
+                    params.photo_modelling.clamp(0.0, 1.0),
+                    TONE_BAND * CELLS_PER_IOD * step * l.mm_per_px,
+                )
+            })
+            .filter(|(_, band)| band.is_finite() && *band > 0.0);
         // Soften the regions' borders by a cell.
         let height = blur(&height, cols, rows, 0.7);
         Ok(FaceDetail {
@@ -390,6 +433,7 @@ impl FaceDetail {
             tone,
             stipple,
             shadow,
+            replaces,
             moles,
             seen,
         })
@@ -435,6 +479,13 @@ impl FaceDetail {
     /// ([`DetailParams::shadows`]).
     pub fn shadowed(&self) -> bool {
         !self.shadow.is_empty()
+    }
+
+    /// How much of the relief's own modelling the tone replaces, and over what band (a
+    /// Gaussian's sigma, canonical mm): [`DetailParams::photo_modelling`]; `None` where no
+    /// tone was read or none is replaced.
+    pub fn replaces(&self) -> Option<(f32, f32)> {
+        self.replaces
     }
 
     fn sample(&self, map: &[f32], x: f32, y: f32) -> f32 {

@@ -15,6 +15,9 @@
 //! slopes kept (the compression flattens steep slopes most: the strongest light and dark). Heights come from a least-squares fit of their slope along the light's
 //! direction to the wanted slope, smooth across it and held near zero by a ridge: a field whose
 //! every change is small (a fraction of a millimetre over a few), not a picture pressed in.
+//! Under it, the relief's own forms finer than the tone's band are taken off
+//! ([`replace_fine_relief`]): the fitted face is much alike between people, and its fine forms
+//! under the raking light (the nose's sides and shadow, the sockets) shade every gem alike.
 //!
 //! Units: the map's cells (x right, y down, as the photo); slopes in canonical mm per cell;
 //! heights in canonical mm. Pure computation.
@@ -252,9 +255,95 @@ pub fn fit_slopes_halved(
         .collect()
 }
 
+/// Takes `share` of the relief's own modelling finer than `sigma` (cells: a Gaussian's) off
+/// `height` (row-major, `cols` x `rows`) where `weight` (0..1) says the tone is carved: its
+/// high-pass, `height` less its blur. Why: the key light shades the fitted face's fine forms
+/// alike on every gem, and casts their shadows alike; what the photo's light and dark (the
+/// tone, added after) shows there is the person. The broader forms (the head's and the
+/// face's volume, the nose's projection over its band) stay. Weight 0 or share 0: unchanged.
+pub fn replace_fine_relief(
+    height: &mut [f32],
+    weight: &[f32],
+    cols: usize,
+    rows: usize,
+    sigma: f32,
+    share: f32,
+) {
+    let share = share.clamp(0.0, 1.0);
+    if height.len() != cols * rows
+        || weight.len() != height.len()
+        || share <= 0.0
+        || !(sigma.is_finite() && sigma > 0.0)
+    {
+        return;
+    }
+    let broad = super::blur::blur(height, cols, rows, sigma);
+    for ((h, b), w) in height.iter_mut().zip(&broad).zip(weight) {
+        *h -= share * w.clamp(0.0, 1.0) * (*h - b);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_reliefs_fine_forms_are_taken_off_where_the_tone_is_carved_and_its_broad_ones_kept() {
+        // A broad dome (sigma 30 cells) with a narrow ridge on it (sigma 2), as a nose on a
+        // face; the tone carved over the left half only.
+        let (cols, rows) = (120, 100);
+        let dome =
+            |c: f32, r: f32| 10.0 * (-((c - 60.0).powi(2) + (r - 50.0).powi(2)) / 1800.0).exp();
+        let ridge = |c: f32| 3.0 * (-(c - 40.0).powi(2) / 8.0).exp();
+        let ridge_right = |c: f32| 3.0 * (-(c - 80.0).powi(2) / 8.0).exp();
+        let base: Vec<f32> = (0..cols * rows)
+            .map(|i| {
+                let (c, r) = ((i % cols) as f32, (i / cols) as f32);
+                dome(c, r) + ridge(c) + ridge_right(c)
+            })
+            .collect();
+        let weight: Vec<f32> = (0..cols * rows)
+            .map(|i| if i % cols < 60 { 1.0 } else { 0.0 })
+            .collect();
+        let mut h = base.clone();
+        replace_fine_relief(&mut h, &weight, cols, rows, 8.0, 1.0);
+        let at = |v: &[f32], c: usize| v[50 * cols + c];
+        // The ridge under the tone is (nearly) gone: what stands over its sides is under a
+        // seventh of what did (what is left is the ridge's own broad part, its blur: about a
+        // ninth).
+        let before = at(&base, 40) - 0.5 * (at(&base, 32) + at(&base, 48));
+        let after = at(&h, 40) - 0.5 * (at(&h, 32) + at(&h, 48));
+        assert!(
+            before > 2.5 && after.abs() < 0.15 * before,
+            "ridge {before} -> {after}"
+        );
+        // The dome stays: its height at the tone's side within a tenth.
+        let dome_at = dome(30.0, 50.0);
+        assert!(
+            (at(&h, 30) - dome_at).abs() < 0.1 * dome_at,
+            "dome {} vs {dome_at}",
+            at(&h, 30)
+        );
+        // Off the tone, nothing moved.
+        assert!((60..cols).all(|c| at(&h, c) == at(&base, c)));
+        // Share 0, a zero weight, or a broken size: unchanged.
+        for (w, share) in [(&weight, 0.0), (&vec![0.0; cols * rows], 1.0)] {
+            let mut k = base.clone();
+            replace_fine_relief(&mut k, w, cols, rows, 8.0, share);
+            assert_eq!(k, base);
+        }
+        let mut k = base.clone();
+        replace_fine_relief(&mut k, &weight[1..], cols, rows, 8.0, 1.0);
+        assert_eq!(k, base);
+        // Half the share: about half the ridge.
+        let mut half = base.clone();
+        replace_fine_relief(&mut half, &weight, cols, rows, 8.0, 0.5);
+        let mid = at(&half, 40) - 0.5 * (at(&half, 32) + at(&half, 48));
+        assert!(
+            (mid - 0.5 * (before + after)).abs() < 0.15 * before,
+            "half share: {mid}"
+        );
+    }
 
     #[test]
     fn a_ramp_of_slopes_along_the_light_is_found_again() {

@@ -299,3 +299,148 @@ fn the_darks_are_sunk_into_the_key_lights_shadow() {
         sunk.len()
     );
 }
+
+/// A Gaussian blur of a row-major field (`sigma` in nodes, edges clamped): the test's own,
+/// independent of the crate's box blurs.
+fn gaussian(v: &[f32], cols: usize, rows: usize, sigma: f32) -> Vec<f32> {
+    let r = (3.0 * sigma).ceil() as isize;
+    let k: Vec<f32> = (-r..=r)
+        .map(|d| (-(d as f32).powi(2) / (2.0 * sigma * sigma)).exp())
+        .collect();
+    let total: f32 = k.iter().sum();
+    let pass = |src: &[f32], along_x: bool| -> Vec<f32> {
+        let mut out = vec![0f32; src.len()];
+        for y in 0..rows as isize {
+            for x in 0..cols as isize {
+                let mut s = 0.0;
+                for (j, w) in k.iter().enumerate() {
+                    let d = j as isize - r;
+                    let (u, v) = if along_x { (x + d, y) } else { (x, y + d) };
+                    let (u, v) = (
+                        u.clamp(0, cols as isize - 1) as usize,
+                        v.clamp(0, rows as isize - 1) as usize,
+                    );
+                    s += w * src[v * cols + u];
+                }
+                out[y as usize * cols + x as usize] = s / total;
+            }
+        }
+        out
+    };
+    pass(&pass(v, true), false)
+}
+
+/// Where the tone is carved, the relief's own forms finer than the tone's band give way to
+/// the photo's light and dark (`DetailParams::photo_modelling`), on einstein's frontal relief:
+/// what changes is the smooth relief's fine part, taken off on the face (nowhere off it), its
+/// broad forms stay, and the nose casts less of the key light's shadow on the far cheek.
+#[test]
+fn the_reliefs_fine_forms_give_way_to_the_photos_light_and_dark() {
+    use glyptic_core::gem::{CameoBuilder, View};
+    let model = crate::fit::model();
+    let smooth = DetailParams::default()
+        .stipple_scaled(0.0)
+        .with_shadows(0.0);
+    let (mesh, d) = einstein_details(&[
+        smooth.with_photo_modelling(1.0),
+        smooth.with_photo_modelling(0.0),
+        DetailParams {
+            tone: 0.0,
+            ..smooth
+        },
+    ]);
+    let (_, band_mm) = d[0].replaces().expect("the tone replaces the fine forms");
+    assert!(d[1].replaces().is_none() && d[2].replaces().is_none());
+    let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
+    let tris = &model.shape.triangles;
+    let relief = |k: usize| {
+        b.relief_detailed(&mesh, tris, &[], Some(&d[k]))
+            .expect("relief")
+    };
+    let (replaced, added, bare) = (relief(0), relief(1), relief(2));
+    let (cols, rows) = (bare.cols, bare.rows);
+    assert_eq!((replaced.cols, added.cols), (cols, cols));
+    let change: Vec<f32> = replaced
+        .height
+        .iter()
+        .zip(&added.height)
+        .map(|(a, b)| a - b)
+        .collect();
+    let sigma = band_mm / bare.canonical_per_gem / bare.cell;
+    let fine: Vec<f32> = bare
+        .height
+        .iter()
+        .zip(gaussian(&bare.height, cols, rows, sigma))
+        .map(|(h, l)| h - l)
+        .collect();
+    // The face's inner nodes: a band's width inside its outline.
+    let reach = (2.0 * sigma).ceil() as usize;
+    let inner: Vec<usize> = (0..change.len())
+        .filter(|&i| {
+            let (x, y) = (i % cols, i / cols);
+            x >= reach
+                && y >= reach
+                && x + reach < cols
+                && y + reach < rows
+                && [(0, 0), (reach, 0), (0, reach)].iter().all(|&(dx, dy)| {
+                    bare.face[(y - dy) * cols + x - dx] && bare.face[(y + dy) * cols + x + dx]
+                })
+        })
+        .collect();
+    let pick = |v: &[f32]| inner.iter().map(|&i| v[i]).collect::<Vec<f32>>();
+    let taken: Vec<f32> = pick(&fine).iter().map(|f| -f).collect();
+    let c = correlation(&pick(&change), &taken);
+    let rms = |v: &[f32]| (v.iter().map(|x| x * x).sum::<f32>() / v.len() as f32).sqrt();
+    println!(
+        "{} inner face nodes: change {:.3} mm rms, the smooth relief's fine part {:.3} mm; correlation {c:.2}",
+        inner.len(),
+        rms(&pick(&change)),
+        rms(&taken)
+    );
+    assert!(inner.len() > 500, "{} inner face nodes", inner.len());
+    assert!(c > 0.8, "the change against the fine part taken off: {c}");
+    assert!(
+        rms(&pick(&change)) > 0.5 * rms(&taken) && rms(&pick(&change)) < 1.5 * rms(&taken),
+        "change {} against the fine part {}",
+        rms(&pick(&change)),
+        rms(&taken)
+    );
+    // Off the face (a band's width from it), nothing moved.
+    let near_face = |i: usize| {
+        let (x, y) = ((i % cols) as isize, (i / cols) as isize);
+        let r = reach as isize;
+        (-r..=r).step_by(2).any(|dy| {
+            (-r..=r).step_by(2).any(|dx| {
+                let (u, v) = (x + dx, y + dy);
+                u >= 0
+                    && v >= 0
+                    && (u as usize) < cols
+                    && (v as usize) < rows
+                    && bare.face[v as usize * cols + u as usize]
+            })
+        })
+    };
+    assert!(
+        (0..change.len())
+            .filter(|&i| !near_face(i))
+            .all(|i| change[i].abs() < 1e-4),
+        "the relief changed off the face"
+    );
+    // The broad forms stay: the change's own low part is small against the change.
+    let broad = pick(&gaussian(&change, cols, rows, 2.0 * sigma));
+    assert!(
+        rms(&broad) < 0.35 * rms(&pick(&change)),
+        "broad change {} against {}",
+        rms(&broad),
+        rms(&pick(&change))
+    );
+    // Less of the face in the key light's shadow.
+    let shadowed = |r: &glyptic_core::gem::Relief| {
+        (0..r.face.len())
+            .filter(|&i| r.face[i] && r.key_light[i] < 0.5)
+            .count()
+    };
+    let (now, before) = (shadowed(&replaced), shadowed(&added));
+    println!("face nodes under half the key light: {before} -> {now}");
+    assert!(now < before, "shadowed face nodes {before} -> {now}");
+}

@@ -206,6 +206,12 @@ pub struct ChoiceArgs {
     /// deepens a socket under its brow; 0 leaves them to the modelled slopes and the stipple.
     #[arg(long, value_parser = parse_shadows, default_value = "1")]
     pub shadows: f32,
+    /// How much of a frontal face's fine modelling (its forms finer than about a sixth of the
+    /// eyes' distance: the nose's sides, the sockets, the lips' edges) is the photo's light
+    /// and dark rather than the fitted shape's, 0..1: the shape's own shade much alike on
+    /// every gem; 1 as measured (BENCHMARKS.md, issue #37, fourteenth session), 0 both added.
+    #[arg(long, value_parser = parse_photo_modelling, default_value = "1")]
+    pub photo_modelling: f32,
     /// How many faces the likeness search draws and judges with the face-recognition network
     /// (the portrait's identity steered towards the photo, within the face model's prior);
     /// 0 (the default) keeps the landmark fit's identity: on the whole gem the search no
@@ -239,6 +245,11 @@ fn parse_stipple(s: &str) -> Result<f32, String> {
 #[cfg(feature = "face")]
 fn parse_shadows(s: &str) -> Result<f32, String> {
     strength_up_to(s, "shadow", 1.0)
+}
+
+#[cfg(feature = "face")]
+fn parse_photo_modelling(s: &str) -> Result<f32, String> {
+    strength_up_to(s, "photo modelling", 1.0)
 }
 
 #[cfg(feature = "face")]
@@ -340,6 +351,7 @@ impl ChoiceArgs {
                 .scaled(self.detail)
                 .stipple_scaled(self.stipple)
                 .with_shadows(self.shadows)
+                .with_photo_modelling(self.photo_modelling)
         });
         p.shading = (self.shading > 0.0).then(|| glyptic::photometric::ShadingParams {
             strength: self.shading,

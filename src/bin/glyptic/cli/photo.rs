@@ -197,6 +197,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 detail: 1.0,
                 stipple: 1.0,
                 shadows: 1.0,
+                photo_modelling: glyptic::gem::PHOTO_MODELLING,
                 likeness_search: 0,
                 shading: 1.0,
                 warp: 1.0,
