@@ -90,7 +90,7 @@ const STIPPLE_FROM: f32 = 0.1;
 pub const SHADOW_FROM: f32 = 0.25;
 pub const SHADOW_TO: f32 = 0.55;
 /// How much of the relief's fine modelling the photo's replaces by default
-/// ([`DetailParams::photo_modelling`]). Measured at 0, 0.5 and 1 on three photo sets by two
+/// ([`DetailParams::photo_modelling`]). Measured at 0, 0.5, 0.75 and 1 on three photo sets by two
 /// recognition networks (BENCHMARKS.md, issue #37, fourteenth session).
 pub const PHOTO_MODELLING: f32 = 1.0;
 
