@@ -29,10 +29,12 @@
 //! search the first K coefficients only; `--no-shading`, `--shading-strength K`,
 //! `--shading-band SHORTEST,LONGEST` (inter-ocular distances): the shape read from the
 //! photo's shading off, or scaled, or over another band; `--face-yaw DEG`: the grey faces
-//! drawn turned by DEG (a three-quarter view at 20-35); `--detail-maps DIR`: each photo's detail map as
-//! carved, mid-grey 0, lighter raised, darker incised; `--warp S,SIGMA,RIDGE,MAX,OUTLINE,LIPS`:
-//! the landmark warp's parameters (`glyptic::warp::WarpParams`, in order, trailing ones at
-//! their defaults); `--caricature GAIN,DETAIL`, `--prior P` (the portrait's identity prior),
+//! drawn turned by DEG (a three-quarter view at 20-35); `--detail-maps DIR`: each photo's
+//! detail map as carved, mid-grey 0, lighter raised, darker incised (`NNN-detail.png`), and
+//! where its darks are sunk into the key light's shadow, black fully (`NNN-shadow.png`);
+//! `--warp S,SIGMA,RIDGE,MAX,OUTLINE,LIPS`: the landmark warp's parameters
+//! (`glyptic::warp::WarpParams`, in order, trailing ones at their defaults);
+//! `--caricature GAIN,DETAIL`, `--prior P` (the portrait's identity prior),
 //! `--expression E` (the share of the photo's expression the portrait carves),
 //! `--detail-scale K` (the detail's depth times K), `--detail-depths BROW,IRIS,MOUTH,LINE`
 //! (each region's depth, mm), `--tone K` (the photo's light and dark modelled for the key
@@ -366,6 +368,15 @@ fn main() -> Result<()> {
                 image::Luma([v.clamp(0.0, 255.0) as u8])
             });
             img.save(dir.join(format!("{j:03}-detail.png")))?;
+            // Where the strongest darks are sunk into the key light's shadow: black fully.
+            let s = d.shadow_map();
+            if s.len() == c * r {
+                let img = image::GrayImage::from_fn(c as u32, r as u32, |x, y| {
+                    let v = 255.0 * (1.0 - s[y as usize * c + x as usize]);
+                    image::Luma([v.clamp(0.0, 255.0) as u8])
+                });
+                img.save(dir.join(format!("{j:03}-shadow.png")))?;
+            }
         }
         let photo_emb = embedder.embed(&img, &pg.face.landmarks).ok();
         photo_rows.push((

@@ -526,6 +526,12 @@ impl FaceDetail {
     pub fn stipple_map(&self) -> &[f32] {
         &self.stipple
     }
+
+    /// How much of the stone is sunk into the key light's shadow, as [`Self::map`]'s, 0..1
+    /// (empty when none is cut).
+    pub fn shadow_map(&self) -> &[f32] {
+        &self.shadow
+    }
 }
 
 /// The photo's fine light and dark as heights (canonical mm) whose slope along the key light
@@ -967,6 +973,12 @@ pub(crate) mod tests {
         let (cols, _, _) = a.map();
         assert_eq!(a.tone_map(), b.tone_map(), "the stipple changed the slopes");
         assert!(a.stippled() && !b.stippled() && b.stipple_map().is_empty());
+        // The dark patch is sunk into the key light's shadow, and the shadow's map (the
+        // pictures' `--detail-maps`) is the one `shadow_at` samples.
+        let sunk = a.shadow_at(300.0, 450.0);
+        assert!(sunk > 0.5, "the patch's shadow {sunk}");
+        assert_eq!(a.shadow_map().len(), a.stipple_map().len());
+        assert!(a.shadow_map().iter().any(|s| *s >= sunk - 1e-3));
         let diff = a.stipple_map();
         let most = diff.iter().fold(f32::MIN, |m, d| m.max(*d));
         assert!(most <= 0.0, "a pit raised the stone by {most}");
