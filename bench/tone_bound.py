@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Where a frontal gem's light and dark comes from, and how far it could take a likeness
-(issue #37). Two checks on `likeness_embed --out DIR` runs; no network here, numpy and Pillow
+(issue #37). Checks on `likeness_embed --out DIR` runs; no network here, numpy and Pillow
 only (the bench virtualenv, .deps/bench-venv, has both).
 
 parts ON OFF
@@ -19,9 +19,11 @@ overlay RUN OUT AMP BLUR [REGION [SIDE]]
     of a carved face whose light and dark were that faithful to the photo, the bound the tone
     works towards. REGION keeps the overlay to part of the face: `eyes` (the brows and the
     eyes), `nose`, `mouth` (each the hull of its landmarks grown by 0.12 of the eyes'
-    distance), `features` (the three), `rest` (the face without them) or `all` (the
-    default; its edge blurred by 0.1 of the eyes' distance, a part's by 0.05); SIDE to its darks (`dark`: the multiplier at most 1), its lights (`light`) or
-    `both` (the default): which part of the photo's light and dark a likeness needs.
+    distance; `left-eye` and `right-eye`, each eye with its brow), `features` (the three),
+    `rest` (the face without them) or `all` (the default; its edge blurred by 0.1 of the
+    eyes' distance, a part's by 0.05); SIDE to its darks (`dark`: the multiplier at most 1),
+    its lights (`light`) or `both` (the default): which part of the photo's light and dark a
+    likeness needs.
 
 paste RUN OUT REGION [HOW]
     Not a gem: each frontal gem of RUN with its photo's own grey pixels pasted over REGION
@@ -41,7 +43,7 @@ curve RUN [REGION]
     How the gem's light and dark follows the photo's: per frontal gem of RUN, the photo carried
     into the gem's frame (by the 68 landmarks found on both) and both band-passed at
     `CURVE_SIGMA` of the eyes' distance (log brightness against its surroundings), over REGION
-    (as overlay's; `eyes` by default). Printed: the correlation (the mean of the gems' and
+    (as paste's; `eyes` by default). Printed: the correlation (the mean of the gems' and
     pooled), the spreads, and the transfer curve, the gem's mean band-pass in each tenth of the
     photo's (darkest first): where it flattens the stone cannot follow the photo (its darks
     saturate, or its lights are lost). The gem's darkest and median brightness in the eyes'
@@ -185,7 +187,9 @@ def overlaid(path, src, p, g, amp, blur, region, side):
 
 
 def blur_array(a, sigma):
-    """A float picture blurred by a Gaussian of `sigma` pixels (edges clamped)."""
+    """A float picture blurred by a Gaussian of `sigma` pixels (edges clamped; as it is at 0)."""
+    if sigma <= 0:
+        return np.asarray(a, dtype=np.float64)
     r = int(3 * sigma) + 1
     x = np.arange(-r, r + 1)
     k = np.exp(-x * x / (2 * sigma * sigma))
