@@ -27,6 +27,16 @@ transform RUN OUT KIND [ARG]
     `rest` as bench/tone_bound.py's regions, `openings` (the eyes' openings alone: the hulls
     of their six landmarks grown by 0.06 of the eyes' distance) or `outside`: all but the
     face).
+
+paired JUDGE BASE VARIANT [BASE VARIANT ...]
+    Two runs of the same photos (a change and the product, say), in pairs, one pair per photo
+    set; JUDGE the judge file's name in each run (`dlib.txt`, or `sface.txt` written by
+    `likeness_embed --sface-judge`). Per gem found in both runs of a pair: its mean distance
+    to its person's other photos, and its margin (that less its distance to the nearest
+    photo of someone else), the variant's less the base's. Printed: the mean differences and
+    their standard errors over every pair's gems (negative: the variant's gems nearer their
+    people). A share that moves by a gem or two is often noise; a paired difference of
+    several standard errors is not.
 """
 import collections
 import os
@@ -161,10 +171,45 @@ def transform(run, out, kind, arg=1.0):
     print(f"{out}: {len(moved)} frontal pictures")
 
 
+def per_gem(run, judge):
+    """Per frontal gem (by its photo's index): its mean distance to its person's other photos
+    and that less its distance to the nearest other person's photo."""
+    d = descriptors(f"{run}/{judge}")
+    rows = [line.rstrip("\n").split("\t") for line in open(f"{run}/manifest.tsv")]
+    photos = [(int(r[1]), int(r[2]), r[3]) for r in rows if r[0] == "photo"]
+    gems = {int(r[2]): r[3] for r in rows if r[0] == "frontal"}
+    out = {}
+    for person, j, _ in photos:
+        gem = gems.get(j)
+        if gem not in d:
+            continue
+        dist = [(np.linalg.norm(d[gem] - d[q]), who) for who, k, q in photos if k != j and q in d]
+        own = [x for x, who in dist if who == person]
+        others = [x for x, who in dist if who != person]
+        if own and others:
+            out[j] = (np.mean(own), np.mean(own) - min(others))
+    return out
+
+
+def paired(judge, runs):
+    diffs = []
+    for base, variant in zip(runs[::2], runs[1::2]):
+        a, b = per_gem(base, judge), per_gem(variant, judge)
+        diffs += [np.subtract(b[j], a[j]) for j in a if j in b]
+    if not diffs:
+        sys.exit("no gem found in both runs of any pair")
+    d = np.array(diffs)
+    se = d.std(axis=0) / np.sqrt(len(d))
+    print(f"{len(d)} gems: distance to their people's other photos {d[:, 0].mean():+.4f} "
+          f"+- {se[0]:.4f}; margin over the nearest stranger {d[:, 1].mean():+.4f} +- {se[1]:.4f}")
+
+
 def main():
     args = sys.argv[1:]
     if len(args) == 4 and args[0] == "score":
         score(args[1], args[2], float(args[3]))
+    elif len(args) >= 4 and len(args) % 2 == 0 and args[0] == "paired":
+        paired(args[1], args[2:])
     elif 4 <= len(args) <= 5 and args[0] == "transform":
         transform(args[1], args[2], args[3], *map(float, args[4:]))
     else:
