@@ -113,6 +113,14 @@ fn einstein_details(params: &[DetailParams]) -> (Vec<f32>, Vec<FaceDetail>) {
     (mesh, details)
 }
 
+/// The detail with the tone's slopes alone (no stipple, nothing sunk): a relief that stays on
+/// the solve grid, whose heights the tests can compare node by node.
+fn smooth_detail() -> DetailParams {
+    DetailParams::default()
+        .stipple_scaled(0.0)
+        .with_shadows(0.0)
+}
+
 /// The tone goes into the stone after the bas-relief's compression with its slopes kept: on
 /// einstein's frontal relief the heights with and without it differ on the face by slopes
 /// like the tone's own (the compression would have flattened them), nowhere off the face, and
@@ -121,9 +129,7 @@ fn einstein_details(params: &[DetailParams]) -> (Vec<f32>, Vec<FaceDetail>) {
 fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
     use glyptic_core::gem::{CameoBuilder, View};
     let model = crate::fit::model();
-    let smooth = DetailParams::default()
-        .stipple_scaled(0.0)
-        .with_shadows(0.0);
+    let smooth = smooth_detail();
     let (mesh, d) = einstein_details(&[
         smooth,
         DetailParams {
@@ -338,9 +344,7 @@ fn gaussian(v: &[f32], cols: usize, rows: usize, sigma: f32) -> Vec<f32> {
 fn the_reliefs_fine_forms_give_way_to_the_photos_light_and_dark() {
     use glyptic_core::gem::{CameoBuilder, View};
     let model = crate::fit::model();
-    let smooth = DetailParams::default()
-        .stipple_scaled(0.0)
-        .with_shadows(0.0);
+    let smooth = smooth_detail();
     let (mesh, d) = einstein_details(&[
         smooth.with_photo_modelling(1.0),
         smooth.with_photo_modelling(0.0),
