@@ -1,13 +1,14 @@
 //! What a kiosk rebuild costs (issue #37: "time added to a kiosk rebuild measured"): the gem
 //! thread's `CameoBuilder::build_after` (warm-started, the builder made once) for each photo's
 //! fitted face, frontal, with the photo's detail as the kiosk carves it, the same without the
+//! tone's match to the photo under the stone's light, without the
 //! darks sunk into the key light's shadow, with its detail but no stipple (the relief's grid
 //! stays at the solve grid's 0.2 mm), and without any detail.
-//! The three are timed in turn, `--rounds` alternations of `--builds` builds after 3 warm-up
+//! The variants are timed in turn, `--rounds` alternations of `--builds` builds after 3 warm-up
 //! builds each, and their medians printed with the meshes' sizes.
 //!
 //! `cargo run --release --example gem_rebuild -- PHOTO... [--builds 21] [--rounds 4]
-//! [--only K]` (`--only K`: time the K-th variant alone, 0-3, for a profiler)
+//! [--only K]` (`--only K`: time the K-th variant alone, 0-4, for a profiler)
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -59,10 +60,13 @@ fn main() -> Result<()> {
         let smooth = pipeline.photo(path)?.detail;
         pipeline.detail = Some(DetailParams::default().with_shadows(0.0));
         let unshadowed = pipeline.photo(path)?.detail;
+        pipeline.detail = Some(DetailParams::default().with_tone_match(0.0));
+        let unmatched = pipeline.photo(path)?.detail;
         let builder = CameoBuilder::new(&pg.cameo)?;
         let face = &pg.face.portrait;
-        let variants: [(&str, Option<&FaceDetail>); 4] = [
+        let variants: [(&str, Option<&FaceDetail>); 5] = [
             ("detail, stippled", pg.detail.as_ref()),
+            ("detail, stippled, no tone match", unmatched.as_ref()),
             ("detail, stippled, no shadows", unshadowed.as_ref()),
             ("detail, no stipple", smooth.as_ref()),
             ("no detail", None),

@@ -144,6 +144,11 @@ pub struct KioskConfig {
     /// than the fitted shape's, 0..=1 (carved with the visitor's detail): 1 as measured
     /// (BENCHMARKS.md, issue #37, fourteenth session), 0 both added.
     pub photo_modelling: f32,
+    /// How the visitor's carved light and dark is matched to their photo's as the stone's
+    /// light shows it, 0..=3 (the contrast asked for against the carving's own; carved with
+    /// the visitor's detail): 0 not, 1.5 as measured (BENCHMARKS.md, issue #37, sixteenth
+    /// session).
+    pub tone_match: f32,
     /// Window size when not full-screen, logical pixels.
     pub width: u32,
     pub height: u32,
@@ -203,6 +208,7 @@ impl Default for KioskConfig {
             stipple: 1.0,
             shadows: 1.0,
             photo_modelling: crate::gem::PHOTO_MODELLING,
+            tone_match: crate::gem::TONE_MATCH,
             width: 800,
             height: 1000,
             render_scale: 1.0,
@@ -218,6 +224,7 @@ impl KioskConfig {
             .stipple_scaled(self.stipple)
             .with_shadows(self.shadows)
             .with_photo_modelling(self.photo_modelling)
+            .with_tone_match(self.tone_match)
     }
 
     /// Whether the cursor is hidden: as configured, else when full screen.
@@ -265,6 +272,7 @@ impl KioskConfig {
             ("stipple", self.stipple, 0.0, 3.0),
             ("shadows", self.shadows, 0.0, 1.0),
             ("photo_modelling", self.photo_modelling, 0.0, 1.0),
+            ("tone_match", self.tone_match, 0.0, 3.0),
         ] {
             if !within(v, lo, hi) {
                 return invalid(key, format!("is {v}, not within {lo}..={hi}"));
@@ -640,6 +648,13 @@ mod tests {
             0.5
         );
         assert!(parse("photo_modelling = 2").is_err());
+        // The tone's match: on by default, off at 0, at most 3.
+        assert_eq!(
+            KioskConfig::default().detail().tone_match,
+            crate::gem::TONE_MATCH
+        );
+        assert_eq!(parse("tone_match = 0").unwrap().detail().tone_match, 0.0);
+        assert!(parse("tone_match = 4").is_err());
         // The visitor's words, one replaced, the others kept.
         let c = parse("attract_seconds = 45\n[texts]\nlook = \"Vaata kaamerasse\"\n").unwrap();
         assert_eq!(c.texts.get(Prompt::Look), "Vaata kaamerasse");

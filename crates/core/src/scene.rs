@@ -206,6 +206,16 @@ impl Mesh {
 pub const KEY_LIGHT_AZIMUTH_DEG: f32 = 145.0;
 pub const KEY_LIGHT_ELEVATION_DEG: f32 = 20.0;
 
+/// The room's lights as the renderer draws them (unitless, white): the sky from in front of
+/// the stone (times 0.55 + 0.45 of the normal's share towards the viewer, and the relief's
+/// cavity term), a weak fill from the camera's side (times the normal towards the viewer and
+/// the cavity), and the key light's intensity (the flat ground gets sin 20 degrees of it). The
+/// relief's tone is matched to the photo's under these ([`crate::gem::detail`]'s tone match),
+/// so the renderer takes them from here (the 2021 system's ambient was 0.2).
+pub const SKY_LIGHT: f32 = 0.2;
+pub const FILL_LIGHT: f32 = 0.2;
+pub const KEY_LIGHT_INTENSITY: f32 = 1.25;
+
 /// Unit vector towards the key light, object space (XY the stone's plane, +Z out of it).
 pub fn key_light_dir() -> [f32; 3] {
     let (az, el) = (

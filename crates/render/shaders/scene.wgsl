@@ -309,8 +309,8 @@ fn lamp_visibility(p: vec3<f32>, ndl: f32) -> f32 {
     return lit / 9.0;
 }
 
-// The fill light's strength (from the camera's side).
-const FILL_LIGHT: f32 = 0.2;
+// The fill light's strength (from the camera's side): FILL_LIGHT, from glyptic_core::scene
+// (stones.wgsl).
 
 @fragment
 fn fs_main(in: VsOut) -> FsOut {

@@ -47,6 +47,7 @@ pub static SCENE_SHADE: std::sync::LazyLock<String> = std::sync::LazyLock::new(|
 /// line), from [`glyptic_core::stone`], the table the GLB export reads too. (The layered
 /// stones reach the shader as uniforms from the same table.)
 pub fn stones() -> String {
+    use glyptic_core::scene::FILL_LIGHT;
     use glyptic_core::stone::{GOLD_BLINN, GOLD_F0, MARBLE_BLINN, MARBLE_GREY, MARBLE_TINT};
     let v3 = |c: [f32; 3]| format!("vec3<f32>({:?}, {:?}, {:?})", c[0], c[1], c[2]);
     format!(
@@ -55,7 +56,9 @@ pub fn stones() -> String {
          const MARBLE_TINT: vec3<f32> = {};\n\
          const MARBLE_BLINN: f32 = {MARBLE_BLINN:?};\n\
          const GOLD_F0: vec3<f32> = {};\n\
-         const GOLD_BLINN: f32 = {GOLD_BLINN:?};",
+         const GOLD_BLINN: f32 = {GOLD_BLINN:?};\n\
+         // The room's fill light, from glyptic_core::scene.\n\
+         const FILL_LIGHT: f32 = {FILL_LIGHT:?};",
         v3(MARBLE_TINT),
         v3(GOLD_F0)
     )
@@ -236,6 +239,8 @@ mod tests {
             "MARBLE_BLINN",
             "GOLD_F0",
             "GOLD_BLINN",
+            // Not a stone's: the room's fill light, which the relief's tone match assumes.
+            "FILL_LIGHT",
         ] {
             assert!(
                 !file.contains(&format!("const {name}")),

@@ -590,6 +590,42 @@ impl CameoBuilder {
             }
             sharp
         };
+        // The carved light and dark matched to the photo's as the stone's light shows it
+        // (`DetailParams::tone_match`): the tone, the pits and the cut add up with the
+        // relief's own forms, and the raking light shows each its own way.
+        let mut sharp = sharp;
+        if let (Some(d), Some(ph), Some((gain, iod))) = (
+            tone_detail,
+            &photo,
+            tone_detail.and_then(|d| d.tone_match()),
+        ) {
+            let weight = grid.up(&tone_weight);
+            let point = grid.up_points(&ph.point, &ph.seen);
+            let target: Vec<f32> = (0..n)
+                .map(|i| {
+                    if weight[i] > 0.0 && outline[i] >= OUTLINE_LEVEL {
+                        let [x, y] = point[i];
+                        d.bright_at(x, y)
+                    } else {
+                        f32::NAN
+                    }
+                })
+                .collect();
+            let matched = super::closure::close(
+                &mut height,
+                &mut top,
+                &target,
+                &weight,
+                super::closure::Grid { cols, rows, cell },
+                light,
+                portrait_box,
+                &super::closure::Closure::for_face(gain, iod / (cell * self.scale)),
+            );
+            if matched.changed {
+                let box_height = shadow_box.crop(&height, cols, |h| h);
+                sharp = light_visibility(&box_height, bw, bh, cell, light);
+            }
+        }
         let occlusion = cavity(&height, cols, rows, cell);
         let mut key_light = vec![1f32; n];
         shadow_box.paste(&penumbra(&sharp, bw, bh), &mut key_light, cols);

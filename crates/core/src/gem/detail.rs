@@ -93,6 +93,10 @@ pub const SHADOW_TO: f32 = 0.55;
 /// ([`DetailParams::photo_modelling`]). Measured at 0, 0.5, 0.75 and 1 on three photo sets by two
 /// recognition networks (BENCHMARKS.md, issue #37, fourteenth session).
 pub const PHOTO_MODELLING: f32 = 1.0;
+/// How much contrast the tone's match asks of the stone's light against what the carved
+/// relief shows before it ([`DetailParams::tone_match`]). Measured at 1, 1.5 and 2 on three
+/// photo sets by two recognition networks (BENCHMARKS.md, issue #37, sixteenth session).
+pub const TONE_MATCH: f32 = 1.5;
 
 /// How deep each region is carved at full strength (canonical mm).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -128,6 +132,12 @@ pub struct DetailParams {
     /// there is what tells one person from another. 1: the face's forms broader than the band
     /// stay the relief's, the finer light and dark is the photo's alone; 0: both, added.
     pub photo_modelling: f32,
+    /// The carved light and dark matched to the photo's as the stone's own light shows it:
+    /// after the tone, the stipple and the shadows are cut, the relief is lit as the renderer
+    /// lights it and its slopes along the key light corrected where its band-passed light
+    /// differs from the photo's ([`super::closure`]); the value is the contrast asked for
+    /// against the one the relief shows (1: the same, the pattern only). 0: none.
+    pub tone_match: f32,
 }
 
 impl Default for DetailParams {
@@ -146,6 +156,7 @@ impl Default for DetailParams {
             stipple_mm: STIPPLE,
             shadows: 1.0,
             photo_modelling: PHOTO_MODELLING,
+            tone_match: TONE_MATCH,
         }
     }
 }
@@ -162,6 +173,7 @@ impl DetailParams {
             stipple_mm: self.stipple_mm * k,
             shadows: self.shadows,
             photo_modelling: self.photo_modelling,
+            tone_match: self.tone_match,
         }
     }
 
@@ -178,6 +190,15 @@ impl DetailParams {
     pub fn with_shadows(self, share: f32) -> Self {
         DetailParams {
             shadows: share.clamp(0.0, 1.0),
+            ..self
+        }
+    }
+
+    /// The tone matched to the photo's under the stone's light at `gain` (0: not;
+    /// `glyptic photo --tone-match`; [`Self::tone_match`]).
+    pub fn with_tone_match(self, gain: f32) -> Self {
+        DetailParams {
+            tone_match: if gain.is_finite() { gain.max(0.0) } else { 0.0 },
             ..self
         }
     }
@@ -217,6 +238,12 @@ pub struct FaceDetail {
     replaces: Option<(f32, f32)>,
     /// The moles left aside (photo pixels): retouched out before the detail was read.
     moles: Vec<[f32; 2]>,
+    /// The photo's log brightness per cell (row-major) and the eyes' distance in canonical
+    /// mm at the face (`None`: no light seen): what the carved tone is checked against.
+    bright: Vec<f32>,
+    iod_mm: Option<f32>,
+    /// [`DetailParams::tone_match`] where a tone was read, else 0.
+    tone_match: f32,
     /// Per vertex of the face mesh: photo x, y (pixels) and how squarely the photo sees it
     /// (0: turned away or hidden, 1: facing the camera).
     seen: Vec<[f32; 3]>,
@@ -424,7 +451,19 @@ impl FaceDetail {
             .filter(|(_, band)| band.is_finite() && *band > 0.0);
         // Soften the regions' borders by a cell.
         let height = blur(&height, cols, rows, 0.7);
+        let bright = fine.iter().map(|f| (f + 0.02).max(1e-3).ln()).collect();
+        let iod_mm = light
+            .map(|l| CELLS_PER_IOD * step * l.mm_per_px)
+            .filter(|v| v.is_finite() && *v > 0.0);
+        let tone_match = if tone.is_empty() {
+            0.0
+        } else {
+            params.tone_match
+        };
         Ok(FaceDetail {
+            bright,
+            iod_mm,
+            tone_match,
             origin,
             step,
             cols,
@@ -437,6 +476,25 @@ impl FaceDetail {
             moles,
             seen,
         })
+    }
+
+    /// The photo's log brightness at photo point (x, y) (its fine band), bilinear; 0 outside.
+    pub fn bright_at(&self, x: f32, y: f32) -> f32 {
+        self.sample(&self.bright, x, y)
+    }
+
+    /// The eyes' distance at the face, canonical mm (`None`: no light was seen).
+    pub fn iod_mm(&self) -> Option<f32> {
+        self.iod_mm
+    }
+
+    /// How the carved tone is matched to the photo's under the stone's light: the contrast
+    /// asked for ([`DetailParams::tone_match`]) and the eyes' distance (canonical mm); `None`
+    /// where it is not.
+    pub fn tone_match(&self) -> Option<(f32, f32)> {
+        self.iod_mm
+            .filter(|_| self.tone_match > 0.0 && !self.bright.is_empty())
+            .map(|iod| (self.tone_match, iod))
     }
 
     /// The carved height (canonical mm) at photo point (x, y): bilinear, 0 outside the map.

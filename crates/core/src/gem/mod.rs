@@ -22,6 +22,7 @@
 pub mod basrelief;
 pub(crate) mod blur;
 mod builder;
+mod closure;
 pub mod detail;
 pub mod face;
 pub mod gltf;
@@ -45,7 +46,7 @@ pub use basrelief::Compression;
 pub use builder::{
     CameoBuilder, FACE_EXTENT_MM, MIN_FACE_TRIANGLES, TONE_SUBDIVISION, check_face_mesh,
 };
-pub use detail::{DetailParams, FaceDetail, PHOTO_MODELLING};
+pub use detail::{DetailParams, FaceDetail, PHOTO_MODELLING, TONE_MATCH};
 pub use face::Placement;
 pub use obj::{ObjError, mesh_to_obj, parse_obj, to_obj};
 pub use setting::Setting;

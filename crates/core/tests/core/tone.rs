@@ -116,9 +116,13 @@ fn einstein_details(params: &[DetailParams]) -> (Vec<f32>, Vec<FaceDetail>) {
 /// The detail with the tone's slopes alone (no stipple, nothing sunk): a relief that stays on
 /// the solve grid, whose heights the tests can compare node by node.
 fn smooth_detail() -> DetailParams {
-    DetailParams::default()
-        .stipple_scaled(0.0)
-        .with_shadows(0.0)
+    unmatched().stipple_scaled(0.0).with_shadows(0.0)
+}
+
+/// The detail without the tone's match to the photo under the stone's light: each part's own
+/// cut compared alone (the match then corrects the sum of them all, differently for each).
+fn unmatched() -> DetailParams {
+    DetailParams::default().with_tone_match(0.0)
 }
 
 /// The tone goes into the stone after the bas-relief's compression with its slopes kept: on
@@ -183,10 +187,8 @@ fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
     let depth = DetailParams::default().stipple_mm;
     // (The darks' shadows off in both: they are cut on either grid.)
     let (mesh, d) = einstein_details(&[
-        DetailParams::default().with_shadows(0.0),
-        DetailParams::default()
-            .with_shadows(0.0)
-            .stipple_scaled(0.0),
+        unmatched().with_shadows(0.0),
+        unmatched().with_shadows(0.0).stipple_scaled(0.0),
     ]);
     let (with, without) = (&d[0], &d[1]);
     let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
@@ -256,10 +258,7 @@ fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
 fn the_darks_are_sunk_into_the_key_lights_shadow() {
     use glyptic_core::gem::{CameoBuilder, View};
     let model = crate::fit::model();
-    let (mesh, d) = einstein_details(&[
-        DetailParams::default(),
-        DetailParams::default().with_shadows(0.0),
-    ]);
+    let (mesh, d) = einstein_details(&[unmatched(), unmatched().with_shadows(0.0)]);
     let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
     let tris = &model.shape.triangles;
     let a = b
@@ -447,4 +446,66 @@ fn the_reliefs_fine_forms_give_way_to_the_photos_light_and_dark() {
     let (now, before) = (shadowed(&replaced), shadowed(&added));
     println!("face nodes under half the key light: {before} -> {now}");
     assert!(now < before, "shadowed face nodes {before} -> {now}");
+}
+
+/// The tone's match to the photo under the stone's light (`DetailParams::tone_match`) on
+/// einstein's frontal relief: it moves the face alone (and what its blurs reach), by fractions
+/// of a millimetre. (That the light it leaves is nearer the photo's is `gem::closure`'s unit
+/// test's, on a relief whose answer is known.)
+#[test]
+fn the_tone_match_moves_the_face_alone_towards_the_photos_light() {
+    use glyptic_core::gem::{CameoBuilder, View};
+    let model = crate::fit::model();
+    let (mesh, d) = einstein_details(&[DetailParams::default(), unmatched()]);
+    let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
+    let tris = &model.shape.triangles;
+    let matched = b
+        .relief_detailed(&mesh, tris, &[], Some(&d[0]))
+        .expect("relief");
+    let plain = b
+        .relief_detailed(&mesh, tris, &[], Some(&d[1]))
+        .expect("relief");
+    assert_eq!(
+        (matched.cols, matched.rows, matched.cell),
+        (plain.cols, plain.rows, plain.cell)
+    );
+    let change: Vec<f32> = matched
+        .height
+        .iter()
+        .zip(&plain.height)
+        .map(|(a, b)| a - b)
+        .collect();
+    let (cols, rows) = (plain.cols, plain.rows);
+    // Off the face by more than the band's reach (the match's blurs), nothing moved.
+    let reach = 40isize;
+    let near_face = |i: usize| {
+        let (x, y) = ((i % cols) as isize, (i / cols) as isize);
+        (-reach..=reach).step_by(4).any(|dy| {
+            (-reach..=reach).step_by(4).any(|dx| {
+                let (u, v) = (x + dx, y + dy);
+                u >= 0
+                    && v >= 0
+                    && (u as usize) < cols
+                    && (v as usize) < rows
+                    && plain.face[v as usize * cols + u as usize]
+            })
+        })
+    };
+    assert!(
+        (0..change.len())
+            .filter(|&i| !near_face(i))
+            .all(|i| change[i].abs() < 1e-5),
+        "the relief changed off the face"
+    );
+    let face: Vec<usize> = (0..change.len()).filter(|&i| plain.face[i]).collect();
+    let rms = (face.iter().map(|&i| change[i].powi(2)).sum::<f32>() / face.len() as f32).sqrt();
+    let most = face.iter().map(|&i| change[i].abs()).fold(0f32, f32::max);
+    println!(
+        "tone match: {} face nodes, change {rms:.3} mm rms, {most:.3} at most",
+        face.len()
+    );
+    assert!(
+        rms > 0.005 && most < 1.0,
+        "change {rms} rms, {most} at most"
+    );
 }

@@ -34,14 +34,14 @@ pub(crate) const SPECULAR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgb
 pub(crate) const DEPTH_MASK_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg16Float;
 pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// Ambient light (the 2021 system's 0.2).
-const AMBIENT: f32 = 0.2;
+/// Ambient light: the room's sky (the 2021 system's 0.2), as the relief's tone match assumes.
+const AMBIENT: f32 = glyptic_core::scene::SKY_LIGHT;
 /// How much of the key light that passes through a thin part (the mesh's `transmit`) leaves
 /// it towards the viewer: light lost at entering and leaving, and to the sides; marble's
 /// share, the layered stones' scaled by their scattering.
 const TRANSLUCENCY: f32 = 0.6;
 /// Intensity of the white key light (raking: the flat ground gets sin 20 degrees of it).
-const LIGHT_INTENSITY: f32 = 1.25;
+const LIGHT_INTENSITY: f32 = glyptic_core::scene::KEY_LIGHT_INTENSITY;
 /// Texture-space units per mm for the marble's veins (a few across a 44 x 56 mm cameo; the
 /// 2021 shader used position / 500 on a base about 370 units wide). The noise volume's bake
 /// uses it too.

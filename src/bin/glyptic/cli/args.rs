@@ -212,6 +212,14 @@ pub struct ChoiceArgs {
     /// every gem; 1 as measured (BENCHMARKS.md, issue #37, fourteenth session), 0 both added.
     #[arg(long, value_parser = parse_photo_modelling, default_value = "1")]
     pub photo_modelling: f32,
+    /// How a frontal face's carved light and dark is matched to the photo's as the stone's
+    /// own light shows it (part of the detail), 0..3: after the tone, the stipple and the
+    /// shadows are cut, the relief is lit as the renderer lights it and its slopes along the
+    /// key light corrected where its light differs from the photo's; the value is the
+    /// contrast asked for against the one the carving shows (1 the same, 1.5 as measured:
+    /// BENCHMARKS.md, issue #37, sixteenth session); 0 carves without the match.
+    #[arg(long, value_parser = parse_tone_match, default_value = "1.5")]
+    pub tone_match: f32,
     /// How many faces the likeness search draws and judges with the face-recognition network
     /// (the portrait's identity steered towards the photo, within the face model's prior);
     /// 0 (the default) keeps the landmark fit's identity: on the whole gem the search no
@@ -250,6 +258,11 @@ fn parse_shadows(s: &str) -> Result<f32, String> {
 #[cfg(feature = "face")]
 fn parse_photo_modelling(s: &str) -> Result<f32, String> {
     strength_up_to(s, "photo modelling", 1.0)
+}
+
+#[cfg(feature = "face")]
+fn parse_tone_match(s: &str) -> Result<f32, String> {
+    strength_0_to_3(s, "tone match")
 }
 
 #[cfg(feature = "face")]
@@ -352,6 +365,7 @@ impl ChoiceArgs {
                 .stipple_scaled(self.stipple)
                 .with_shadows(self.shadows)
                 .with_photo_modelling(self.photo_modelling)
+                .with_tone_match(self.tone_match)
         });
         p.shading = (self.shading > 0.0).then(|| glyptic::photometric::ShadingParams {
             strength: self.shading,

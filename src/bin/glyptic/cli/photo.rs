@@ -198,6 +198,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 stipple: 1.0,
                 shadows: 1.0,
                 photo_modelling: glyptic::gem::PHOTO_MODELLING,
+                tone_match: glyptic::gem::TONE_MATCH,
                 likeness_search: 0,
                 shading: 1.0,
                 warp: 1.0,
