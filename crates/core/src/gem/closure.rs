@@ -19,8 +19,9 @@ use crate::scene::{FILL_LIGHT as FILL, KEY_LIGHT_INTENSITY as KEY, SKY_LIGHT as 
 
 /// The band compared, shares of the eyes' distance (Gaussians' sigmas): finer than `FINE` is
 /// the stipple's grain (its pits 0.042 apart), coarser than `BAND` the face's broad form (the
-/// tone's own band).
-const FINE: f32 = 0.03;
+/// tone's own band). Measured: `FINE` 0.015 brings the gems a little nearer their people than
+/// 0.03 by both networks, `BAND` 0.3 further (BENCHMARKS.md, issue #37, sixteenth session).
+const FINE: f32 = 0.015;
 const BAND: f32 = 0.16;
 /// Rounds of light, compare, correct; and the share of each round's correction applied (the
 /// light is not linear in the slope, and the shadows move). Measured on three photo sets by
