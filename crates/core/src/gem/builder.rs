@@ -494,9 +494,16 @@ impl CameoBuilder {
         let mut stippled = Vec::new();
         // How much of each node the photo's strongest darks sink into the key light's shadow.
         let mut carve = Vec::new();
-        if let (Some(d), Some(ph)) = (tone_detail, &photo) {
-            let weight = grid.up(&tone_weight);
-            let point = grid.up_points(&ph.point, &ph.seen);
+        // The tone's weight and the photo point of each node of the finer grid: the tone, the
+        // stipple, the cut and the tone's match all read them.
+        let photo_nodes = tone_detail.zip(photo.as_ref()).map(|(d, ph)| {
+            (
+                d,
+                grid.up(&tone_weight),
+                grid.up_points(&ph.point, &ph.seen),
+            )
+        });
+        if let Some((d, weight, point)) = &photo_nodes {
             if k > 1 {
                 stippled = vec![false; n];
             }
@@ -594,13 +601,10 @@ impl CameoBuilder {
         // (`DetailParams::tone_match`): the tone, the pits and the cut add up with the
         // relief's own forms, and the raking light shows each its own way.
         let mut sharp = sharp;
-        if let (Some(d), Some(ph), Some((gain, iod))) = (
-            tone_detail,
-            &photo,
-            tone_detail.and_then(|d| d.tone_match()),
-        ) {
-            let weight = grid.up(&tone_weight);
-            let point = grid.up_points(&ph.point, &ph.seen);
+        let matched = photo_nodes
+            .as_ref()
+            .and_then(|(d, weight, point)| d.tone_match().map(|m| (d, weight, point, m)));
+        if let Some((d, weight, point, (gain, iod))) = matched {
             let target: Vec<f32> = (0..n)
                 .map(|i| {
                     if weight[i] > 0.0 && outline[i] >= OUTLINE_LEVEL {
@@ -615,7 +619,7 @@ impl CameoBuilder {
                 &mut height,
                 &mut top,
                 &target,
-                &weight,
+                weight,
                 super::closure::Grid { cols, rows, cell },
                 light,
                 portrait_box,

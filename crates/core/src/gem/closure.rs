@@ -218,6 +218,8 @@ pub(super) fn close(
         let vis = penumbra(&light_visibility(&part, w, h, cell, light), w, h);
         (radiance(&part, &vis, &cav, w, h, cell, light), vis)
     };
+    // Off the face the corrections are held at 0.
+    let hold: Vec<f32> = wt.iter().map(|w| (1.0 - w.min(1.0)).max(0.0)).collect();
     let mut first = 0.0;
     let mut last = 0.0;
     let mut changed = false;
@@ -252,7 +254,6 @@ pub(super) fn close(
             .zip(&smooth_vis)
             .map(|(w, v)| w * v.max(0.1))
             .collect();
-        let hold: Vec<f32> = wt.iter().map(|w| (1.0 - w.min(1.0)).max(0.0)).collect();
         let dh = super::tone::fit_slopes_halved(
             &slope,
             &fit_w,

@@ -238,8 +238,9 @@ pub struct FaceDetail {
     replaces: Option<(f32, f32)>,
     /// The moles left aside (photo pixels): retouched out before the detail was read.
     moles: Vec<[f32; 2]>,
-    /// The photo's log brightness per cell (row-major) and the eyes' distance in canonical
-    /// mm at the face (`None`: no light seen): what the carved tone is checked against.
+    /// The photo's log brightness per cell (row-major; empty where the tone is not matched)
+    /// and the eyes' distance in canonical mm at the face (`None`: no light seen): what the
+    /// carved tone is checked against.
     bright: Vec<f32>,
     iod_mm: Option<f32>,
     /// [`DetailParams::tone_match`] where a tone was read, else 0.
@@ -451,14 +452,19 @@ impl FaceDetail {
             .filter(|(_, band)| band.is_finite() && *band > 0.0);
         // Soften the regions' borders by a cell.
         let height = blur(&height, cols, rows, 0.7);
-        let bright = fine.iter().map(|f| (f + 0.02).max(1e-3).ln()).collect();
-        let iod_mm = light
-            .map(|l| CELLS_PER_IOD * step * l.mm_per_px)
-            .filter(|v| v.is_finite() && *v > 0.0);
+        // What the tone's match compares the stone's light with: only where it will run.
         let tone_match = if tone.is_empty() {
             0.0
         } else {
             params.tone_match
+        };
+        let iod_mm = light
+            .map(|l| CELLS_PER_IOD * step * l.mm_per_px)
+            .filter(|v| v.is_finite() && *v > 0.0);
+        let bright = if tone_match > 0.0 && iod_mm.is_some() {
+            fine.iter().map(|f| (f + 0.02).max(1e-3).ln()).collect()
+        } else {
+            Vec::new()
         };
         Ok(FaceDetail {
             bright,
@@ -478,14 +484,10 @@ impl FaceDetail {
         })
     }
 
-    /// The photo's log brightness at photo point (x, y) (its fine band), bilinear; 0 outside.
+    /// The photo's log brightness at photo point (x, y) (its fine band), bilinear; 0 outside
+    /// (and where the tone is not matched).
     pub fn bright_at(&self, x: f32, y: f32) -> f32 {
         self.sample(&self.bright, x, y)
-    }
-
-    /// The eyes' distance at the face, canonical mm (`None`: no light was seen).
-    pub fn iod_mm(&self) -> Option<f32> {
-        self.iod_mm
     }
 
     /// How the carved tone is matched to the photo's under the stone's light: the contrast

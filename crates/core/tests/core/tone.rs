@@ -113,6 +113,23 @@ fn einstein_details(params: &[DetailParams]) -> (Vec<f32>, Vec<FaceDetail>) {
     (mesh, details)
 }
 
+/// Whether relief node `i` lies within `reach` nodes of the face (`face`, a `cols`-wide grid),
+/// looking every `step` nodes across that square.
+fn near_face(face: &[bool], cols: usize, i: usize, reach: isize, step: usize) -> bool {
+    let rows = face.len() / cols;
+    let (x, y) = ((i % cols) as isize, (i / cols) as isize);
+    (-reach..=reach).step_by(step).any(|dy| {
+        (-reach..=reach).step_by(step).any(|dx| {
+            let (u, v) = (x + dx, y + dy);
+            u >= 0
+                && v >= 0
+                && (u as usize) < cols
+                && (v as usize) < rows
+                && face[v as usize * cols + u as usize]
+        })
+    })
+}
+
 /// The detail with the tone's slopes alone (no stipple, nothing sunk): a relief that stays on
 /// the solve grid, whose heights the tests can compare node by node.
 fn smooth_detail() -> DetailParams {
@@ -219,21 +236,8 @@ fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
     let cut = (0..diff.len()).filter(|&i| diff[i] < -0.02).count();
     // Off the face: beyond a solve-grid cell of its nodes (the face's border cell is refined
     // from both sides).
-    let near_face = |i: usize| {
-        let (x, y) = ((i % a.cols) as isize, (i / a.cols) as isize);
-        (-2..=2).any(|dy| {
-            (-2..=2).any(|dx| {
-                let (u, v) = (x + dx, y + dy);
-                u >= 0
-                    && v >= 0
-                    && (u as usize) < a.cols
-                    && (v as usize) < a.rows
-                    && a.face[v as usize * a.cols + u as usize]
-            })
-        })
-    };
     let off_face = (0..diff.len())
-        .filter(|&i| !near_face(i))
+        .filter(|&i| !near_face(&a.face, a.cols, i, 2, 1))
         .all(|i| diff[i].abs() < 1e-4);
     let deepest = diff.iter().fold(0f32, |m, d| m.min(*d));
     let share = cut as f32 / face_nodes as f32;
@@ -409,23 +413,9 @@ fn the_reliefs_fine_forms_give_way_to_the_photos_light_and_dark() {
         rms(&taken)
     );
     // Off the face (a band's width from it), nothing moved.
-    let near_face = |i: usize| {
-        let (x, y) = ((i % cols) as isize, (i / cols) as isize);
-        let r = reach as isize;
-        (-r..=r).step_by(2).any(|dy| {
-            (-r..=r).step_by(2).any(|dx| {
-                let (u, v) = (x + dx, y + dy);
-                u >= 0
-                    && v >= 0
-                    && (u as usize) < cols
-                    && (v as usize) < rows
-                    && bare.face[v as usize * cols + u as usize]
-            })
-        })
-    };
     assert!(
         (0..change.len())
-            .filter(|&i| !near_face(i))
+            .filter(|&i| !near_face(&bare.face, cols, i, reach as isize, 2))
             .all(|i| change[i].abs() < 1e-4),
         "the relief changed off the face"
     );
@@ -475,25 +465,10 @@ fn the_tone_match_moves_the_face_alone_towards_the_photos_light() {
         .zip(&plain.height)
         .map(|(a, b)| a - b)
         .collect();
-    let (cols, rows) = (plain.cols, plain.rows);
     // Off the face by more than the band's reach (the match's blurs), nothing moved.
-    let reach = 40isize;
-    let near_face = |i: usize| {
-        let (x, y) = ((i % cols) as isize, (i / cols) as isize);
-        (-reach..=reach).step_by(4).any(|dy| {
-            (-reach..=reach).step_by(4).any(|dx| {
-                let (u, v) = (x + dx, y + dy);
-                u >= 0
-                    && v >= 0
-                    && (u as usize) < cols
-                    && (v as usize) < rows
-                    && plain.face[v as usize * cols + u as usize]
-            })
-        })
-    };
     assert!(
         (0..change.len())
-            .filter(|&i| !near_face(i))
+            .filter(|&i| !near_face(&plain.face, plain.cols, i, 40, 4))
             .all(|i| change[i].abs() < 1e-5),
         "the relief changed off the face"
     );
