@@ -2,13 +2,14 @@
 //! thread's `CameoBuilder::build_after` (warm-started, the builder made once) for each photo's
 //! fitted face, frontal, with the photo's detail as the kiosk carves it, the same without the
 //! tone's match to the photo under the stone's light, without the
-//! darks sunk into the key light's shadow, with its detail but no stipple (the relief's grid
-//! stays at the solve grid's 0.2 mm), and without any detail.
+//! darks sunk into the key light's shadow, without the engraved lines, with its detail but no
+//! stipple and no lines (the relief's grid stays at the solve grid's 0.2 mm), and without any
+//! detail.
 //! The variants are timed in turn, `--rounds` alternations of `--builds` builds after 3 warm-up
 //! builds each, and their medians printed with the meshes' sizes.
 //!
 //! `cargo run --release --example gem_rebuild -- PHOTO... [--builds 21] [--rounds 4]
-//! [--only K]` (`--only K`: time the K-th variant alone, 0-4, for a profiler)
+//! [--only K]` (`--only K`: time the K-th variant alone, 0-5, for a profiler)
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -54,6 +55,7 @@ fn main() -> Result<()> {
             .with_context(|| format!("{}", path.display()))?;
         pipeline.detail = Some(DetailParams {
             stipple_mm: 0.0,
+            engraved_lines_mm: 0.0,
             shadows: 0.0,
             ..DetailParams::default()
         });
@@ -62,13 +64,16 @@ fn main() -> Result<()> {
         let unshadowed = pipeline.photo(path)?.detail;
         pipeline.detail = Some(DetailParams::default().with_tone_match(0.0));
         let unmatched = pipeline.photo(path)?.detail;
+        pipeline.detail = Some(DetailParams::default().engraved_lines_scaled(0.0));
+        let unlined = pipeline.photo(path)?.detail;
         let builder = CameoBuilder::new(&pg.cameo)?;
         let face = &pg.face.portrait;
-        let variants: [(&str, Option<&FaceDetail>); 5] = [
+        let variants: [(&str, Option<&FaceDetail>); 6] = [
             ("detail, stippled", pg.detail.as_ref()),
             ("detail, stippled, no tone match", unmatched.as_ref()),
             ("detail, stippled, no shadows", unshadowed.as_ref()),
-            ("detail, no stipple", smooth.as_ref()),
+            ("detail, stippled, no engraved lines", unlined.as_ref()),
+            ("detail, no stipple or lines", smooth.as_ref()),
             ("no detail", None),
         ];
         let mut times = vec![Vec::new(); variants.len()];

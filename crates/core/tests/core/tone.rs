@@ -41,6 +41,7 @@ fn the_tone_under_the_key_light_gives_back_the_photos_light_and_dark() {
         // The slopes alone: the stipple's pits are `the_stipple_is_cut_on_a_finer_grid...`'s.
         let p = DetailParams {
             stipple_mm: 0.0,
+            engraved_lines_mm: 0.0,
             shadows: 0.0,
             ..DetailParams::default()
         };
@@ -130,10 +131,13 @@ fn near_face(face: &[bool], cols: usize, i: usize, reach: isize, step: usize) ->
     })
 }
 
-/// The detail with the tone's slopes alone (no stipple, nothing sunk): a relief that stays on
-/// the solve grid, whose heights the tests can compare node by node.
+/// The detail with the tone's slopes alone (no stipple, no engraved lines, nothing sunk): a
+/// relief that stays on the solve grid, whose heights the tests can compare node by node.
 fn smooth_detail() -> DetailParams {
-    unmatched().stipple_scaled(0.0).with_shadows(0.0)
+    unmatched()
+        .stipple_scaled(0.0)
+        .engraved_lines_scaled(0.0)
+        .with_shadows(0.0)
 }
 
 /// The detail without the tone's match to the photo under the stone's light: each part's own
@@ -202,11 +206,10 @@ fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
     use glyptic_core::gem::{CameoBuilder, TONE_SUBDIVISION, View};
     let model = crate::fit::model();
     let depth = DetailParams::default().stipple_mm;
-    // (The darks' shadows off in both: they are cut on either grid.)
-    let (mesh, d) = einstein_details(&[
-        unmatched().with_shadows(0.0),
-        unmatched().with_shadows(0.0).stipple_scaled(0.0),
-    ]);
+    // (The darks' shadows off in both: they are cut on either grid; the engraved lines off:
+    // the next test's.)
+    let pits = unmatched().with_shadows(0.0).engraved_lines_scaled(0.0);
+    let (mesh, d) = einstein_details(&[pits, pits.stipple_scaled(0.0)]);
     let (with, without) = (&d[0], &d[1]);
     let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
     let tris = &model.shape.triangles;
@@ -252,6 +255,65 @@ fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
         "deepest {deepest}"
     );
     assert!(share > 0.05 && share < 0.6, "share cut {share}");
+}
+
+/// The photo's dark lines engraved on einstein's frontal relief
+/// (`DetailParams::engraved_lines_mm`): cut into the face only, never raising it, as deep as
+/// asked at most, along a small share of the face's nodes (lines, not the face's darks: fewer
+/// than the stipple's pits), kept on the finer grid's cells like the pits.
+#[test]
+fn the_photos_dark_lines_are_engraved_into_the_face_only() {
+    use glyptic_core::gem::{CameoBuilder, TONE_SUBDIVISION, View};
+    let model = crate::fit::model();
+    let depth = DetailParams::default().engraved_lines_mm;
+    let (mesh, d) = einstein_details(&[
+        unmatched().stipple_scaled(0.0).with_shadows(0.0),
+        smooth_detail(),
+        unmatched().with_shadows(0.0).engraved_lines_scaled(0.0),
+    ]);
+    let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
+    let tris = &model.shape.triangles;
+    let relief = |p| {
+        b.relief_detailed(&mesh, tris, &[], Some(p))
+            .expect("relief")
+    };
+    let (lined, smooth, pitted) = (relief(&d[0]), relief(&d[1]), relief(&d[2]));
+    // The lines refine the grid as the pits do: compared at the solve grid's nodes.
+    let k = TONE_SUBDIVISION;
+    assert_eq!(
+        (lined.cols, lined.rows),
+        ((smooth.cols - 1) * k + 1, (smooth.rows - 1) * k + 1)
+    );
+    assert!(
+        lined.stippled.iter().any(|s| *s),
+        "no line kept on the finer grid"
+    );
+    let at = |i: usize| (i / smooth.cols) * k * lined.cols + (i % smooth.cols) * k;
+    let diff: Vec<f32> = (0..smooth.height.len())
+        .map(|i| lined.height[at(i)] - smooth.height[i])
+        .collect();
+    let face_nodes = smooth.face.iter().filter(|f| **f).count();
+    let cut = diff.iter().filter(|d| **d < -0.02).count();
+    let deepest = diff.iter().fold(0f32, |m, d| m.min(*d));
+    let off_face = (0..diff.len())
+        .filter(|&i| !near_face(&smooth.face, smooth.cols, i, 2, 1))
+        .all(|i| diff[i].abs() < 1e-4);
+    let pits = pitted.stippled.iter().filter(|s| **s).count();
+    let lines = lined.stippled.iter().filter(|s| **s).count();
+    println!(
+        "lines: {cut} of {face_nodes} face nodes cut, deepest {deepest:.2} mm; {lines} fine nodes \
+         kept against the stipple's {pits}"
+    );
+    assert!(off_face, "a line off the face");
+    assert!(diff.iter().all(|d| *d <= 1e-4), "a line raised the stone");
+    assert!(deepest < -0.1, "the lines barely cut: {deepest} mm");
+    assert!(
+        deepest >= -depth / smooth.canonical_per_gem - 1e-3,
+        "deepest {deepest}"
+    );
+    let share = cut as f32 / face_nodes as f32;
+    assert!(share > 0.005 && share < 0.2, "share cut {share}");
+    assert!(lines < pits, "{lines} line nodes against {pits} pits'");
 }
 
 /// The photo's strongest darks sunk into the key light's shadow on einstein's frontal relief

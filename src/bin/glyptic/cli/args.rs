@@ -200,6 +200,13 @@ pub struct ChoiceArgs {
     /// CPU the photo is then about a tenth faster), 1 as measured (BENCHMARKS.md, issue #37).
     #[arg(long, value_parser = parse_stipple, default_value = "1")]
     pub stipple: f32,
+    /// How deep the photo's dark lines are engraved into a frontal face (part of the detail):
+    /// the lash line, the lid's crease, the lips' line and the folds, each a narrow groove
+    /// along the photo's brightness valley, as an engraver cuts a line where dots cannot,
+    /// 0..3: 0 leaves the lines to the stipple and the slopes, 1 as measured (BENCHMARKS.md,
+    /// issue #37, seventeenth session).
+    #[arg(long, value_parser = parse_engraved_lines, default_value = "1")]
+    pub engraved_lines: f32,
     /// How much of the photo's strongest darks in a frontal face (part of the detail) is cut
     /// into the shadow the key light casts, 0..1: the stone there sunk under the shadow's line
     /// (the eye's corners and lashes, a nostril, the lips' line, glasses' rims), as a carver
@@ -248,6 +255,11 @@ fn parse_detail(s: &str) -> Result<f32, String> {
 #[cfg(feature = "face")]
 fn parse_stipple(s: &str) -> Result<f32, String> {
     strength_0_to_3(s, "stipple")
+}
+
+#[cfg(feature = "face")]
+fn parse_engraved_lines(s: &str) -> Result<f32, String> {
+    strength_0_to_3(s, "engraved lines")
 }
 
 #[cfg(feature = "face")]
@@ -363,6 +375,7 @@ impl ChoiceArgs {
             glyptic::gem::DetailParams::default()
                 .scaled(self.detail)
                 .stipple_scaled(self.stipple)
+                .engraved_lines_scaled(self.engraved_lines)
                 .with_shadows(self.shadows)
                 .with_photo_modelling(self.photo_modelling)
                 .with_tone_match(self.tone_match)

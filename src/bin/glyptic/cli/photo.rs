@@ -196,6 +196,7 @@ pub(super) fn render_mean(args: &RenderArgs) -> Result<()> {
                 glasses: GlassesArg::Carve,
                 detail: 1.0,
                 stipple: 1.0,
+                engraved_lines: 1.0,
                 shadows: 1.0,
                 photo_modelling: glyptic::gem::PHOTO_MODELLING,
                 tone_match: glyptic::gem::TONE_MATCH,
