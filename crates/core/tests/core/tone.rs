@@ -131,6 +131,24 @@ fn near_face(face: &[bool], cols: usize, i: usize, reach: isize, step: usize) ->
     })
 }
 
+/// A relief refined to the tone's finer grid (the stipple's, the lines') less one on the solve
+/// grid, at the solve grid's nodes (every `TONE_SUBDIVISION`-th of the finer grid's), where
+/// the two share the outline and all but the finer cuts.
+fn finer_less_solve(
+    finer: &glyptic_core::gem::Relief,
+    solve: &glyptic_core::gem::Relief,
+) -> Vec<f32> {
+    let k = glyptic_core::gem::TONE_SUBDIVISION;
+    assert_eq!(
+        (finer.cols, finer.rows),
+        ((solve.cols - 1) * k + 1, (solve.rows - 1) * k + 1)
+    );
+    let at = |i: usize| (i / solve.cols) * k * finer.cols + (i % solve.cols) * k;
+    (0..solve.height.len())
+        .map(|i| finer.height[at(i)] - solve.height[i])
+        .collect()
+}
+
 /// The detail with the tone's slopes alone (no stipple, no engraved lines, nothing sunk): a
 /// relief that stays on the solve grid, whose heights the tests can compare node by node.
 fn smooth_detail() -> DetailParams {
@@ -224,14 +242,7 @@ fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
     // outline, the tone and all but the pits.
     let k = TONE_SUBDIVISION;
     assert_eq!((z.cell, a.cell * k as f32), (b.params().cell, z.cell));
-    assert_eq!(
-        (a.cols, a.rows),
-        ((z.cols - 1) * k + 1, (z.rows - 1) * k + 1)
-    );
-    let at = |i: usize| (i / z.cols) * k * a.cols + (i % z.cols) * k;
-    let diff: Vec<f32> = (0..z.height.len())
-        .map(|i| a.height[at(i)] - z.height[i])
-        .collect();
+    let diff = finer_less_solve(&a, &z);
     let pitted = a.stippled.iter().filter(|s| **s).count();
     assert!(pitted > 0 && a.stippled.len() == a.height.len());
     let a = z;
@@ -263,7 +274,7 @@ fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
 /// than the stipple's pits), kept on the finer grid's cells like the pits.
 #[test]
 fn the_photos_dark_lines_are_engraved_into_the_face_only() {
-    use glyptic_core::gem::{CameoBuilder, TONE_SUBDIVISION, View};
+    use glyptic_core::gem::{CameoBuilder, View};
     let model = crate::fit::model();
     let depth = DetailParams::default().engraved_lines_mm;
     let (mesh, d) = einstein_details(&[
@@ -279,19 +290,11 @@ fn the_photos_dark_lines_are_engraved_into_the_face_only() {
     };
     let (lined, smooth, pitted) = (relief(&d[0]), relief(&d[1]), relief(&d[2]));
     // The lines refine the grid as the pits do: compared at the solve grid's nodes.
-    let k = TONE_SUBDIVISION;
-    assert_eq!(
-        (lined.cols, lined.rows),
-        ((smooth.cols - 1) * k + 1, (smooth.rows - 1) * k + 1)
-    );
     assert!(
         lined.stippled.iter().any(|s| *s),
         "no line kept on the finer grid"
     );
-    let at = |i: usize| (i / smooth.cols) * k * lined.cols + (i % smooth.cols) * k;
-    let diff: Vec<f32> = (0..smooth.height.len())
-        .map(|i| lined.height[at(i)] - smooth.height[i])
-        .collect();
+    let diff = finer_less_solve(&lined, &smooth);
     let face_nodes = smooth.face.iter().filter(|f| **f).count();
     let cut = diff.iter().filter(|d| **d < -0.02).count();
     let deepest = diff.iter().fold(0f32, |m, d| m.min(*d));
