@@ -46,7 +46,10 @@
 //! `--sface-judge DIR` (SFace's descriptors of a kept run's pictures, in the judge's format,
 //! on standard output: to score pictures changed after the run by the project's own network
 //! as `--score` does by another's), `--classical-hair` (the same classical
-//! hair for everyone, as `photo --hair classical`))
+//! hair for everyone, as `photo --hair classical`), `--judge-detector MODEL` (the faces on
+//! the photos and the pictures judged are found by this detector, e.g. `models/yunet.onnx`,
+//! rather than the product's: a stone face a detector misses counts as a miss, and which
+//! gems one detector misses says more about that detector than about the gems))
 
 use std::collections::HashMap;
 use std::io::Write;
@@ -134,6 +137,7 @@ fn main() -> Result<()> {
     let mut out: Option<PathBuf> = None;
     let mut judge_file: Option<PathBuf> = None;
     let mut judge_threshold = 0.6f64;
+    let mut judge_detector: Option<PathBuf> = None;
     let mut detail = true;
     let mut identity = true;
     let mut steps: Option<usize> = None;
@@ -220,6 +224,7 @@ fn main() -> Result<()> {
             }
             "--score" => score = Some(PathBuf::from(value()?)),
             "--sface-judge" => sface_judge = Some(PathBuf::from(value()?)),
+            "--judge-detector" => judge_detector = Some(PathBuf::from(value()?)),
             "--detail-maps" => maps = Some(PathBuf::from(value()?)),
             "--expression" => expression = Some(value()?.parse()?),
             "--caricature" => {
@@ -269,6 +274,15 @@ fn main() -> Result<()> {
         Hair::Photo
     };
     let mut pipeline = GemPipeline::load(&models, CameoParams::default(), hair)?;
+    // The judge's own detector, for the photos and the pictures alike (the gem's pipeline
+    // keeps the product's).
+    let mut judge_detector = match &judge_detector {
+        Some(p) => Some(
+            glyptic::detect::FaceDetector::load(p, &models.onnxruntime)
+                .with_context(|| format!("--judge-detector {}", p.display()))?,
+        ),
+        None => None,
+    };
     if !detail {
         pipeline.detail = None;
     }
@@ -384,13 +398,16 @@ fn main() -> Result<()> {
                 img.save(dir.join(format!("{j:03}-shadow.png")))?;
             }
         }
-        let photo_emb = embedder.embed(&img, &pg.face.landmarks).ok();
-        photo_rows.push((
-            *person,
-            path.clone(),
-            Some(pg.face.landmarks.clone()),
-            photo_emb,
-        ));
+        // The photo's landmarks as the judge finds them: the product's, or its own
+        // detector's (none found: the photo is judged by the product's).
+        let photo_landmarks = match judge_detector.as_mut() {
+            Some(d) => {
+                find_face(&mut pipeline, Some(d), &img).unwrap_or_else(|| pg.face.landmarks.clone())
+            }
+            None => pg.face.landmarks.clone(),
+        };
+        let photo_emb = embedder.embed(&img, &photo_landmarks).ok();
+        photo_rows.push((*person, path.clone(), Some(photo_landmarks), photo_emb));
         for &view in &views {
             let cameo = CameoParams {
                 view,
@@ -407,7 +424,7 @@ fn main() -> Result<()> {
             let rgb = image::DynamicImage::ImageRgba8(rgba).into_rgb8();
             let kind = Kind::Gem(view);
             let file = save(&out, kind, j, &rgb)?;
-            let landmarks = find_face(&mut pipeline, &rgb);
+            let landmarks = find_face(&mut pipeline, judge_detector.as_mut(), &rgb);
             let embedding = landmarks
                 .as_ref()
                 .and_then(|l| embedder.embed(&rgb, l).ok());
@@ -425,7 +442,7 @@ fn main() -> Result<()> {
                 embedder.embed_aligned(&buf, 1).ok()?.pop()
             });
             // For another judge: the 68 landmarks its own pipeline finds on the render.
-            let landmarks = find_face(&mut pipeline, &rgb);
+            let landmarks = find_face(&mut pipeline, judge_detector.as_mut(), &rgb);
             pictures.push(Picture::new(kind, (*person, j), file, landmarks, embedding));
         }
         if (j + 1) % 10 == 0 {
@@ -606,9 +623,22 @@ fn sface_descriptors(dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// The subject's 68 landmarks on a picture, as on a photo; `None` without a face.
-fn find_face(pipeline: &mut GemPipeline, rgb: &image::RgbImage) -> Option<Vec<[f32; 2]>> {
-    let faces = pipeline.face.faces.detect(rgb).ok()?;
+/// The subject's 68 landmarks on a picture, as on a photo (found by `judge` where given, else
+/// by the product's detector); `None` without a face.
+fn find_face(
+    pipeline: &mut GemPipeline,
+    judge: Option<&mut glyptic::detect::FaceDetector>,
+    rgb: &image::RgbImage,
+) -> Option<Vec<[f32; 2]>> {
+    let faces = match judge {
+        Some(d) => {
+            let opts = pipeline.face.faces.detect_options.clone();
+            let mut faces = d.detect(rgb, &opts).ok()?;
+            glyptic::detect::rank_faces(&mut faces, opts.prefer, rgb.width(), rgb.height());
+            faces
+        }
+        None => pipeline.face.faces.detect(rgb).ok()?,
+    };
     let first = faces.first()?;
     let mut found = pipeline
         .face

