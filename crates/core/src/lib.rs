@@ -28,5 +28,6 @@ pub mod scene;
 pub mod shapemodel;
 mod simd;
 pub mod smooth;
+pub mod stats;
 pub mod stone;
 pub mod warp;

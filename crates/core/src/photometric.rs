@@ -751,19 +751,6 @@ pub(crate) mod tests {
         })
     }
 
-    /// Pearson's correlation of two series (0 when either is flat).
-    pub(crate) fn correlation(a: &[f32], b: &[f32]) -> f32 {
-        let n = a.len() as f32;
-        let (ma, mb) = (a.iter().sum::<f32>() / n, b.iter().sum::<f32>() / n);
-        let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-        for (x, y) in a.iter().zip(b) {
-            ab += (x - ma) * (y - mb);
-            aa += (x - ma) * (x - ma);
-            bb += (y - mb) * (y - mb);
-        }
-        ab / (aa * bb).sqrt().max(1e-12)
-    }
-
     #[test]
     fn a_bump_the_landmarks_cannot_see_is_read_from_the_shading() {
         let (mesh, tris, pose) = dome();
@@ -792,7 +779,7 @@ pub(crate) mod tests {
                 want.push(bump(v[0], v[1]));
             }
         }
-        let r = correlation(&got, &want);
+        let r = crate::stats::correlation(&got, &want);
         let peak = got.iter().copied().fold(f32::MIN, f32::max);
         assert!(r > 0.8, "correlation {r}");
         assert!((1.0..=4.0).contains(&peak), "peak {peak} mm for 3 mm");

@@ -1014,7 +1014,7 @@ pub(crate) mod tests {
                 b.push(f32::from(img.get_pixel(x as u32, y as u32).0[0]) - local);
             }
         }
-        let corr = crate::photometric::tests::correlation(&a, &b);
+        let corr = crate::stats::correlation(&a, &b);
         assert!(corr > 0.5, "shading against the photo: correlation {corr}");
         let none = FaceDetail::read(&img, &lm, Vec::new(), &p, None).expect("detail");
         assert!(none.tone_map().is_empty());

@@ -5,20 +5,9 @@
 use crate::common;
 
 use glyptic_core::fit::{self, FitOptions};
-use glyptic_core::gem::DetailParams;
 use glyptic_core::gem::detail::{FaceDetail, ToneLight, seen_vertices};
-
-fn correlation(a: &[f32], b: &[f32]) -> f32 {
-    let n = a.len() as f32;
-    let (ma, mb) = (a.iter().sum::<f32>() / n, b.iter().sum::<f32>() / n);
-    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
-    for (x, y) in a.iter().zip(b) {
-        ab += (x - ma) * (y - mb);
-        aa += (x - ma) * (x - ma);
-        bb += (y - mb) * (y - mb);
-    }
-    ab / (aa * bb).sqrt().max(1e-12)
-}
+use glyptic_core::gem::{CameoBuilder, DetailParams, Relief, View};
+use glyptic_core::stats::correlation;
 
 #[test]
 fn the_tone_under_the_key_light_gives_back_the_photos_light_and_dark() {
@@ -114,6 +103,27 @@ fn einstein_details(params: &[DetailParams]) -> (Vec<f32>, Vec<FaceDetail>) {
     (mesh, details)
 }
 
+/// Einstein's relief in `view` (its builder's solve cell with it) with each of `details`
+/// carved, in order.
+fn reliefs(view: View, mesh: &[f32], details: &[&FaceDetail]) -> (f32, Vec<Relief>) {
+    let model = crate::fit::model();
+    let b = CameoBuilder::new(&view.cameo()).expect("a builder");
+    let out = details
+        .iter()
+        .map(|d| {
+            b.relief_detailed(mesh, &model.shape.triangles, &[], Some(d))
+                .expect("relief")
+        })
+        .collect();
+    (b.params().cell, out)
+}
+
+/// `a`'s heights less `b`'s, node by node (the two on one grid).
+fn height_less(a: &Relief, b: &Relief) -> Vec<f32> {
+    assert_eq!((a.cols, a.rows, a.cell), (b.cols, b.rows, b.cell));
+    a.height.iter().zip(&b.height).map(|(x, y)| x - y).collect()
+}
+
 /// Whether relief node `i` lies within `reach` nodes of the face (`face`, a `cols`-wide grid),
 /// looking every `step` nodes across that square.
 fn near_face(face: &[bool], cols: usize, i: usize, reach: isize, step: usize) -> bool {
@@ -134,10 +144,7 @@ fn near_face(face: &[bool], cols: usize, i: usize, reach: isize, step: usize) ->
 /// A relief refined to the tone's finer grid (the stipple's, the lines') less one on the solve
 /// grid, at the solve grid's nodes (every `TONE_SUBDIVISION`-th of the finer grid's), where
 /// the two share the outline and all but the finer cuts.
-fn finer_less_solve(
-    finer: &glyptic_core::gem::Relief,
-    solve: &glyptic_core::gem::Relief,
-) -> Vec<f32> {
+fn finer_less_solve(finer: &Relief, solve: &Relief) -> Vec<f32> {
     let k = glyptic_core::gem::TONE_SUBDIVISION;
     assert_eq!(
         (finer.cols, finer.rows),
@@ -170,8 +177,6 @@ fn unmatched() -> DetailParams {
 /// a profile carves none of it. Without the stipple the relief stays on the solve grid.
 #[test]
 fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
-    use glyptic_core::gem::{CameoBuilder, View};
-    let model = crate::fit::model();
     let smooth = smooth_detail();
     let (mesh, d) = einstein_details(&[
         smooth,
@@ -180,19 +185,12 @@ fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
             ..smooth
         },
     ]);
-    let (with, without) = (&d[0], &d[1]);
     for view in [View::Frontal, View::Profile] {
-        let b = CameoBuilder::new(&view.cameo()).expect("a builder");
-        let tris = &model.shape.triangles;
-        let a = b
-            .relief_detailed(&mesh, tris, &[], Some(with))
-            .expect("relief");
-        let z = b
-            .relief_detailed(&mesh, tris, &[], Some(without))
-            .expect("relief");
-        assert_eq!((a.cell, z.cell), (b.params().cell, b.params().cell));
+        let (solve_cell, r) = reliefs(view, &mesh, &[&d[0], &d[1]]);
+        let (a, z) = (&r[0], &r[1]);
+        assert_eq!((a.cell, z.cell), (solve_cell, solve_cell));
         let (cols, cell) = (z.cols, z.cell);
-        let diff: Vec<f32> = a.height.iter().zip(&z.height).map(|(x, y)| x - y).collect();
+        let diff = height_less(a, z);
         let off_face = (0..diff.len())
             .filter(|&i| !z.face[i] && z.height[i] == 0.0)
             .all(|i| diff[i] == 0.0);
@@ -221,27 +219,19 @@ fn the_tone_is_carved_after_the_compression_and_only_in_a_frontal_portrait() {
 /// photo is dark (a share of the face's nodes, not all of it).
 #[test]
 fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
-    use glyptic_core::gem::{CameoBuilder, TONE_SUBDIVISION, View};
-    let model = crate::fit::model();
+    use glyptic_core::gem::TONE_SUBDIVISION;
     let depth = DetailParams::default().stipple_mm;
     // (The darks' shadows off in both: they are cut on either grid; the engraved lines off:
     // the next test's.)
     let pits = unmatched().with_shadows(0.0).engraved_lines_scaled(0.0);
     let (mesh, d) = einstein_details(&[pits, pits.stipple_scaled(0.0)]);
-    let (with, without) = (&d[0], &d[1]);
-    let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
-    let tris = &model.shape.triangles;
-    let a = b
-        .relief_detailed(&mesh, tris, &[], Some(with))
-        .expect("relief");
-    let z = b
-        .relief_detailed(&mesh, tris, &[], Some(without))
-        .expect("relief");
+    let (solve_cell, mut r) = reliefs(View::Frontal, &mesh, &[&d[0], &d[1]]);
+    let (z, a) = (r.pop().expect("smooth"), r.pop().expect("stippled"));
     // The stippled relief on the finer grid, the smooth one on the solve grid: compared at
     // the solve grid's nodes (every k-th of the finer grid's), where the two share the
     // outline, the tone and all but the pits.
     let k = TONE_SUBDIVISION;
-    assert_eq!((z.cell, a.cell * k as f32), (b.params().cell, z.cell));
+    assert_eq!((z.cell, a.cell * k as f32), (solve_cell, z.cell));
     let diff = finer_less_solve(&a, &z);
     let pitted = a.stippled.iter().filter(|s| **s).count();
     assert!(pitted > 0 && a.stippled.len() == a.height.len());
@@ -274,21 +264,14 @@ fn the_stipple_is_cut_on_a_finer_grid_into_the_face_only() {
 /// than the stipple's pits), kept on the finer grid's cells like the pits.
 #[test]
 fn the_photos_dark_lines_are_engraved_into_the_face_only() {
-    use glyptic_core::gem::{CameoBuilder, View};
-    let model = crate::fit::model();
     let depth = DetailParams::default().engraved_lines_mm;
     let (mesh, d) = einstein_details(&[
         unmatched().stipple_scaled(0.0).with_shadows(0.0),
         smooth_detail(),
         unmatched().with_shadows(0.0).engraved_lines_scaled(0.0),
     ]);
-    let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
-    let tris = &model.shape.triangles;
-    let relief = |p| {
-        b.relief_detailed(&mesh, tris, &[], Some(p))
-            .expect("relief")
-    };
-    let (lined, smooth, pitted) = (relief(&d[0]), relief(&d[1]), relief(&d[2]));
+    let (_, r) = reliefs(View::Frontal, &mesh, &[&d[0], &d[1], &d[2]]);
+    let (lined, smooth, pitted) = (&r[0], &r[1], &r[2]);
     // The lines refine the grid as the pits do: compared at the solve grid's nodes.
     assert!(
         lined.stippled.iter().any(|s| *s),
@@ -325,19 +308,10 @@ fn the_photos_dark_lines_are_engraved_into_the_face_only() {
 /// grid's cells like the pits.
 #[test]
 fn the_darks_are_sunk_into_the_key_lights_shadow() {
-    use glyptic_core::gem::{CameoBuilder, View};
-    let model = crate::fit::model();
     let (mesh, d) = einstein_details(&[unmatched(), unmatched().with_shadows(0.0)]);
-    let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
-    let tris = &model.shape.triangles;
-    let a = b
-        .relief_detailed(&mesh, tris, &[], Some(&d[0]))
-        .expect("relief");
-    let z = b
-        .relief_detailed(&mesh, tris, &[], Some(&d[1]))
-        .expect("relief");
-    assert_eq!((a.cols, a.rows, a.cell), (z.cols, z.rows, z.cell));
-    let diff: Vec<f32> = a.height.iter().zip(&z.height).map(|(x, y)| x - y).collect();
+    let (_, r) = reliefs(View::Frontal, &mesh, &[&d[0], &d[1]]);
+    let (a, z) = (&r[0], &r[1]);
+    let diff = height_less(a, z);
     let sunk: Vec<usize> = (0..diff.len()).filter(|&i| diff[i] < -1e-3).collect();
     let face_nodes = z.face.iter().filter(|f| **f).count();
     let deepest = diff.iter().fold(0f32, |m, d| m.min(*d));
@@ -350,7 +324,7 @@ fn the_darks_are_sunk_into_the_key_lights_shadow() {
     assert!(diff.iter().all(|d| *d <= 1e-5), "a node raised");
     assert!(share > 0.002 && share < 0.2, "share sunk {share}");
     assert!(
-        deepest >= -0.3 * b.params().relief_depth - 1e-3,
+        deepest >= -0.3 * View::Frontal.cameo().relief_depth - 1e-3,
         "{deepest}"
     );
     let off_face = sunk.iter().filter(|&&i| !z.face[i]).count();
@@ -410,8 +384,6 @@ fn gaussian(v: &[f32], cols: usize, rows: usize, sigma: f32) -> Vec<f32> {
 /// broad forms stay, and the nose casts less of the key light's shadow on the far cheek.
 #[test]
 fn the_reliefs_fine_forms_give_way_to_the_photos_light_and_dark() {
-    use glyptic_core::gem::{CameoBuilder, View};
-    let model = crate::fit::model();
     let smooth = smooth_detail();
     let (mesh, d) = einstein_details(&[
         smooth.with_photo_modelling(1.0),
@@ -423,21 +395,11 @@ fn the_reliefs_fine_forms_give_way_to_the_photos_light_and_dark() {
     ]);
     let (_, band_mm) = d[0].replaces().expect("the tone replaces the fine forms");
     assert!(d[1].replaces().is_none() && d[2].replaces().is_none());
-    let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
-    let tris = &model.shape.triangles;
-    let relief = |k: usize| {
-        b.relief_detailed(&mesh, tris, &[], Some(&d[k]))
-            .expect("relief")
-    };
-    let (replaced, added, bare) = (relief(0), relief(1), relief(2));
+    let (_, r) = reliefs(View::Frontal, &mesh, &[&d[0], &d[1], &d[2]]);
+    let (replaced, added, bare) = (&r[0], &r[1], &r[2]);
     let (cols, rows) = (bare.cols, bare.rows);
     assert_eq!((replaced.cols, added.cols), (cols, cols));
-    let change: Vec<f32> = replaced
-        .height
-        .iter()
-        .zip(&added.height)
-        .map(|(a, b)| a - b)
-        .collect();
+    let change = height_less(replaced, added);
     let sigma = band_mm / bare.canonical_per_gem / bare.cell;
     let fine: Vec<f32> = bare
         .height
@@ -509,27 +471,10 @@ fn the_reliefs_fine_forms_give_way_to_the_photos_light_and_dark() {
 /// test's, on a relief whose answer is known.)
 #[test]
 fn the_tone_match_moves_the_face_alone_towards_the_photos_light() {
-    use glyptic_core::gem::{CameoBuilder, View};
-    let model = crate::fit::model();
     let (mesh, d) = einstein_details(&[DetailParams::default(), unmatched()]);
-    let b = CameoBuilder::new(&View::Frontal.cameo()).expect("a builder");
-    let tris = &model.shape.triangles;
-    let matched = b
-        .relief_detailed(&mesh, tris, &[], Some(&d[0]))
-        .expect("relief");
-    let plain = b
-        .relief_detailed(&mesh, tris, &[], Some(&d[1]))
-        .expect("relief");
-    assert_eq!(
-        (matched.cols, matched.rows, matched.cell),
-        (plain.cols, plain.rows, plain.cell)
-    );
-    let change: Vec<f32> = matched
-        .height
-        .iter()
-        .zip(&plain.height)
-        .map(|(a, b)| a - b)
-        .collect();
+    let (_, r) = reliefs(View::Frontal, &mesh, &[&d[0], &d[1]]);
+    let (matched, plain) = (&r[0], &r[1]);
+    let change = height_less(matched, plain);
     // Off the face by more than the band's reach (the match's blurs), nothing moved.
     assert!(
         (0..change.len())
