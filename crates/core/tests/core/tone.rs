@@ -277,7 +277,7 @@ fn the_photos_dark_lines_are_engraved_into_the_face_only() {
         lined.stippled.iter().any(|s| *s),
         "no line kept on the finer grid"
     );
-    let diff = finer_less_solve(&lined, &smooth);
+    let diff = finer_less_solve(lined, smooth);
     let face_nodes = smooth.face.iter().filter(|f| **f).count();
     let cut = diff.iter().filter(|d| **d < -0.02).count();
     let deepest = diff.iter().fold(0f32, |m, d| m.min(*d));
@@ -460,7 +460,7 @@ fn the_reliefs_fine_forms_give_way_to_the_photos_light_and_dark() {
             .filter(|&i| r.face[i] && r.key_light[i] < 0.5)
             .count()
     };
-    let (now, before) = (shadowed(&replaced), shadowed(&added));
+    let (now, before) = (shadowed(replaced), shadowed(added));
     println!("face nodes under half the key light: {before} -> {now}");
     assert!(now < before, "shadowed face nodes {before} -> {now}");
 }
