@@ -27,7 +27,7 @@ import sys
 import onnx
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from yunet_prepare import fold, save_opset13  # noqa: E402
+from yunet_prepare import fold_checked, load, save_opset13  # noqa: E402
 
 INPUT = "data"
 OUTPUT = "fc1"
@@ -40,23 +40,11 @@ def fail(msg):
 
 
 def main(src, dst):
-    try:
-        model = onnx.load(src)
-    except Exception as e:  # noqa: BLE001 - any unreadable file gets one line
-        fail(f"{src}: cannot read as ONNX: {type(e).__name__}: {e}".splitlines()[0])
+    model = load(src)
     graph = model.graph
     if [o.name for o in graph.output] != [OUTPUT] or INPUT not in [i.name for i in graph.input]:
         fail(f"{src}: not the SFace graph: expected input '{INPUT}' and output '{OUTPUT}'")
-    if fold(graph, src) == 0:
-        print(f"{src}: nothing to fold (already float)", file=sys.stderr)
-    other = sorted({n.op_type for n in graph.node} - KEPT_OPS)
-    if other:
-        fail(f"{src}: not the SFace graph: unexpected ops {', '.join(other)}")
-    weights = {t.name for t in graph.initializer}
-    read = {i for n in graph.node for i in n.input}
-    kept = [i for i in graph.input if i.name not in weights and i.name in read]
-    del graph.input[:]
-    graph.input.extend(kept)
+    fold_checked(graph, src, "SFace", KEPT_OPS, only_read=True)
     if [i.name for i in graph.input] != [INPUT]:
         fail(f"{src}: not the SFace graph: inputs {[i.name for i in graph.input]}")
     del graph.value_info[:]

@@ -102,11 +102,32 @@ def fold(graph, src):
     return folded
 
 
-def main(src, dst):
+def load(src):
+    """The ONNX model at `src`; any unreadable file fails with one line."""
     try:
-        model = onnx.load(src)
+        return onnx.load(src)
     except Exception as e:  # noqa: BLE001 - any unreadable file gets one line
         fail(f"{src}: cannot read as ONNX: {type(e).__name__}: {e}".splitlines()[0])
+
+
+def fold_checked(graph, src, what, kept_ops, only_read=False):
+    """Folds the quantised weights (`fold`), fails unless only `kept_ops` remain, and drops
+    the graph inputs that are weights (with `only_read`, also those no node reads any more)."""
+    if fold(graph, src) == 0:
+        print(f"{src}: nothing to fold (already float)", file=sys.stderr)
+    other = sorted({n.op_type for n in graph.node} - kept_ops)
+    if other:
+        fail(f"{src}: not the {what} graph: unexpected ops {', '.join(other)}")
+    weights = {t.name for t in graph.initializer}
+    read = {i for n in graph.node for i in n.input}
+    kept = [i for i in graph.input
+            if i.name not in weights and (i.name in read or not only_read)]
+    del graph.input[:]
+    graph.input.extend(kept)
+
+
+def main(src, dst):
+    model = load(src)
     graph = model.graph
     names_in = [i.name for i in graph.input]
     names_out = [o.name for o in graph.output]
@@ -118,15 +139,7 @@ def main(src, dst):
         for a in n.attribute
     ):
         fail(f"{src}: not the YuNet graph: it has subgraphs")
-    if fold(graph, src) == 0:
-        print(f"{src}: nothing to fold (already float)", file=sys.stderr)
-    other = sorted({n.op_type for n in graph.node} - KEPT_OPS)
-    if other:
-        fail(f"{src}: not the YuNet graph: unexpected ops {', '.join(other)}")
-    weights = {t.name for t in graph.initializer}
-    kept = [i for i in graph.input if i.name not in weights]
-    del graph.input[:]
-    graph.input.extend(kept)
+    fold_checked(graph, src, "YuNet", KEPT_OPS)
     if [i.name for i in graph.input] != [INPUT]:
         fail(f"{src}: not the YuNet graph: inputs {[i.name for i in graph.input]}")
     del graph.value_info[:]
