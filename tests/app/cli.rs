@@ -568,9 +568,7 @@ fn einstein_photo_makes_a_gem_with_landmarks_and_mesh() {
         "write",
     ] {
         assert!(
-            stdout
-                .lines()
-                .any(|l| l.starts_with(stage) && l.contains(" ms")),
+            stage_row(&stdout, stage),
             "stage {stage} missing:\n{stdout}"
         );
     }
@@ -1052,16 +1050,12 @@ fn verbosity_flags_steer_the_log_not_the_result() {
     );
     let (_, stderr) = render(&["-v"], None);
     assert!(
-        stderr
-            .lines()
-            .any(|l| l.contains("stage{name=\"gem\"}") && l.contains(" ms")),
+        stage_logged(&stderr, "gem"),
         "-v did not log the stages: {stderr}"
     );
     let (_, stderr) = render(&["-q"], Some("glyptic::stage=debug"));
     assert!(
-        stderr
-            .lines()
-            .any(|l| l.contains("stage{name=\"render\"}") && l.contains(" ms")),
+        stage_logged(&stderr, "render"),
         "RUST_LOG did not decide: {stderr}"
     );
 }
@@ -1678,12 +1672,7 @@ fn errors_are_reports_under_json_and_the_stage_table_goes_to_stderr() {
         String::from_utf8_lossy(&run.stdout)
     );
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(
-        stderr
-            .lines()
-            .any(|l| l.starts_with("render ") && l.contains(" ms")),
-        "{stderr}"
-    );
+    assert!(stage_row(&stderr, "render "), "{stderr}");
 }
 
 /// `glyptic photo - -o -` (issue #41): the photo from standard input, the PNG to standard
@@ -2319,4 +2308,16 @@ fn the_height_map_carries_the_photos_detail_as_the_gem_does() {
         moved.len()
     );
     assert!(moved.iter().any(|d| *d > 0.0) && moved.iter().any(|d| *d < 0.0));
+}
+
+/// Whether the stage table in `text` has a row for `stage` (its line starts so) with a time.
+fn stage_row(text: &str, stage: &str) -> bool {
+    text.lines()
+        .any(|l| l.starts_with(stage) && l.contains(" ms"))
+}
+
+/// Whether `text` logs `stage`'s tracing span (`-v`, `RUST_LOG`) with a time.
+fn stage_logged(text: &str, stage: &str) -> bool {
+    let span = format!("stage{{name=\"{stage}\"}}");
+    text.lines().any(|l| l.contains(&span) && l.contains(" ms"))
 }
