@@ -30,4 +30,5 @@ mod simd;
 pub mod smooth;
 pub mod stats;
 pub mod stone;
+pub mod vec3;
 pub mod warp;

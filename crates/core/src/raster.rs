@@ -9,6 +9,8 @@
 //! camera's frame (+z towards the viewer). Shading is Lambertian on normals interpolated per
 //! pixel. Pure computation.
 
+use crate::vec3::{triangle_normal, unit};
+
 /// A scaled-orthographic camera: model mm -> image pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct View {
@@ -124,12 +126,7 @@ pub fn vertex_normals(positions: &[f32], triangles: &[[u32; 3]]) -> Vec<[f32; 3]
         let (Some(a), Some(b), Some(c)) = (at(t[0]), at(t[1]), at(t[2])) else {
             continue;
         };
-        let (u, v) = (sub(b, a), sub(c, a));
-        let f = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
+        let f = triangle_normal(a, b, c);
         if f.iter().any(|x| !x.is_finite()) {
             continue;
         }
@@ -140,20 +137,6 @@ pub fn vertex_normals(positions: &[f32], triangles: &[[u32; 3]]) -> Vec<[f32; 3]
         }
     }
     normals.iter().map(|&n| unit(n)).collect()
-}
-
-pub(crate) fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// `n` scaled to length 1 (zero where it has no length or is not finite).
-pub(crate) fn unit(n: [f32; 3]) -> [f32; 3] {
-    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-    if l > 1e-12 && l.is_finite() {
-        [n[0] / l, n[1] / l, n[2] / l]
-    } else {
-        [0.0, 0.0, 0.0]
-    }
 }
 
 /// A grey render: `width` x `height` intensities (row-major, 0..1), NaN where no triangle

@@ -11,6 +11,7 @@
 //! share their XY), so the guard is not a corner case here.
 
 use glyptic_core::scene::Vertex;
+use glyptic_core::vec3::{add, cross, dot, scaled, sub};
 
 /// The planar texture frame of a mesh: the centre and half extents of its XY bounding box, mm.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -289,26 +290,6 @@ pub fn band_last(
     let split = rest.len();
     rest.extend_from_slice(&band);
     (rest, split)
-}
-
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn scaled(a: [f32; 3], s: f32) -> [f32; 3] {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-fn add(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
 /// Per-vertex tangent frames for normal mapping with texture coordinates `uv` of a position:

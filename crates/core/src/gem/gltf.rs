@@ -222,9 +222,8 @@ const ELEMENT_ARRAY_BUFFER: u32 = 34963;
 /// facet normal" for the renderer) the area-weighted normal of the triangles around it; +Z if
 /// those are degenerate too. glTF requires unit normals.
 fn unit_normals(mesh: &Mesh) -> Vec<[f32; 3]> {
-    let len = |n: [f32; 3]| (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
     let usable = |n: [f32; 3]| {
-        let l = len(n);
+        let l = crate::vec3::length(n);
         (l.is_finite() && l > 1e-12).then(|| n.map(|c| c / l))
     };
     let mut normals: Vec<Option<[f32; 3]>> =
@@ -233,15 +232,7 @@ fn unit_normals(mesh: &Mesh) -> Vec<[f32; 3]> {
         let mut sums = vec![[0.0f32; 3]; mesh.vertices.len()];
         for t in mesh.indices.chunks_exact(3) {
             let [a, b, c] = [0, 1, 2].map(|k| mesh.vertices[t[k] as usize].position);
-            let (u, v) = (
-                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
-                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
-            );
-            let n = [
-                u[1] * v[2] - u[2] * v[1],
-                u[2] * v[0] - u[0] * v[2],
-                u[0] * v[1] - u[1] * v[0],
-            ];
+            let n = crate::vec3::triangle_normal(a, b, c);
             for &i in t {
                 for k in 0..3 {
                     sums[i as usize][k] += n[k];

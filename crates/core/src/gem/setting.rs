@@ -14,8 +14,8 @@
 use std::f32::consts::TAU;
 
 use super::{BACK_Z, CameoParams};
-use crate::raster::{sub, unit};
 use crate::scene::{Mesh, Region, Vertex};
+use crate::vec3::{cross, sub, unit};
 
 /// How the stone is held: one type for the cameo, the kiosk's TOML (`setting = "milgrain"`)
 /// and the command line (`--setting`).
@@ -336,14 +336,6 @@ fn stations(length: f32, n: usize) -> Vec<f32> {
     (0..n).map(|i| i as f32 / n as f32 * length).collect()
 }
 
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
 /// A whole number of equal pieces of about `want` mm along `length`.
 fn pieces(length: f32, want: f32) -> usize {
     ((length / want).round() as usize).max(3)
@@ -427,10 +419,7 @@ fn add_bail(mesh: &mut Mesh, top: f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-    }
+    use crate::vec3::dot;
 
     fn setting(setting: Setting, bail: bool) -> Mesh {
         let mut mesh = Mesh::default();

@@ -184,14 +184,8 @@ pub fn stl(solid: &Solid, header: &str) -> Vec<u8> {
     out.extend_from_slice(&(solid.triangles.len() as u32).to_le_bytes());
     for t in &solid.triangles {
         let [a, b, c] = t.map(|i| solid.positions[i as usize]);
-        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let n = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
-        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt().max(1e-20);
+        let n = crate::vec3::triangle_normal(a, b, c);
+        let len = crate::vec3::length(n).max(1e-20);
         for value in n
             .map(|x| x / len)
             .iter()

@@ -298,16 +298,8 @@ fn the_outline_is_a_near_vertical_wall() {
                 continue;
             }
             let [a, b, c] = v.map(|v| v.position);
-            let (e, f) = (
-                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
-                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
-            );
-            let n = [
-                e[1] * f[2] - e[2] * f[1],
-                e[2] * f[0] - e[0] * f[2],
-                e[0] * f[1] - e[1] * f[0],
-            ];
-            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            let n = glyptic_core::vec3::triangle_normal(a, b, c);
+            let len = glyptic_core::vec3::length(n);
             if len < 1e-9 {
                 continue;
             }
