@@ -99,25 +99,12 @@ impl Case {
 
     /// The person as a segmentation network sees it: head, hair, body and whatever is in front.
     fn mask(&self) -> PersonMask {
-        let (size, step) = (130usize, 4.0f32);
-        let prob = (0..size * size)
-            .map(|i| {
-                let (x, y) = (
-                    ((i % size) as f32 + 0.5) * step,
-                    ((i / size) as f32 + 0.5) * step,
-                );
-                let other = self.other.as_ref().is_some_and(|(on, _)| on(x, y));
-                f32::from(u8::from(
-                    head(x, y) || (self.hair)(x, y) || Self::body(x, y) || other,
-                ))
-            })
-            .collect();
-        PersonMask {
-            size,
-            origin: [0.0, 0.0],
-            step,
-            prob,
-        }
+        PersonMask::from_fn(130, [0.0, 0.0], 4.0, |x, y| {
+            let other = self.other.as_ref().is_some_and(|(on, _)| on(x, y));
+            f32::from(u8::from(
+                head(x, y) || (self.hair)(x, y) || Self::body(x, y) || other,
+            ))
+        })
     }
 }
 

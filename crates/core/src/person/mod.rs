@@ -290,6 +290,31 @@ pub struct PersonMask {
 }
 
 impl PersonMask {
+    /// A `size` x `size` grid of `step`-pixel cells from `origin` whose probability at each
+    /// cell's centre (photo pixels) is `prob(x, y)`: a mask drawn rather than found (tests,
+    /// synthetic photos).
+    pub fn from_fn(
+        size: usize,
+        origin: [f32; 2],
+        step: f32,
+        prob: impl Fn(f32, f32) -> f32,
+    ) -> Self {
+        let prob = (0..size * size)
+            .map(|i| {
+                prob(
+                    origin[0] + ((i % size) as f32 + 0.5) * step,
+                    origin[1] + ((i / size) as f32 + 0.5) * step,
+                )
+            })
+            .collect();
+        PersonMask {
+            size,
+            origin,
+            step,
+            prob,
+        }
+    }
+
     /// The probability at photo pixel `p` (bilinear between cell centres); `None` off the grid
     /// or when the grid is malformed.
     pub fn at(&self, p: [f32; 2]) -> Option<f32> {

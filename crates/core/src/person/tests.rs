@@ -125,27 +125,12 @@ fn an_open_mouth_does_not_move_the_crown() {
 /// A segmentation of the synthetic photo: the head with `stand` px of hair, the neck, and
 /// the body below y = 420 are the person.
 fn person_mask(stand: f32) -> PersonMask {
-    let size = 130;
-    let step = 4.0;
-    let prob = (0..size * size)
-        .map(|i| {
-            let (x, y) = (
-                ((i % size) as f32 + 0.5) * step,
-                ((i / size) as f32 + 0.5) * step,
-            );
-            let head = ((x - 200.0) / (72.0 + stand)).powi(2)
-                + ((y - 205.0) / (125.0 + stand)).powi(2)
-                < 1.0;
-            let neck = (x - 200.0).abs() < 45.0 && y > 300.0;
-            f32::from(u8::from(head || neck || y > 420.0))
-        })
-        .collect();
-    PersonMask {
-        size,
-        origin: [0.0, 0.0],
-        step,
-        prob,
-    }
+    PersonMask::from_fn(130, [0.0, 0.0], 4.0, |x, y| {
+        let head =
+            ((x - 200.0) / (72.0 + stand)).powi(2) + ((y - 205.0) / (125.0 + stand)).powi(2) < 1.0;
+        let neck = (x - 200.0).abs() < 45.0 && y > 300.0;
+        f32::from(u8::from(head || neck || y > 420.0))
+    })
 }
 
 #[test]
