@@ -24,9 +24,10 @@
 use std::path::{Path, PathBuf};
 
 use image::RgbImage;
+use ort::session::builder::SessionBuilder;
 use ort::value::TensorRef;
 
-use super::{DetectError, SessionConfig, ort_environment};
+use super::{DetectError, LoadFailure, SessionConfig};
 use crate::person::bilinear_rgb;
 
 /// Graph input name.
@@ -153,41 +154,21 @@ impl FaceEmbedder {
     /// Loads the model (set-up prepares it: [`crate::assets::ModelPaths::recogniser`]) with
     /// ONNX Runtime from `ort_library`, with `threads` threads inside an operator.
     pub fn load(model: &Path, ort_library: &Path, threads: usize) -> Result<Self, EmbedError> {
-        let model_err = |reason: String| EmbedError::Model {
-            path: model.to_path_buf(),
-            reason,
-        };
-        // Verified before ONNX Runtime sees it (see `FaceDetector::load_with`).
-        let bytes = crate::files::read_verified(model).map_err(|source| EmbedError::Io {
-            path: model.to_path_buf(),
-            source,
-        })?;
-        let env = ort_environment(ort_library)?;
         let config = SessionConfig {
             intra_threads: threads.max(1),
         };
         // No prepacked copy of the weights and no memory patterns: 25 MB less at a photo's
         // peak and no slower (measured for issue #37).
-        let session = super::centerface::session_builder(&env, &config)
-            .and_then(|b| b.with_prepacking(false).map_err(|e| e.to_string()))
-            .and_then(|b| b.with_memory_pattern(false).map_err(|e| e.to_string()))
-            .and_then(|mut b| b.commit_from_memory(&bytes).map_err(|e| e.to_string()))
-            .map_err(model_err)?;
-        let names = |v: Vec<&str>| v.into_iter().map(str::to_owned).collect::<Vec<_>>();
-        let (ins, outs) = (
-            names(session.inputs().iter().map(|o| o.name()).collect()),
-            names(session.outputs().iter().map(|o| o.name()).collect()),
-        );
-        if ins != [INPUT] || outs != [OUTPUT] {
-            return Err(model_err(format!(
-                "expected input `{INPUT}` and output `{OUTPUT}`, found {ins:?} and {outs:?}"
-            )));
-        }
+        let tune = |b: SessionBuilder| {
+            let b = b.with_prepacking(false).map_err(|e| e.to_string())?;
+            b.with_memory_pattern(false).map_err(|e| e.to_string())
+        };
+        let found =
+            super::OnnxModel::load(model, ort_library, &config, tune, [INPUT, OUTPUT], true);
+        let io = |path, source| EmbedError::Io { path, source };
+        let wrong = |path, reason| EmbedError::Model { path, reason };
         Ok(FaceEmbedder {
-            model: super::OnnxModel {
-                session,
-                path: model.to_path_buf(),
-            },
+            model: found.map_err(|e: LoadFailure| e.into_error(model, io, wrong))?,
         })
     }
 

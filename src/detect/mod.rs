@@ -39,6 +39,7 @@ use std::path::{Path, PathBuf};
 
 use image::RgbImage;
 use ort::session::Session;
+use ort::session::builder::SessionBuilder;
 use ort::value::TensorRef;
 
 pub use self::centerface::{DetectorNet, SessionConfig, ort_environment};
@@ -215,7 +216,70 @@ pub(crate) struct OnnxModel {
     pub(crate) path: PathBuf,
 }
 
+/// Why a model that is not the detector did not load, for its own error type to say.
+pub(crate) enum LoadFailure {
+    /// The file could not be read, or is not the one set-up listed.
+    Io(std::io::Error),
+    /// ONNX Runtime's library could not be loaded.
+    Runtime(DetectError),
+    /// The file is not the model expected (ONNX Runtime's word, or the names it lacks).
+    Model(String),
+}
+
+impl LoadFailure {
+    /// The caller's own error for the model at `path`: `io` for a file that cannot be read,
+    /// `model` for one that is not the model; the runtime's own error as it is.
+    pub(crate) fn into_error<E: From<DetectError>>(
+        self,
+        path: &Path,
+        io: fn(PathBuf, std::io::Error) -> E,
+        model: fn(PathBuf, String) -> E,
+    ) -> E {
+        match self {
+            LoadFailure::Io(e) => io(path.to_path_buf(), e),
+            LoadFailure::Runtime(e) => e.into(),
+            LoadFailure::Model(reason) => model(path.to_path_buf(), reason),
+        }
+    }
+}
+
 impl OnnxModel {
+    /// `model` read and verified before ONNX Runtime sees it (its C++ parser is not safe on
+    /// damaged bytes), its session built with `config` and then `tune`, and checked to have
+    /// the input `input` and the output `output` (with `only`: no other).
+    pub(crate) fn load(
+        model: &Path,
+        ort_library: &Path,
+        config: &SessionConfig,
+        tune: impl FnOnce(SessionBuilder) -> Result<SessionBuilder, String>,
+        [input, output]: [&str; 2],
+        only: bool,
+    ) -> Result<Self, LoadFailure> {
+        let bytes = crate::files::read_verified(model).map_err(LoadFailure::Io)?;
+        let env = ort_environment(ort_library).map_err(LoadFailure::Runtime)?;
+        let session = centerface::session_builder(&env, config)
+            .and_then(tune)
+            .and_then(|mut b| b.commit_from_memory(&bytes).map_err(|e| e.to_string()))
+            .map_err(LoadFailure::Model)?;
+        let names = |v: Vec<&str>| v.into_iter().map(str::to_owned).collect::<Vec<_>>();
+        let (ins, outs) = (
+            names(session.inputs().iter().map(|o| o.name()).collect()),
+            names(session.outputs().iter().map(|o| o.name()).collect()),
+        );
+        let fits = |names: &[String], want: &str| {
+            names.iter().any(|n| n == want) && (!only || names.len() == 1)
+        };
+        if !fits(&ins, input) || !fits(&outs, output) {
+            return Err(LoadFailure::Model(format!(
+                "expected input `{input}` and output `{output}`, found {ins:?} and {outs:?}"
+            )));
+        }
+        Ok(OnnxModel {
+            session,
+            path: model.to_path_buf(),
+        })
+    }
+
     /// Runs the session on one input tensor and returns the values of the output `output`,
     /// which must number `expected`; `Err` says what went wrong, for the caller's error.
     pub(crate) fn run_one(

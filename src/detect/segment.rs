@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use image::RgbImage;
 use ort::value::TensorRef;
 
-use super::{DetectError, SessionConfig, ort_environment};
+use super::{DetectError, LoadFailure, SessionConfig};
 use crate::person::{PersonError, PersonMask, bilinear_rgb, mask_window};
 
 /// Graph input name.
@@ -56,33 +56,12 @@ impl PersonSegmenter {
     /// Loads the model (set-up converts it: [`crate::assets::ModelPaths::segmenter`]) with ONNX Runtime from
     /// `ort_library`, on one thread.
     pub fn load(model: &Path, ort_library: &Path) -> Result<Self, SegmentError> {
-        let model_err = |reason: String| SegmentError::Model {
-            path: model.to_path_buf(),
-            reason,
-        };
-        // Verified before ONNX Runtime sees it (see `FaceDetector::load_with`).
-        let bytes = crate::files::read_verified(model).map_err(|source| SegmentError::Io {
-            path: model.to_path_buf(),
-            source,
-        })?;
-        let env = ort_environment(ort_library)?;
-        let session = super::centerface::session_builder(&env, &SessionConfig::default())
-            .and_then(|mut b| b.commit_from_memory(&bytes).map_err(|e| e.to_string()))
-            .map_err(model_err)?;
-        let has = |names: Vec<&str>, want: &str| names.contains(&want);
-        if !has(session.inputs().iter().map(|o| o.name()).collect(), INPUT)
-            || !has(session.outputs().iter().map(|o| o.name()).collect(), OUTPUT)
-        {
-            return Err(model_err(format!(
-                "expected input `{INPUT}` and output `{OUTPUT}`"
-            )));
-        }
-        Ok(PersonSegmenter {
-            model: super::OnnxModel {
-                session,
-                path: model.to_path_buf(),
-            },
-        })
+        let config = SessionConfig::default();
+        let io = |path, source| SegmentError::Io { path, source };
+        let wrong = |path, reason| SegmentError::Model { path, reason };
+        let model = super::OnnxModel::load(model, ort_library, &config, Ok, [INPUT, OUTPUT], false)
+            .map_err(|e: LoadFailure| e.into_error(model, io, wrong))?;
+        Ok(PersonSegmenter { model })
     }
 
     /// The person's probability around the face with these 68 landmarks (photo pixels).

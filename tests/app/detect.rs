@@ -15,8 +15,8 @@ use std::time::Instant;
 
 use glyptic::assets;
 use glyptic::detect::{
-    DetectError, DetectOptions, Detection, DetectorNet, FaceChoice, FaceDetector, PersonSegmenter,
-    SegmentError, SessionConfig, iou, largest, rank_faces,
+    DetectError, DetectOptions, Detection, DetectorNet, EmbedError, FaceChoice, FaceDetector,
+    FaceEmbedder, PersonSegmenter, SegmentError, SessionConfig, iou, largest, rank_faces,
 };
 use image::RgbImage;
 
@@ -779,31 +779,62 @@ fn the_segmentation_window_repeats_the_photos_edge() {
     );
 }
 
-#[test]
-fn broken_segmentation_models_give_typed_errors_naming_the_file() {
-    let lib = assets::onnxruntime_lib();
-    let tmp = TempDir::new("segment-models");
-    // A model that is ONNX but the wrong one: the face detector.
-    let wrong = tmp.file(
-        "detector.onnx",
-        &std::fs::read(model_path()).expect("detector"),
-    );
+/// Model files that are not the model (noise, an empty file, the face detector's network)
+/// are refused by `load` as the wrong model (`wrong`) naming the file, a missing one as
+/// unreadable (`unreadable`).
+fn refuses_broken_models<E: std::fmt::Debug + std::fmt::Display, T>(
+    name: &str,
+    load: impl Fn(&Path) -> Result<T, E>,
+    wrong: impl Fn(&E) -> bool,
+    unreadable: impl Fn(&E) -> bool,
+) {
+    let tmp = TempDir::new(name);
+    let detector = std::fs::read(model_path()).expect("detector");
     for path in [
         tmp.file("random.onnx", &noise(100, 7)),
         tmp.file("empty.onnx", &[]),
-        wrong,
+        tmp.file("detector.onnx", &detector),
     ] {
-        let err = PersonSegmenter::load(&path, &lib).expect_err("broken model accepted");
+        let Err(err) = load(&path) else {
+            panic!("{name}: {} accepted", path.display());
+        };
         println!("{err}");
-        assert!(matches!(err, SegmentError::Model { .. }), "{err:?}");
+        assert!(wrong(&err), "{err:?}");
         assert!(
             err.to_string().contains(&path.display().to_string()),
             "{err}"
         );
     }
-    let missing = tmp.0.join("missing.onnx");
-    let err = PersonSegmenter::load(&missing, &lib).expect_err("missing model accepted");
-    assert!(matches!(err, SegmentError::Io { .. }), "{err:?}");
+    let Err(err) = load(&tmp.0.join("missing.onnx")) else {
+        panic!("{name}: a missing model accepted");
+    };
+    assert!(unreadable(&err), "{err:?}");
+}
+
+/// The recognition network's file broken, empty, the wrong network or missing: a typed
+/// error naming the file, as the segmentation's and the detector's.
+#[test]
+fn broken_recognition_models_give_typed_errors_naming_the_file() {
+    let lib = assets::onnxruntime_lib();
+    refuses_broken_models(
+        "embed-models",
+        |p| FaceEmbedder::load(p, &lib, 1),
+        |e| matches!(e, EmbedError::Model { .. }),
+        |e| matches!(e, EmbedError::Io { .. }),
+    );
+}
+
+/// The segmentation network's file broken, empty, the wrong network or missing: a typed
+/// error naming the file; NaN landmarks an error, not a panic.
+#[test]
+fn broken_segmentation_models_give_typed_errors_naming_the_file() {
+    let lib = assets::onnxruntime_lib();
+    refuses_broken_models(
+        "segment-models",
+        |p| PersonSegmenter::load(p, &lib),
+        |e| matches!(e, SegmentError::Model { .. }),
+        |e| matches!(e, SegmentError::Io { .. }),
+    );
     // NaN landmarks are an error, not a panic.
     let mut seg = PersonSegmenter::load(&assets::segmenter_model(), &lib).expect("model");
     let mut pts = read_pts("takeo.pts");
