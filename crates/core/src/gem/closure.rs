@@ -223,6 +223,10 @@ pub(super) fn close(
     let mut first = 0.0;
     let mut last = 0.0;
     let mut changed = false;
+    let solve = super::tone::ToneSolve {
+        iterations: SOLVE_ITERATIONS,
+        ..super::tone::ToneSolve::default()
+    };
     for round in 0..=how.rounds {
         let (rad, vis) = model(height);
         let log: Vec<f32> = rad.iter().map(|r| r.max(1e-3).ln()).collect();
@@ -254,18 +258,8 @@ pub(super) fn close(
             .zip(&smooth_vis)
             .map(|(w, v)| w * v.max(0.1))
             .collect();
-        let dh = super::tone::fit_slopes_halved(
-            &slope,
-            &fit_w,
-            &hold,
-            w,
-            h,
-            toward,
-            &super::tone::ToneSolve {
-                iterations: SOLVE_ITERATIONS,
-                ..super::tone::ToneSolve::default()
-            },
-        );
+        let field = super::tone::SlopeField::new(&slope, &fit_w, &hold, w, h);
+        let dh = super::tone::fit_slopes_halved(field, toward, &solve);
         for (j, i) in area.indices(cols).enumerate() {
             let d = how.step * dh[j] * wt[j].min(1.0);
             if wt[j] > 0.0 && d.is_finite() && d != 0.0 {

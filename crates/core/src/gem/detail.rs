@@ -663,15 +663,9 @@ fn tone_heights(
         .iter()
         .map(|r| -params.tone * mm_per_cell * (r / (3.0 * spread)).clamp(-1.0, 1.0))
         .collect();
-    let h = super::tone::fit_slopes_halved(
-        &slope,
-        &weight,
-        &hold,
-        cols,
-        rows,
-        light.toward,
-        &super::tone::ToneSolve::default(),
-    );
+    let field = super::tone::SlopeField::new(&slope, &weight, &hold, cols, rows);
+    let solve = super::tone::ToneSolve::default();
+    let h = super::tone::fit_slopes_halved(field, light.toward, &solve);
     let tone = h.iter().zip(&inside_face).map(|(h, w)| h * w).collect();
     let shadows = params.shadows.clamp(0.0, 1.0);
     if params.stipple_mm <= 0.0 && shadows <= 0.0 {

@@ -104,6 +104,42 @@ impl Default for ToneSolve {
     }
 }
 
+/// What the tone's heights are fitted to, on a `cols` x `rows` grid (row-major, one value per
+/// cell each): the slope wanted along the light (mm per cell), how much each cell counts, and
+/// the ridge that holds the heights at 0 (large off the face).
+#[derive(Clone, Copy, Debug)]
+pub struct SlopeField<'a> {
+    pub slope: &'a [f32],
+    pub weight: &'a [f32],
+    pub hold: &'a [f32],
+    pub cols: usize,
+    pub rows: usize,
+}
+
+impl<'a> SlopeField<'a> {
+    pub fn new(
+        slope: &'a [f32],
+        weight: &'a [f32],
+        hold: &'a [f32],
+        cols: usize,
+        rows: usize,
+    ) -> Self {
+        SlopeField {
+            slope,
+            weight,
+            hold,
+            cols,
+            rows,
+        }
+    }
+
+    /// Whether every map has one value per cell.
+    fn fits(&self) -> bool {
+        let n = self.cols * self.rows;
+        self.slope.len() == n && self.weight.len() == n && self.hold.len() == n
+    }
+}
+
 /// Heights (row-major, `cols` x `rows`) whose central-difference slope along `toward` comes
 /// nearest `slope` where `weight` > 0, by conjugate gradients on the normal equations; `hold`
 /// adds to the ridge per cell (large where the heights must stay 0: off the face).
@@ -112,17 +148,16 @@ impl Default for ToneSolve {
 /// line, and a uniform ridge picks the constant that makes each line's mean 0, a wake of the
 /// opposite sign before and after every dark or light patch. Held at 0 off the face, each
 /// line's heights start from the outline.
-pub fn fit_slopes(
-    slope: &[f32],
-    weight: &[f32],
-    hold: &[f32],
-    cols: usize,
-    rows: usize,
-    toward: [f32; 2],
-    solve: &ToneSolve,
-) -> Vec<f32> {
+pub fn fit_slopes(field: SlopeField<'_>, toward: [f32; 2], solve: &ToneSolve) -> Vec<f32> {
+    let SlopeField {
+        slope,
+        weight,
+        hold,
+        cols,
+        rows,
+    } = field;
     let n = cols * rows;
-    if cols < 3 || rows < 3 || slope.len() != n || weight.len() != n || hold.len() != n {
+    if cols < 3 || rows < 3 || !field.fits() {
         return vec![0.0; n];
     }
     let [ux, uy] = toward;
@@ -200,17 +235,10 @@ pub fn fit_slopes(
 /// the heights interpolated back: a quarter of the unknowns, for a field the relief samples
 /// more coarsely than the photo's map anyway (the Surrey face's relief has about 35 nodes to
 /// the eyes' distance, the map 64).
-pub fn fit_slopes_halved(
-    slope: &[f32],
-    weight: &[f32],
-    hold: &[f32],
-    cols: usize,
-    rows: usize,
-    toward: [f32; 2],
-    solve: &ToneSolve,
-) -> Vec<f32> {
+pub fn fit_slopes_halved(field: SlopeField<'_>, toward: [f32; 2], solve: &ToneSolve) -> Vec<f32> {
+    let (cols, rows) = (field.cols, field.rows);
     let n = cols * rows;
-    if slope.len() != n || weight.len() != n || hold.len() != n {
+    if !field.fits() {
         return vec![0.0; n];
     }
     let (cc, cr) = (cols.div_ceil(2), rows.div_ceil(2));
@@ -236,15 +264,19 @@ pub fn fit_slopes_halved(
         ridge: 4.0 * solve.ridge,
         ..*solve
     };
-    let h = fit_slopes(
-        &halve(slope, 2.0),
-        &halve(weight, 1.0),
-        &halve(hold, 1.0),
-        cc,
-        cr,
-        toward,
-        &coarse,
+    let (slope, weight, hold) = (
+        halve(field.slope, 2.0),
+        halve(field.weight, 1.0),
+        halve(field.hold, 1.0),
     );
+    let field = SlopeField {
+        slope: &slope,
+        weight: &weight,
+        hold: &hold,
+        cols: cc,
+        rows: cr,
+    };
+    let h = fit_slopes(field, toward, &coarse);
     // Fine cell c's centre lies at (c + 0.5) / 2 - 0.5 coarse cells.
     let at = |u: f32, v: f32| crate::photo_grid::bilinear_map(&h, cc, cr, u, v);
     (0..n)
@@ -372,21 +404,29 @@ mod tests {
             ridge: 0.0001,
             iterations: 3000,
         };
-        let h = fit_slopes(&slope, &weight, &hold, cols, rows, u, &solve);
+        let field = SlopeField {
+            slope: &slope,
+            weight: &weight,
+            hold: &hold,
+            cols,
+            rows,
+        };
+        let h = fit_slopes(field, u, &solve);
         // Solved on half the grid, the same bump within a tenth of its height.
-        let halved = fit_slopes_halved(&slope, &weight, &hold, cols, rows, u, &solve);
+        let halved = fit_slopes_halved(field, u, &solve);
         let worst = h
             .iter()
             .zip(&halved)
             .fold(0f32, |m, (a, b)| m.max((a - b).abs()));
         assert!(worst < 0.2, "halved against full: {worst}");
         // A uniform ridge instead leaves a wake along the light: the bump's peak falls short.
+        let (uniform, none) = (vec![1.0; cols * rows], vec![0.0; cols * rows]);
         let wake = fit_slopes(
-            &slope,
-            &vec![1.0; cols * rows],
-            &vec![0.0; cols * rows],
-            cols,
-            rows,
+            SlopeField {
+                weight: &uniform,
+                hold: &none,
+                ..field
+            },
             u,
             &solve,
         );
@@ -446,26 +486,21 @@ mod tests {
 
     #[test]
     fn no_slope_or_a_broken_one_gives_a_flat_field() {
-        let (cols, rows) = (10, 10);
-        let w = vec![1f32; 100];
-        let z = vec![0f32; 100];
-        let h = fit_slopes(
-            &[0.0; 100],
-            &w,
-            &z,
-            cols,
-            rows,
-            [1.0, 0.0],
-            &ToneSolve::default(),
-        );
-        assert!(h.iter().all(|v| *v == 0.0));
+        let (w, z) = (vec![1f32; 100], vec![0f32; 100]);
         let mut s = vec![0.1f32; 100];
+        let flat = |slope: &[f32], cols: usize, rows: usize| {
+            let field = SlopeField {
+                slope,
+                weight: &w,
+                hold: &z,
+                cols,
+                rows,
+            };
+            fit_slopes(field, [1.0, 0.0], &ToneSolve::default())
+        };
+        assert!(flat(&[0.0; 100], 10, 10).iter().all(|v| *v == 0.0));
         s[55] = f32::NAN;
-        let h = fit_slopes(&s, &w, &z, cols, rows, [1.0, 0.0], &ToneSolve::default());
-        assert!(h.iter().all(|v| v.is_finite()));
-        assert_eq!(
-            fit_slopes(&s, &w, &z, 2, 50, [1.0, 0.0], &ToneSolve::default()),
-            vec![0.0; 100]
-        );
+        assert!(flat(&s, 10, 10).iter().all(|v| v.is_finite()));
+        assert_eq!(flat(&s, 2, 50), vec![0.0; 100]);
     }
 }
