@@ -43,7 +43,7 @@ use crate::shapemodel::SurreyModel;
 use blocks::Block;
 use joint::joint_step;
 use normal::{At, FixedProducts, Params, Weights, absolute_rhs, mirror_upper, normal_equations};
-use outline::{BoundaryCache, outline_correspondences};
+use outline::{BoundaryCache, FitState, outline_correspondences};
 use solve::{nnls, solve_spd};
 
 /// Largest identity coefficient a fit may return, in standard deviations (a face beyond 5 SD in
@@ -595,7 +595,14 @@ fn run_loop<C: Camera + Clone>(
     let mapped = &problem.mapped[..];
     let mut cache = BoundaryCache::default();
     let correspondences = |pose: &C, shape: &[f32], expr: &[f32], cache: &mut BoundaryCache| {
-        outline_correspondences(model, landmarks, mapped, pose, shape, expr, opts, cache)
+        let state = FitState {
+            model,
+            landmarks,
+            pose,
+            shape,
+            expr,
+        };
+        outline_correspondences(&state, mapped, opts, cache)
     };
     let mut last_error = f64::INFINITY;
     let mut iterations = 0;

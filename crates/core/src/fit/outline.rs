@@ -51,32 +51,31 @@ impl BoundaryCache {
     }
 }
 
+/// A fit's state as the outline's correspondences read it: the model, the photo's landmarks
+/// (image pixels, y down; NaN where missing) and the current pose, identity and expression.
+pub(super) struct FitState<'a, C> {
+    pub model: &'a SurreyModel,
+    pub landmarks: &'a [[f32; 2]],
+    pub pose: &'a C,
+    pub shape: &'a [f32],
+    pub expr: &'a [f32],
+}
+
 /// The mapped correspondences plus, if enabled, the outline ones: front-facing contour
 /// correspondences and occluding-edge correspondences for the side turned away.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn outline_correspondences<C: Camera>(
-    model: &SurreyModel,
-    landmarks: &[[f32; 2]],
+    s: &FitState<'_, C>,
     mapped: &[Correspondence],
-    pose: &C,
-    shape: &[f32],
-    expr: &[f32],
     opts: &FitOptions,
     cache: &mut BoundaryCache,
 ) -> Vec<Correspondence> {
     let mut corr = mapped.to_vec();
     if opts.contour {
-        let facing = side_facing(model, pose, shape, expr);
-        corr.extend(contour_correspondences(
-            model, landmarks, pose, shape, expr, facing,
-        ));
+        let facing = side_facing(s.model, s.pose, s.shape, s.expr);
+        corr.extend(contour_correspondences(s, facing));
         if opts.occluding_edges {
             corr.extend(occluding_correspondences(
-                model,
-                landmarks,
-                pose,
-                shape,
-                expr,
+                s,
                 facing,
                 opts.occluding_max_mm,
                 cache,
@@ -112,38 +111,33 @@ pub(super) fn side_facing<C: Camera>(
 
 /// Outline landmarks of the side turned away from the camera, each tied to the nearest
 /// visible occluding-boundary vertex if its projection lies within `max_mm`.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn occluding_correspondences<C: Camera>(
-    model: &SurreyModel,
-    landmarks: &[[f32; 2]],
-    pose: &C,
-    shape: &[f32],
-    expr: &[f32],
+    s: &FitState<'_, C>,
     facing: [f64; 2],
     max_mm: f64,
     cache: &mut BoundaryCache,
 ) -> Vec<Correspondence> {
     let [right, left] = facing;
     let away = if right < left {
-        &model.mapping.contour_right
+        &s.model.mapping.contour_right
     } else {
-        &model.mapping.contour_left
+        &s.model.mapping.contour_left
     };
     let targets: Vec<Vector2<f64>> = away
         .iter()
-        .filter_map(|&lm| landmarks.get(lm as usize - 1))
+        .filter_map(|&lm| s.landmarks.get(lm as usize - 1))
         .filter(|p| p[0].is_finite() && p[1].is_finite())
         .map(|p| Vector2::new(p[0] as f64, -(p[1] as f64)))
         .collect();
     if targets.is_empty() {
         return Vec::new();
     }
-    let boundary = cache.boundary(model, pose, shape, expr);
-    let max_px = max_mm * pose.scale();
-    let k = Coefficients::new(model, shape, expr);
+    let boundary = cache.boundary(s.model, s.pose, s.shape, s.expr);
+    let max_px = max_mm * s.pose.scale();
+    let k = Coefficients::new(s.model, s.shape, s.expr);
     let projected: Vec<(u32, Vector2<f64>)> = boundary
         .iter()
-        .map(|&v| (v, pose.project_up(&model.point(v as usize, &k))))
+        .map(|&v| (v, s.pose.project_up(&s.model.point(v as usize, &k))))
         .collect();
     // One correspondence per landmark: its nearest visible boundary vertex. (eos ties every
     // boundary vertex to its nearest landmark instead, which lets one outline landmark pull
@@ -200,29 +194,27 @@ pub(super) fn closest_on_outline(
 /// Outline landmarks tied to the nearest point of the model's projected outline, on each side
 /// of the face that is turned towards the camera (eos: yaw within +-7.5 degrees uses both).
 pub(super) fn contour_correspondences<C: Camera>(
-    model: &SurreyModel,
-    landmarks: &[[f32; 2]],
-    pose: &C,
-    shape: &[f32],
-    expr: &[f32],
+    s: &FitState<'_, C>,
     facing: [f64; 2],
 ) -> Vec<Correspondence> {
     let mut out = Vec::new();
     let max_away = (7.5f64).to_radians().sin();
     let sides = [
-        (&model.mapping.contour_right, &model.contour.right),
-        (&model.mapping.contour_left, &model.contour.left),
+        (&s.model.mapping.contour_right, &s.model.contour.right),
+        (&s.model.mapping.contour_left, &s.model.contour.left),
     ];
-    let k = Coefficients::new(model, shape, expr);
+    let k = Coefficients::new(s.model, s.shape, s.expr);
     for ((lms, verts), facing) in sides.into_iter().zip(facing) {
         if lms.is_empty() || verts.is_empty() || facing < -max_away {
             continue;
         }
-        let positions: Vec<Vector3<f64>> =
-            verts.iter().map(|&v| model.point(v as usize, &k)).collect();
-        let projected: Vec<Vector2<f64>> = positions.iter().map(|p| pose.project_up(p)).collect();
+        let positions: Vec<Vector3<f64>> = verts
+            .iter()
+            .map(|&v| s.model.point(v as usize, &k))
+            .collect();
+        let projected: Vec<Vector2<f64>> = positions.iter().map(|p| s.pose.project_up(p)).collect();
         for &lm in lms {
-            let Some(p) = landmarks.get(lm as usize - 1) else {
+            let Some(p) = s.landmarks.get(lm as usize - 1) else {
                 continue;
             };
             if !(p[0].is_finite() && p[1].is_finite()) {
