@@ -9,8 +9,7 @@
 //! what a new hair style costs a kiosk rebuild).
 
 use anyhow::{Context, Result};
-use glyptic::gem::{self, HairCarving, HairStyle, View};
-use glyptic::person::FALL_ROWS;
+use glyptic::gem::{self, HairStyle, View};
 use glyptic::render::{RenderParams, Renderer};
 
 fn main() -> Result<()> {
@@ -20,92 +19,7 @@ fn main() -> Result<()> {
     let model = glyptic::shapemodel::SurreyModel::load_dir(&glyptic::assets::sfm_dir())?;
     let mean = model.instance(&[], &[]);
     let triangles = &model.shape.triangles;
-    // A shoulder-length fall widening below the jaw, as `Hair::fall` reads one (canonical mm).
-    let mut fall = [[0.0f32; 2]; FALL_ROWS];
-    for (k, row) in fall.iter_mut().enumerate().take(9) {
-        *row = [58.0 + 2.0 * k as f32, 92.0 + 7.0 * k as f32];
-    }
-    let kinds: [(&str, HairStyle); 9] = [
-        (
-            "bald",
-            HairStyle {
-                bald: true,
-                ..HairStyle::default()
-            },
-        ),
-        (
-            "short, ears bare",
-            HairStyle {
-                volume: 5.0,
-                ears_shown: true,
-                outline: Some([86.0, 162.0]),
-                ..HairStyle::default()
-            },
-        ),
-        (
-            "standing wide",
-            HairStyle {
-                volume: 28.0,
-                ears_shown: true,
-                outline: Some([130.0, 185.0]),
-                ..HairStyle::default()
-            },
-        ),
-        ("classical", HairStyle::default()),
-        (
-            "long, the photo's fall",
-            HairStyle {
-                end: -200.0,
-                outline: Some([100.0, 170.0]),
-                fall: Some(fall),
-                ..HairStyle::default()
-            },
-        ),
-        (
-            "curly (snail curls)",
-            HairStyle {
-                volume: 16.0,
-                curl: 0.9,
-                carving: HairCarving::Curls,
-                outline: Some([104.0, 176.0]),
-                ..HairStyle::default()
-            },
-        ),
-        (
-            "long curls",
-            HairStyle {
-                end: -200.0,
-                curl: 0.7,
-                carving: HairCarving::Curls,
-                outline: Some([104.0, 172.0]),
-                fall: Some(fall),
-                ..HairStyle::default()
-            },
-        ),
-        (
-            "cropped (stippled)",
-            HairStyle {
-                volume: 4.0,
-                carving: HairCarving::Stippled,
-                ears_shown: true,
-                outline: Some([84.0, 158.0]),
-                ..HairStyle::default()
-            },
-        ),
-        (
-            "beard, moustache, glasses",
-            HairStyle {
-                volume: 6.0,
-                ears_shown: true,
-                outline: Some([88.0, 164.0]),
-                beard: 9.0,
-                beard_jaw: 0.8,
-                moustache: 3.8,
-                glasses: true,
-                ..HairStyle::default()
-            },
-        ),
-    ];
+    let kinds = HairStyle::gallery();
     let mut renderer = Renderer::new_headless()?;
     let params = RenderParams {
         width: 240,

@@ -144,6 +144,103 @@ pub enum HairCarving {
 }
 
 impl HairStyle {
+    /// One style of each kind the template carves, named: bald, short with the ears bare,
+    /// standing wide, the classical hair, long hair falling as a photo's does, curly hair in
+    /// snail curls (short and long), a crop stippled close to the skull, and a bearded,
+    /// moustached face with glasses; as `super::hair_style` makes them of a photo's readings
+    /// (canonical mm). For pictures of every kind (examples/hair_kinds) and the tests that
+    /// build each.
+    pub fn gallery() -> [(&'static str, HairStyle); 9] {
+        // A shoulder-length fall widening below the jaw, as `Hair::fall` reads one (canonical mm).
+        let mut fall = [[0.0f32; 2]; crate::person::FALL_ROWS];
+        for (k, row) in fall.iter_mut().enumerate().take(9) {
+            *row = [58.0 + 2.0 * k as f32, 92.0 + 7.0 * k as f32];
+        }
+        [
+            (
+                "bald",
+                HairStyle {
+                    bald: true,
+                    ..HairStyle::default()
+                },
+            ),
+            (
+                "short, ears bare",
+                HairStyle {
+                    volume: 5.0,
+                    ears_shown: true,
+                    outline: Some([86.0, 162.0]),
+                    ..HairStyle::default()
+                },
+            ),
+            (
+                "standing wide",
+                HairStyle {
+                    volume: 28.0,
+                    ears_shown: true,
+                    outline: Some([130.0, 185.0]),
+                    ..HairStyle::default()
+                },
+            ),
+            ("classical", HairStyle::default()),
+            (
+                "long, the photo's fall",
+                HairStyle {
+                    end: -200.0,
+                    outline: Some([100.0, 170.0]),
+                    fall: Some(fall),
+                    ..HairStyle::default()
+                },
+            ),
+            (
+                "curly (snail curls)",
+                HairStyle {
+                    volume: 16.0,
+                    curl: 0.9,
+                    carving: HairCarving::Curls,
+                    outline: Some([104.0, 176.0]),
+                    ..HairStyle::default()
+                },
+            ),
+            (
+                "long curls",
+                HairStyle {
+                    end: -200.0,
+                    curl: 0.7,
+                    carving: HairCarving::Curls,
+                    outline: Some([104.0, 172.0]),
+                    fall: Some(fall),
+                    ..HairStyle::default()
+                },
+            ),
+            (
+                "cropped (stippled)",
+                HairStyle {
+                    volume: 4.0,
+                    carving: HairCarving::Stippled,
+                    ears_shown: true,
+                    outline: Some([84.0, 158.0]),
+                    ..HairStyle::default()
+                },
+            ),
+            (
+                "beard, moustache, glasses",
+                HairStyle {
+                    volume: 6.0,
+                    ears_shown: true,
+                    outline: Some([88.0, 164.0]),
+                    beard: 9.0,
+                    beard_jaw: 0.8,
+                    moustache: 3.8,
+                    glasses: true,
+                    ..HairStyle::default()
+                },
+            ),
+        ]
+    }
+}
+
+impl HairStyle {
     /// The surface cut into the hair at (u, v), mm (about -2..5, as [`lock`]): `locks` is the
     /// locks' relief there (computed only when the hair is carved in locks).
     fn carved(&self, u: f32, v: f32, locks: impl FnOnce() -> f32) -> f32 {
@@ -1063,29 +1160,18 @@ mod tests {
     /// the ground along it).
     #[test]
     fn templates_are_finite_everywhere() {
-        let styles = [
-            HairStyle::default(),
+        // Every kind, and the extremes of the readings.
+        let extremes = [
             HairStyle {
-                bald: true,
-                ..HairStyle::default()
-            },
-            HairStyle {
-                bald: false,
                 volume: 32.0,
                 end: -290.0,
                 curl: 1.0,
                 ..HairStyle::default()
             },
             HairStyle {
-                bald: false,
                 volume: 3.0,
                 end: -120.0,
                 curl: 0.0,
-                ..HairStyle::default()
-            },
-            HairStyle {
-                volume: 3.0,
-                ears_shown: true,
                 ..HairStyle::default()
             },
             HairStyle {
@@ -1095,6 +1181,11 @@ mod tests {
                 ..HairStyle::default()
             },
         ];
+        let styles: Vec<HairStyle> = HairStyle::gallery()
+            .map(|(_, s)| s)
+            .into_iter()
+            .chain(extremes)
+            .collect();
         for style in &styles {
             for view in [View::Profile, View::Frontal] {
                 for y in (-400..=250).step_by(2) {

@@ -690,27 +690,27 @@ fn glasses_are_carved_round_the_eyes() {
 fn every_face_view_and_hair_cuts_a_valid_wall() {
     use glyptic_core::gem::{HairCarving, HairStyle};
     let m = model();
-    let styles = [
-        HairStyle::default(),
-        HairStyle {
-            bald: true,
-            ..HairStyle::default()
-        },
-        HairStyle {
-            end: -160.0,
-            volume: 24.0,
-            carving: HairCarving::Curls,
-            ..HairStyle::default()
-        },
-        HairStyle {
-            ears_shown: true,
-            end: -20.0,
-            volume: 4.0,
-            beard: 6.0,
-            moustache: 4.0,
-            ..HairStyle::default()
-        },
-    ];
+    // Every kind, and hair ending high with a beard, and deep curls ending low.
+    let styles: Vec<HairStyle> = HairStyle::gallery()
+        .map(|(_, s)| s)
+        .into_iter()
+        .chain([
+            HairStyle {
+                ears_shown: true,
+                end: -20.0,
+                volume: 4.0,
+                beard: 6.0,
+                moustache: 4.0,
+                ..HairStyle::default()
+            },
+            HairStyle {
+                end: -160.0,
+                volume: 24.0,
+                carving: HairCarving::Curls,
+                ..HairStyle::default()
+            },
+        ])
+        .collect();
     for (name, face) in identities(&m) {
         for view in [View::Profile, View::Frontal] {
             for (k, hair) in styles.iter().enumerate() {
