@@ -21,6 +21,19 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// The median wall time of `BUILDS` calls of `f`, ms.
+fn median_ms<T>(mut f: impl FnMut() -> T) -> f64 {
+    median(
+        (0..BUILDS)
+            .map(|_| {
+                let t = Instant::now();
+                std::hint::black_box(f());
+                t.elapsed().as_secs_f64() * 1e3
+            })
+            .collect(),
+    )
+}
+
 /// One frame: its wall time (ms) and its passes' GPU times.
 fn timed_frame(
     renderer: &mut Renderer,
@@ -469,42 +482,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t = Instant::now();
     let maps = glyptic::render::surface::engraving(&planar, &Default::default());
     let maps_ms = t.elapsed().as_secs_f64() * 1e3;
-    let tangent_ms = median(
-        (0..BUILDS)
-            .map(|_| {
-                let t = Instant::now();
-                std::hint::black_box(glyptic::render::surface::tangents(
-                    &mesh.vertices,
-                    &mesh.indices,
-                    |p| planar.uv(p),
-                ));
-                t.elapsed().as_secs_f64() * 1e3
-            })
-            .collect(),
-    );
-    let band_ms = median(
-        (0..BUILDS)
-            .map(|_| {
-                let t = Instant::now();
-                std::hint::black_box(glyptic::render::surface::band_last(
-                    &mesh.vertices,
-                    &mesh.indices,
-                    &planar,
-                    [2.35, 6.25],
-                ));
-                t.elapsed().as_secs_f64() * 1e3
-            })
-            .collect(),
-    );
-    let fingerprint_ms = median(
-        (0..BUILDS)
-            .map(|_| {
-                let t = Instant::now();
-                std::hint::black_box(mesh.fingerprint());
-                t.elapsed().as_secs_f64() * 1e3
-            })
-            .collect(),
-    );
+    let tangent_ms = median_ms(|| {
+        glyptic::render::surface::tangents(&mesh.vertices, &mesh.indices, |p| planar.uv(p))
+    });
+    let band_ms = median_ms(|| {
+        glyptic::render::surface::band_last(&mesh.vertices, &mesh.indices, &planar, [2.35, 6.25])
+    });
+    let fingerprint_ms = median_ms(|| mesh.fingerprint());
     println!(
         "\nOn the CPU: the engraving's maps ({0} x {0} and mip chains, once per cameo shape) {maps_ms:.1} ms; per mesh (medians of {BUILDS}), its tangent frames {tangent_ms:.2} ms and the split of its triangles into the band's and the rest {band_ms:.2} ms, both kept while the mesh's fingerprint ({fingerprint_ms:.2} ms a frame) stays the same.",
         maps.size
