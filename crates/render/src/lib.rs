@@ -54,6 +54,7 @@
 //!
 //! Matrix maths uses `glam` (GPU-ready, column-major types, the wgpu ecosystem's convention).
 
+mod bilinear;
 mod camera;
 mod frame;
 pub mod inspect;

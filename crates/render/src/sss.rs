@@ -345,25 +345,12 @@ pub fn blur_reference(
     px_per_unit: f32,
     dir: [f32; 2],
 ) -> Vec<[f32; 3]> {
-    let at = |x: isize, y: isize| {
-        let x = x.clamp(0, width as isize - 1) as usize;
-        let y = y.clamp(0, height as isize - 1) as usize;
+    let at = |x: i64, y: i64| {
+        let x = x.clamp(0, width as i64 - 1) as usize;
+        let y = y.clamp(0, height as i64 - 1) as usize;
         image[y * width + x]
     };
-    let bilinear = |x: f32, y: f32| {
-        let (x0, y0) = (x.floor(), y.floor());
-        let (tx, ty) = (x - x0, y - y0);
-        let (xi, yi) = (x0 as isize, y0 as isize);
-        let (a, b, c, d) = (
-            at(xi, yi),
-            at(xi + 1, yi),
-            at(xi, yi + 1),
-            at(xi + 1, yi + 1),
-        );
-        std::array::from_fn::<f32, 3, _>(|k| {
-            (a[k] * (1.0 - tx) + b[k] * tx) * (1.0 - ty) + (c[k] * (1.0 - tx) + d[k] * tx) * ty
-        })
-    };
+    let bilinear = |x: f32, y: f32| crate::bilinear::bilinear(at, x, y);
     let mut out = vec![[0.0f32; 3]; width * height];
     for y in 0..height {
         for x in 0..width {

@@ -218,22 +218,11 @@ pub fn dither(img: &RgbaImage, levels: u32) -> RgbaImage {
 /// Bilinear sample at (`x`, `y`) pixels (pixel centres at integers), edges clamped.
 fn sample(img: &RgbaImage, x: f32, y: f32) -> [f32; 4] {
     let (w, h) = (img.width() as i64, img.height() as i64);
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
     let px = |xx: i64, yy: i64| {
         let p = img.get_pixel(xx.clamp(0, w - 1) as u32, yy.clamp(0, h - 1) as u32);
         [0, 1, 2, 3].map(|c| f32::from(p[c]))
     };
-    let (xi, yi) = (x0 as i64, y0 as i64);
-    let (a, b, c, d) = (
-        px(xi, yi),
-        px(xi + 1, yi),
-        px(xi, yi + 1),
-        px(xi + 1, yi + 1),
-    );
-    [0, 1, 2, 3].map(|k| {
-        (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
-    })
+    crate::bilinear::bilinear(px, x, y)
 }
 
 /// Fish-eye: output pixel at offset `d` from the centre (in half the smaller side) shows the
