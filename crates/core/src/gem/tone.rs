@@ -117,6 +117,7 @@ pub struct SlopeField<'a> {
 }
 
 impl<'a> SlopeField<'a> {
+    /// The maps on a `cols` x `rows` grid, in [`SlopeField`]'s order.
     pub fn new(
         slope: &'a [f32],
         weight: &'a [f32],
