@@ -13,13 +13,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .next()
         .ok_or("usage: make_clip OUT.avi [FRAMES] [WxH]")?;
     let frames: usize = args.next().map_or(Ok(300), |s| s.parse())?;
-    let (w, h) = match args.next() {
-        Some(s) => {
-            let (a, b) = s.split_once('x').ok_or("size is WIDTHxHEIGHT")?;
-            (a.parse()?, b.parse()?)
-        }
-        None => (640, 480),
-    };
+    let (w, h) = common::size_arg(args.next(), (640, 480))?;
     let (still, _, _) = common::framed("lenna.png", w, h);
     let centre = [w as f32 / 2.0, h as f32 * 0.45];
     let fps = 30.0;

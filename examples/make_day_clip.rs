@@ -15,13 +15,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = args.next().ok_or(usage)?;
     let visit_s: f64 = args.next().map_or(Ok(6.0), |s| s.parse())?;
     let gap_s: f64 = args.next().map_or(Ok(12.0), |s| s.parse())?;
-    let (w, h) = match args.next() {
-        Some(s) => {
-            let (a, b) = s.split_once('x').ok_or("size is WIDTHxHEIGHT")?;
-            (a.parse()?, b.parse()?)
-        }
-        None => (320, 240),
-    };
+    let (w, h) = common::size_arg(args.next(), (320, 240))?;
     let fps = 15.0;
     let room = image::RgbImage::from_fn(w, h, |x, y| {
         // A wall and a floor, lit from the left.

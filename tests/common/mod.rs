@@ -5,6 +5,17 @@
 
 use std::path::{Path, PathBuf};
 
+/// A frame size written `WIDTHxHEIGHT` (the examples' arguments), or `default` when none is
+/// given; an error naming the form when it is not one.
+pub fn size_arg(arg: Option<String>, default: (u32, u32)) -> Result<(u32, u32), String> {
+    let Some(s) = arg else {
+        return Ok(default);
+    };
+    s.split_once('x')
+        .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
+        .ok_or_else(|| format!("size {s:?} is not WIDTHxHEIGHT"))
+}
+
 /// The workspace root: `GLYPTIC_ROOT`, else the first ancestor of the including crate's
 /// manifest folder that holds `Cargo.lock`.
 pub fn root() -> PathBuf {
