@@ -1,7 +1,7 @@
 //! What the passes share: the descriptors they all write alike, the pipelines they build on
 //! first use, and what a frame's steps decided about the draw (the mesh's ranges, the lamp).
 
-use crate::mesh::Bounds;
+use crate::mesh::{Bounds, MeshBuffers};
 use crate::params::Lamp;
 
 /// Byte and index ranges of the uploaded mesh.
@@ -13,6 +13,24 @@ pub(crate) struct Draw {
     pub count: u32,
     /// The engraved band's triangles are drawn last, from this index.
     pub band_start: u32,
+}
+
+/// Sets the mesh's vertices (slot 0), its tangent frames (slot 1, with `tangents`) and its
+/// indices for a draw of `draw`'s ranges.
+pub(crate) fn bind_mesh(
+    pass: &mut wgpu::RenderPass<'_>,
+    buffers: &MeshBuffers,
+    draw: &Draw,
+    tangents: bool,
+) {
+    pass.set_vertex_buffer(0, buffers.vertices.slice(..draw.vertex_bytes));
+    if tangents {
+        pass.set_vertex_buffer(1, buffers.tangents.slice(..draw.tangent_bytes));
+    }
+    pass.set_index_buffer(
+        buffers.indices.slice(..draw.index_bytes),
+        wgpu::IndexFormat::Uint32,
+    );
 }
 
 /// The lamp of a frame: where it is (mm) and the shadow cube's far plane (mm).

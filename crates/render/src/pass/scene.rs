@@ -412,12 +412,7 @@ impl ScenePass {
         pass.set_pipeline(plain);
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_bind_group(1, surface, &[]);
-        pass.set_vertex_buffer(0, buffers.vertices.slice(..d.vertex_bytes));
-        pass.set_vertex_buffer(1, buffers.tangents.slice(..d.tangent_bytes));
-        pass.set_index_buffer(
-            buffers.indices.slice(..d.index_bytes),
-            wgpu::IndexFormat::Uint32,
-        );
+        common::bind_mesh(&mut pass, buffers, &d, true);
         pass.draw_indexed(0..d.band_start, 0, 0..1);
         if let Some(engraved) = engraved
             && d.band_start < d.count

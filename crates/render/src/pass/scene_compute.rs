@@ -200,11 +200,7 @@ impl SceneCompute {
             });
             pass.set_pipeline(vis);
             pass.set_bind_group(0, uniform, &[]);
-            pass.set_vertex_buffer(0, buffers.vertices.slice(..d.vertex_bytes));
-            pass.set_index_buffer(
-                buffers.indices.slice(..d.index_bytes),
-                wgpu::IndexFormat::Uint32,
-            );
+            common::bind_mesh(&mut pass, buffers, &d, false);
             // One draw, band last: the primitive index is the triangle's place in the buffer.
             pass.draw_indexed(0..d.count, 0, 0..1);
         }

@@ -119,11 +119,7 @@ impl ShadowPass {
             });
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, group, &[]);
-            pass.set_vertex_buffer(0, buffers.vertices.slice(..draw.vertex_bytes));
-            pass.set_index_buffer(
-                buffers.indices.slice(..draw.index_bytes),
-                wgpu::IndexFormat::Uint32,
-            );
+            common::bind_mesh(&mut pass, buffers, &draw, false);
             pass.draw_indexed(0..draw.count, 0, 0..1);
         }
     }
