@@ -861,6 +861,12 @@ fn drop_short_runs(f: &mut [f32], cols: usize, rows: usize, min_len: f32) {
 pub(crate) mod tests {
     use super::*;
 
+    /// The stone's key light as the tests' photo sees it: from the upper left, 0.3 mm a pixel.
+    const LIGHT: ToneLight = ToneLight {
+        toward: [-0.8, -0.6],
+        mm_per_px: 0.3,
+    };
+
     /// 68 landmarks of a face 200 px between the eyes' centres, centred in a 800 x 800 photo.
     pub(crate) fn face() -> Vec<[f32; 2]> {
         let mut lm = vec![[0f32; 2]; 68];
@@ -965,10 +971,7 @@ pub(crate) mod tests {
                 + 25.0 * ((x * 0.11 + y * 0.07).sin());
             Some(v.clamp(0.0, 255.0) as u8)
         });
-        let light = ToneLight {
-            toward: [-0.8, -0.6],
-            mm_per_px: 0.3,
-        };
+        let light = LIGHT;
         // The slopes alone (the stipple's pits and the engraved lines: the next tests).
         let p = DetailParams {
             stipple_mm: 0.0,
@@ -1061,10 +1064,7 @@ pub(crate) mod tests {
             };
             Some(v as u8)
         });
-        let light = ToneLight {
-            toward: [-0.8, -0.6],
-            mm_per_px: 0.3,
-        };
+        let light = LIGHT;
         let with = DetailParams {
             engraved_lines_mm: 0.0,
             ..DetailParams::default()
@@ -1126,10 +1126,7 @@ pub(crate) mod tests {
             let mole = (x - 560.0).hypot(y - 450.0) < 5.0;
             (fold || mole).then_some(70)
         });
-        let light = ToneLight {
-            toward: [-0.8, -0.6],
-            mm_per_px: 0.3,
-        };
+        let light = LIGHT;
         let only_lines = DetailParams {
             stipple_mm: 0.0,
             ..DetailParams::default()
